@@ -1,0 +1,1 @@
+"""The HTTP API and the web client (DESIGN section 6)."""

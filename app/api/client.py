@@ -1,0 +1,108 @@
+"""Bots that play over HTTP, through exactly the path a browser takes.
+
+Register a player, download the latest publication, rebuild a core
+:class:`~app.core.publication.Publication` from its JSON, play seeded bot sessions on it
+and upload each trace under a fresh idempotency key (a network retry of the same upload
+reuses its key, so the server stores it once).
+"""
+
+from __future__ import annotations
+
+import time
+import uuid
+from typing import Any
+
+import httpx
+import numpy as np
+
+from app.core.bots import BotKind, play_sessions
+from app.core.graph import EdgeKind
+from app.core.publication import Publication
+
+#: attempts per upload on transport errors and 429 (idempotent, so retrying is safe)
+UPLOAD_ATTEMPTS = 3
+TIMEOUT_S = 30.0
+
+
+def publication_from_json(data: dict[str, Any]) -> Publication:
+    """The core publication described by ``GET /api/graphs/{name}/publication``."""
+    edges = [edge for vertex in data["vertices"] for edge in vertex]
+    return Publication(
+        n_controls=int(data["n_controls"]),
+        start=int(data["start"]),
+        edge_dst=np.array([e["dst"] for e in edges], dtype=np.int64),
+        edge_kind=np.array(
+            [EdgeKind.SIM if e["kind"] == "sim" else EdgeKind.BLEND for e in edges], dtype=np.int8
+        ),
+        edge_err=np.array([e["err"] for e in edges], dtype=np.float64),
+        edge_score=np.array([e["score"] for e in edges], dtype=np.float64),
+    )
+
+
+def play_over_http(
+    base_url: str,
+    graph: str,
+    kind: BotKind | str,
+    sessions: int,
+    mean_steps: int,
+    seed: int,
+) -> dict[str, Any]:
+    """Play ``sessions`` bot sessions on the graph's latest publication; return counts."""
+    kind = BotKind(kind)
+    with httpx.Client(base_url=base_url, timeout=TIMEOUT_S) as http:
+        token = _checked(http.post("/api/players", json={"kind": "bot"}))["token"]
+        http.headers["Authorization"] = f"Bearer {token}"
+        data = _checked(http.get(f"/api/graphs/{graph}/publication"))
+        publication = publication_from_json(data)
+        traces = play_sessions(
+            publication, kind, sessions=sessions, mean_steps=mean_steps, seed=seed
+        )
+        created = replayed = 0
+        for trace in traces:
+            body = {
+                "publication_id": data["publication_id"],
+                "idempotency_key": uuid.uuid4().hex,
+                "steps": trace.tolist(),
+            }
+            if _upload(http, body).status_code == 201:
+                created += 1
+            else:
+                replayed += 1
+    return {
+        "graph": graph,
+        "publication_id": data["publication_id"],
+        "kind": str(kind),
+        "sessions": len(traces),
+        "steps": int(sum(len(t) for t in traces)),
+        "created": created,
+        "replayed": replayed,
+    }
+
+
+def _upload(http: httpx.Client, body: dict[str, Any]) -> httpx.Response:
+    attempt = 1
+    while True:
+        last = attempt >= UPLOAD_ATTEMPTS
+        try:
+            response = http.post("/api/traces", json=body)
+        except httpx.TransportError:
+            if last:
+                raise
+        else:
+            if response.status_code != 429 or last:
+                _checked(response)
+                return response
+            time.sleep(float(response.headers.get("Retry-After", "1")))
+        attempt += 1
+
+
+def _checked(response: httpx.Response) -> Any:
+    """The JSON body; a RuntimeError carrying the server's error message otherwise."""
+    if response.is_success:
+        return response.json()
+    try:
+        message = response.json().get("error", response.text)
+    except ValueError:
+        message = response.text
+    request = response.request
+    raise RuntimeError(f"{request.method} {request.url.path}: {response.status_code} {message}")

@@ -1,0 +1,29 @@
+"""Player registration: a fresh player and its bearer token.
+
+The server picks the name: registering under a chosen name would let anyone take over
+an existing player by re-issuing its token.
+"""
+
+from __future__ import annotations
+
+import secrets
+
+from fastapi import APIRouter, Depends
+from sqlalchemy.orm import Session
+
+from app.api.deps import get_session
+from app.api.retry import in_transaction
+from app.api.schemas import PlayerCreated, PlayerRequest
+from app.store.traces import get_or_create_player
+
+router = APIRouter(prefix="/api/players", tags=["players"])
+
+
+@router.post("", status_code=201)
+def register_player(
+    body: PlayerRequest | None = None, session: Session = Depends(get_session)
+) -> PlayerCreated:
+    kind = body.kind if body else "human"
+    name = f"{kind}-{secrets.token_hex(8)}"
+    player_id, token = in_transaction(session, lambda: get_or_create_player(session, name, kind))
+    return PlayerCreated(player_id=player_id, name=name, kind=kind, token=token)

@@ -1,0 +1,91 @@
+"""Request and response bodies of the HTTP API.
+
+Integers are strict (JSON ``true`` or ``1.0`` is not a vertex) and bounded to the
+32-bit range of the database columns, so a hostile number is a 422, never a driver
+error. Idempotency keys are limited to URL-safe characters: they are stored as text
+on SQLite and PostgreSQL alike (PostgreSQL rejects NUL characters in text).
+"""
+
+from __future__ import annotations
+
+from typing import Annotated, Literal
+
+from pydantic import BaseModel, ConfigDict, Field, StrictInt
+
+INT32_MAX = 2**31 - 1
+
+Index = Annotated[StrictInt, Field(ge=0, le=INT32_MAX)]
+Id = Annotated[StrictInt, Field(ge=1, le=INT32_MAX)]
+IdempotencyKey = Annotated[str, Field(min_length=1, max_length=128, pattern=r"^[A-Za-z0-9_.:-]+$")]
+
+
+class TraceUpload(BaseModel):
+    model_config = ConfigDict(extra="forbid")
+
+    publication_id: Id
+    idempotency_key: IdempotencyKey
+    #: rows of (vertex, control): the edge taken at each step, in play order
+    steps: Annotated[list[tuple[Index, Index]], Field(min_length=1)]
+
+
+class TraceStored(BaseModel):
+    trace_id: int
+    publication_id: int
+    n_steps: int
+    #: False when this upload replayed an idempotency key already stored
+    created: bool
+
+
+class PlayerRequest(BaseModel):
+    model_config = ConfigDict(extra="forbid")
+
+    kind: Literal["human", "bot"] = "human"
+
+
+class PlayerCreated(BaseModel):
+    player_id: int
+    name: str
+    kind: str
+    #: the bearer token for trace uploads; only its hash is stored, so keep it
+    token: str
+
+
+class GraphSummary(BaseModel):
+    name: str
+    dynamics: str
+    n_controls: int
+    frames_per_clip: int
+    latest_publication: int | None
+
+
+class EdgeOut(BaseModel):
+    dst: int
+    kind: Literal["sim", "blend"]
+    err: float
+    score: float
+    #: URL of the animation strip, or null where the edge has none (draw a placeholder)
+    animation: str | None
+
+
+class PublicationOut(BaseModel):
+    graph: str
+    publication_id: int
+    number: int
+    start: int
+    n_controls: int
+    frames_per_clip: int
+    fps: float
+    n_vertices: int
+    #: vertices[v][c]: the edge from vertex v under control c
+    vertices: list[list[EdgeOut]]
+
+
+class AdminResult(BaseModel):
+    graph: str
+    result: dict[str, object]
+
+
+class GrowRequest(BaseModel):
+    model_config = ConfigDict(extra="forbid")
+
+    expansions: Annotated[StrictInt, Field(ge=1, le=10_000)] = 4

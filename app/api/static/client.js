@@ -1,0 +1,301 @@
+// The srg web client: plays a publication's edge animations back to back.
+//
+// Timing: one game clock. A clip of k frames starts exactly k frame periods after the
+// previous one (clipStart += k * period, never "now"), so clips join without a gap and
+// without drift; each requestAnimationFrame draws the frame the clock is on, cut from
+// the clip's strip (k frames side by side, already decoded to an ImageBitmap). The next
+// edge is chosen at the clip boundary from the control held at that moment. While an
+// edge plays, the strips of every edge leaving its destination (and theirs) are
+// fetched and decoded, so the choice at the boundary finds its strip ready. An edge
+// without an animation, or whose strip is still loading, is drawn as a placeholder at
+// the same rate: the clock never waits.
+//
+// Traces: rows of [vertex, control], uploaded (POST /api/traces, token in the
+// Authorization header, fetch keepalive so it survives the page going away) when the
+// page is hidden, on "New game", and every MAX_TRACE_STEPS steps. An upload is kept in
+// localStorage until the server answers, and re-sent on the next visit under the same
+// idempotency key: the server stores it once.
+
+const CONTROLS = { LEVEL: 0, LEFT: 1, RIGHT: 2 };
+const TILT_DEGREES = 12;
+const MAX_TRACE_STEPS = 1800; // 10 minutes at 3 clips a second; keeps a body ~20 KB
+const KEEPALIVE_MAX_BYTES = 60000; // browsers cap keepalive bodies at 64 KiB
+const STRIP_CACHE_SIZE = 256;
+const PENDING_MAX = 20;
+const FRAME_LOG_MAX = 200000;
+const START_WAIT_MS = 3000; // wait this long at most for the first strips before playing
+
+const stats = {
+  frames: [], // rAF timestamps (ms) at which a new frame was drawn
+  ticks: [], // every rAF timestamp while playing: tells browser stalls from client gaps
+  clips: 0,
+  placeholders: 0, // clips drawn as placeholders because the edge has no animation
+  late: 0, // clips whose strip was not decoded in time (also drawn as placeholders)
+  uploads: [], // {status, trace_id, n_steps} per answered upload
+  score: 0,
+  steps: 0,
+  publicationId: null,
+};
+window.srgStats = stats;
+
+const $ = (id) => document.getElementById(id);
+const canvas = $("screen");
+const ctx = canvas.getContext("2d");
+
+// ---- HTTP -----------------------------------------------------------------------
+async function api(path, options = {}) {
+  const response = await fetch(path, options);
+  const body = await response.json().catch(() => ({}));
+  if (!response.ok) throw Object.assign(new Error(body.error || response.statusText), { response, body });
+  return body;
+}
+
+async function registerPlayer() {
+  const player = await api("/api/players", {
+    method: "POST",
+    headers: { "Content-Type": "application/json" },
+    body: JSON.stringify({ kind: "human" }),
+  });
+  localStorage.setItem("srg.token", player.token);
+  return player.token;
+}
+
+let token = localStorage.getItem("srg.token");
+
+function newKey() {
+  if (crypto.randomUUID) return crypto.randomUUID();
+  return Array.from(crypto.getRandomValues(new Uint8Array(16)), (b) => b.toString(16).padStart(2, "0")).join("");
+}
+
+// ---- uploads ----------------------------------------------------------------------
+const pending = {
+  load: () => JSON.parse(localStorage.getItem("srg.pending") || "[]"),
+  save: (list) => localStorage.setItem("srg.pending", JSON.stringify(list.slice(-PENDING_MAX))),
+  add(body) { this.save([...this.load().filter((b) => b.idempotency_key !== body.idempotency_key), body]); },
+  remove(key) { this.save(this.load().filter((b) => b.idempotency_key !== key)); },
+};
+
+async function send(body, retried = false) {
+  const text = JSON.stringify(body);
+  let response;
+  try {
+    response = await fetch("/api/traces", {
+      method: "POST",
+      keepalive: text.length < KEEPALIVE_MAX_BYTES,
+      headers: { "Content-Type": "application/json", Authorization: `Bearer ${token}` },
+      body: text,
+    });
+  } catch {
+    return; // offline or the page went away: it stays pending for the next visit
+  }
+  if (response.status === 403 && !retried) {
+    token = await registerPlayer(); // our token is gone (e.g. a reset server): a new player
+    return send(body, true);
+  }
+  const answer = await response.json().catch(() => ({}));
+  stats.uploads.push({ status: response.status, trace_id: answer.trace_id, n_steps: body.steps.length });
+  // Keep only what a later retry could fix: rate limits and server errors.
+  if (response.status !== 429 && response.status < 500) pending.remove(body.idempotency_key);
+}
+
+async function flushPending() {
+  for (const body of pending.load()) await send(body);
+}
+
+// ---- strips -----------------------------------------------------------------------
+const strips = new Map(); // url -> {image: ImageBitmap | null}
+
+function requestStrip(url) {
+  if (!url) return Promise.resolve();
+  if (strips.has(url)) return strips.get(url).ready;
+  const entry = { image: null };
+  strips.set(url, entry);
+  entry.ready = fetch(url)
+    .then((r) => (r.ok ? r.blob() : Promise.reject(new Error(r.statusText))))
+    .then((blob) => createImageBitmap(blob))
+    .then((bitmap) => { entry.image = bitmap; })
+    .catch(() => strips.delete(url)); // try again next time it is needed
+  if (strips.size > STRIP_CACHE_SIZE) {
+    const [oldest, old] = strips.entries().next().value;
+    strips.delete(oldest);
+    old.image?.close();
+  }
+  return entry.ready;
+}
+
+function preloadFrom(vertex, depth = 2) {
+  const loads = [];
+  for (const edge of game.pub.vertices[vertex]) {
+    loads.push(requestStrip(edge.animation));
+    if (depth > 1) loads.push(...preloadFrom(edge.dst, depth - 1));
+  }
+  return loads;
+}
+
+// ---- input ------------------------------------------------------------------------
+const input = { keys: new Set(), tilt: null, pointer: null };
+const KEYS = { ArrowLeft: CONTROLS.LEFT, ArrowRight: CONTROLS.RIGHT, ArrowUp: CONTROLS.LEVEL, ArrowDown: CONTROLS.LEVEL };
+
+function currentControl() {
+  if (input.keys.size) {
+    const held = new Set([...input.keys].map((k) => KEYS[k]));
+    return held.size === 1 ? [...held][0] : CONTROLS.LEVEL;
+  }
+  return input.pointer ?? input.tilt ?? CONTROLS.LEVEL;
+}
+
+addEventListener("keydown", (e) => {
+  if (e.key in KEYS) { input.keys.add(e.key); e.preventDefault(); }
+});
+addEventListener("keyup", (e) => input.keys.delete(e.key));
+addEventListener("blur", () => input.keys.clear());
+addEventListener("deviceorientation", (e) => {
+  if (e.gamma === null) return;
+  input.tilt = e.gamma < -TILT_DEGREES ? CONTROLS.LEFT : e.gamma > TILT_DEGREES ? CONTROLS.RIGHT : CONTROLS.LEVEL;
+});
+canvas.addEventListener("pointerdown", (e) => {
+  const rect = canvas.getBoundingClientRect();
+  input.pointer = e.clientX - rect.left < rect.width / 2 ? CONTROLS.LEFT : CONTROLS.RIGHT;
+});
+for (const type of ["pointerup", "pointercancel", "pointerleave"]) {
+  canvas.addEventListener(type, () => { input.pointer = null; });
+}
+const needsTiltPermission = typeof DeviceOrientationEvent !== "undefined"
+  && typeof DeviceOrientationEvent.requestPermission === "function";
+if (needsTiltPermission && "ontouchstart" in window) {
+  $("tilt").hidden = false; // iOS asks for permission on a tap
+  $("tilt").addEventListener("click", () => DeviceOrientationEvent.requestPermission().catch(() => {}));
+}
+
+// ---- playback ---------------------------------------------------------------------
+const game = {
+  pub: null, period: 1000 / 30, k: 10,
+  vertex: 0, // where the next edge starts
+  edge: null, image: null,
+  clipStart: null, lastFrame: -1, running: false,
+  trace: null,
+};
+
+function newTrace() { return { key: newKey(), steps: [] }; }
+
+function endTrace() {
+  const { trace } = game;
+  game.trace = newTrace();
+  if (!trace || trace.steps.length === 0) return;
+  const body = { publication_id: game.pub.publication_id, idempotency_key: trace.key, steps: trace.steps };
+  pending.add(body);
+  send(body);
+}
+
+function startEdge() {
+  const control = currentControl();
+  const edge = game.pub.vertices[game.vertex][control];
+  game.trace.steps.push([game.vertex, control]);
+  game.edge = edge;
+  game.image = edge.animation ? strips.get(edge.animation)?.image ?? null : null;
+  if (!edge.animation) stats.placeholders += 1;
+  else if (!game.image) { stats.late += 1; requestStrip(edge.animation); }
+  if (game.image && canvas.width !== game.image.width / game.k) {
+    canvas.width = game.image.width / game.k;
+    canvas.height = game.image.height;
+  }
+  game.vertex = edge.dst;
+  preloadFrom(edge.dst);
+  stats.clips += 1;
+  stats.steps += 1;
+  stats.score += edge.score;
+  $("score").textContent = stats.score.toFixed(1);
+  for (const el of document.querySelectorAll(".controls span")) {
+    el.classList.toggle("on", Number(el.dataset.control) === control);
+  }
+  if (game.trace.steps.length >= MAX_TRACE_STEPS) endTrace(); // play on, in a new trace
+}
+
+function draw(frame) {
+  const { k } = game;
+  if (game.image) {
+    const w = game.image.width / k;
+    ctx.drawImage(game.image, frame * w, 0, w, game.image.height, 0, 0, canvas.width, canvas.height);
+    return;
+  }
+  ctx.fillStyle = game.edge.kind === "sim" ? "#3a6ea5" : "#b8733a";
+  ctx.fillRect(0, 0, canvas.width, canvas.height);
+  ctx.fillStyle = "rgba(255,255,255,.7)";
+  ctx.fillRect(0, canvas.height * 0.9, (canvas.width * (frame + 1)) / k, canvas.height * 0.1);
+}
+
+function tick(now) {
+  if (!game.running) return;
+  if (stats.ticks.length < FRAME_LOG_MAX) stats.ticks.push(now);
+  const clip = game.k * game.period;
+  if (game.clipStart === null || now - game.clipStart >= 2 * clip) {
+    game.clipStart = now; // first frame, or the tab was throttled: restart the clock here
+    startEdge();
+  }
+  while (now - game.clipStart >= clip) {
+    game.clipStart += clip;
+    startEdge();
+  }
+  const frame = Math.min(game.k - 1, Math.floor((now - game.clipStart) / game.period));
+  if (frame !== game.lastFrame || stats.frames.length === 0) {
+    draw(frame);
+    if (stats.frames.length < FRAME_LOG_MAX) stats.frames.push(now);
+  }
+  game.lastFrame = frame;
+  requestAnimationFrame(tick);
+}
+
+function play() {
+  if (game.running || document.hidden) return;
+  game.running = true;
+  game.clipStart = null;
+  game.lastFrame = -1;
+  requestAnimationFrame(tick);
+}
+
+function pause() {
+  game.running = false;
+  endTrace();
+}
+
+function restart() {
+  endTrace();
+  game.vertex = game.pub.start;
+  stats.score = 0;
+  $("score").textContent = "0";
+}
+
+// ---- start ------------------------------------------------------------------------
+async function main() {
+  const status = $("status");
+  try {
+    token = token || (await registerPlayer());
+    flushPending();
+    const graphs = await api("/api/graphs");
+    const wanted = new URLSearchParams(location.search).get("graph");
+    const playable = graphs.filter((g) => g.latest_publication !== null);
+    const name = wanted || playable[0]?.name;
+    if (!name) throw new Error("no published graph yet");
+    const select = $("graph");
+    for (const g of graphs) select.add(new Option(g.name, g.name, false, g.name === name));
+    select.addEventListener("change", () => { location.search = `?graph=${encodeURIComponent(select.value)}`; });
+    game.pub = await api(`/api/graphs/${encodeURIComponent(name)}/publication`);
+    game.period = 1000 / game.pub.fps;
+    game.k = game.pub.frames_per_clip;
+    game.vertex = game.pub.start;
+    game.trace = newTrace();
+    stats.publicationId = game.pub.publication_id;
+    $("publication").textContent = `publication ${game.pub.number}: ${game.pub.n_vertices} vertices`;
+    const firstStrips = Promise.all(preloadFrom(game.vertex));
+    await Promise.race([firstStrips, new Promise((resolve) => setTimeout(resolve, START_WAIT_MS))]);
+    document.addEventListener("visibilitychange", () => (document.hidden ? pause() : play()));
+    addEventListener("pagehide", pause);
+    $("restart").addEventListener("click", restart);
+    play();
+  } catch (error) {
+    status.textContent = `cannot play: ${error.message}`;
+  }
+}
+
+window.srg = { endTrace, restart, stats };
+main();

@@ -1,0 +1,105 @@
+"""``srg serve``, ``srg analytics`` and ``srg bench ingest``: the play side of the CLI."""
+
+from __future__ import annotations
+
+import json
+from typing import Any
+
+import typer
+
+
+def register_api_commands(app: typer.Typer, bench_app: typer.Typer) -> None:
+    """Attach the play commands to the main app and the bench group."""
+    app.command("serve")(serve)
+    app.command("analytics")(analytics)
+    bench_app.command("ingest")(bench_ingest_command)
+
+
+def serve(
+    host: str = typer.Option("127.0.0.1", help="interface to listen on"),
+    port: int = typer.Option(8000, help="TCP port"),
+) -> None:
+    """Serve the HTTP API and the browser client (open http://HOST:PORT/)."""
+    import uvicorn
+
+    from app.api.app import create_app
+
+    uvicorn.run(create_app(), host=host, port=port)
+
+
+def analytics(
+    graph: str = typer.Argument(..., help="graph name (or id)"),
+    json_output: bool = typer.Option(False, "--json", help="print JSON instead of tables"),
+    threshold: float | None = typer.Option(
+        None, help="high-error threshold (default: settings, else the dynamics' default)"
+    ),
+    top: int = typer.Option(10, help="vertices shown in the per-vertex tables"),
+) -> None:
+    """Observed error, session lengths, visits and control probabilities from traces."""
+    from app.config import get_settings
+    from app.db import session_factory
+    from app.services.dynamics import make_dynamics
+    from app.store.analytics import graph_analytics
+    from app.store.graphs import get_graph_row
+
+    settings = get_settings()
+    with session_factory()() as session:
+        if threshold is None:
+            dynamics = make_dynamics(get_graph_row(session, graph).dynamics)
+            threshold = settings.high_error_threshold or dynamics.high_error_threshold
+        report = graph_analytics(session, graph, threshold)
+    if json_output:
+        typer.echo(json.dumps(report, indent=2))
+    else:
+        _print_tables(report, top)
+
+
+def _print_tables(report: dict[str, Any], top: int) -> None:
+    from rich.console import Console
+    from rich.table import Table
+
+    def table(title: str, rows: list[dict[str, Any]]) -> Table:
+        out = Table(title=title)
+        for column in rows[0] if rows else ["(no traces)"]:
+            out.add_column(str(column), justify="right")
+        for row in rows:
+            out.add_row(*(f"{v:.4g}" if isinstance(v, float) else str(v) for v in row.values()))
+        return out
+
+    lengths = dict(report["session_lengths"])
+    lengths.update(lengths.pop("percentiles"))
+    visits = report["visit_counts"][:top]
+    shown = {row["vertex"] for row in visits}
+    console = Console()
+    console.print(
+        table(f"observed error (threshold {report['threshold']:g})", report["observed_error"])
+    )
+    console.print(table("session lengths (steps)", [lengths]))
+    console.print(table(f"visits (top {top} vertices)", visits))
+    console.print(
+        table(
+            "observed control probabilities (those vertices)",
+            [r for r in report["control_probabilities"] if r["vertex"] in shown],
+        )
+    )
+
+
+def bench_ingest_command(
+    clients: int = typer.Option(200, help="concurrent players"),
+    uploads: int = typer.Option(2, help="traces per player (each also replayed once)"),
+    mean_steps: int = typer.Option(90, help="mean steps per trace"),
+    database_url: str = typer.Option("", help="database to load ('': a temporary SQLite)"),
+    json_output: bool = typer.Option(True, "--json/--no-json", help="print JSON (default)"),
+) -> None:
+    """Concurrent trace uploads on loopback: every upload accounted for, p99 latency."""
+    from app.services.bench_ingest import bench_ingest
+
+    result = bench_ingest(
+        clients=clients, uploads=uploads, mean_steps=mean_steps, database_url=database_url
+    )
+    if json_output:
+        typer.echo(json.dumps(result, indent=2))
+    else:
+        typer.echo(" ".join(f"{k}={v}" for k, v in result.items()))
+    if not result["ok"]:
+        raise typer.Exit(1)

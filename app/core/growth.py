@@ -1,0 +1,217 @@
+"""Building and growing a state graph (paper sections 3 and 6.1; DESIGN section 3).
+
+An expansion is split in two so that a distributed runtime can fan out the expensive
+part: :func:`expansion_start_state` names the state to simulate from (workers simulate
+the N clips), and :func:`integrate_expansion` swaps the results in at once. Until then
+the BLEND edge being expanded stays playable, so the graph is always complete.
+"""
+
+from __future__ import annotations
+
+import heapq
+from collections.abc import Callable, Sequence
+from dataclasses import dataclass, field
+
+import numpy as np
+
+from app.core.clipbank import ClipBank
+from app.core.dynamics import ClipFeatures, Dynamics, SimClip
+from app.core.graph import EdgeKind, StateGraph
+
+
+class NoBlendTarget(LookupError):
+    """No SIM edge of the control exists to blend into (the tree is too shallow)."""
+
+
+@dataclass(frozen=True)
+class BlendTarget:
+    edge: int
+    err: float
+
+
+def best_target(
+    graph: StateGraph,
+    bank: ClipBank,
+    dynamics: Dynamics,
+    clip: int,
+    control: int,
+    *,
+    prefilter_k: int = 100,
+) -> BlendTarget:
+    """The SIM edge of ``control`` that clip ``clip`` blends into with the least ``dist``.
+
+    Only the ``prefilter_k`` SIM edges closest in end energy are fully compared (the
+    paper's energy pre-filter); a clip is never blended into itself.
+    """
+    source = bank.features(clip)
+    candidates = graph.nearest_sim_edges_by_energy(source.energy(control), control, prefilter_k + 1)
+    best = BlendTarget(edge=-1, err=np.inf)
+    for edge in candidates:
+        target_clip = graph.edge_clip[edge]
+        if target_clip == clip:
+            continue
+        err = dynamics.dist(source, bank.features(target_clip), control)
+        if err < best.err:
+            best = BlendTarget(edge=edge, err=err)
+    if best.edge < 0:
+        raise NoBlendTarget(f"no SIM edge of control {control} to blend clip {clip} into")
+    return best
+
+
+def simulate_clip(
+    dynamics: Dynamics, state: np.ndarray, control: int
+) -> tuple[SimClip, ClipFeatures]:
+    sim = dynamics.simulate(state, control)
+    return sim, dynamics.features(sim)
+
+
+def initial_tree(
+    dynamics: Dynamics, bank: ClipBank, *, depth: int = 2, prefilter_k: int = 100
+) -> StateGraph:
+    """A complete N-ary simulation tree of ``depth`` levels whose leaves are blended back.
+
+    Depth 2 gives N interior SIM edges and N^2 BLEND edges (paper Fig. 3, left/centre).
+    """
+    if depth < 2:
+        raise ValueError("the initial tree needs depth >= 2 so that leaves have SIM targets")
+    n = dynamics.n_controls
+    graph = StateGraph(n_controls=n, frames_per_clip=dynamics.frames_per_clip)
+    frontier = [(graph.add_vertex(control=0, clip=-1), dynamics.initial_state())]
+    leaves: list[tuple[int, int]] = []
+    for level in range(depth):
+        next_frontier = []
+        for vertex, state in frontier:
+            for control in range(n):
+                sim, features = simulate_clip(dynamics, state, control)
+                clip = graph.add_clip(vertex, features)
+                bank.put(clip, sim, features)
+                edge = graph.edge_id(vertex, control)
+                if level < depth - 1:
+                    child = graph.add_vertex(control, clip)
+                    graph.set_sim(edge, clip, child)
+                    next_frontier.append((child, sim.end_state))
+                else:
+                    leaves.append((edge, clip))
+        frontier = next_frontier
+    for edge, clip in leaves:
+        target = best_target(
+            graph, bank, dynamics, clip, graph.edge_control(edge), prefilter_k=prefilter_k
+        )
+        graph.set_blend(edge, clip, target.edge, target.err)
+    return graph
+
+
+def expansion_start_state(graph: StateGraph, bank: ClipBank, edge: int) -> np.ndarray:
+    """The state the N new clips of an expansion of BLEND ``edge`` start from."""
+    if graph.edge_kind[edge] != EdgeKind.BLEND:
+        raise ValueError(f"edge {edge} is not a BLEND edge")
+    return bank.end_state(graph.edge_clip[edge])
+
+
+@dataclass(frozen=True)
+class Expansion:
+    edge: int
+    vertex: int
+    clips: tuple[int, ...]
+    blends: tuple[int, ...]
+
+
+def integrate_expansion(
+    graph: StateGraph,
+    bank: ClipBank,
+    dynamics: Dynamics,
+    edge: int,
+    clips: Sequence[tuple[SimClip, ClipFeatures]],
+    *,
+    prefilter_k: int = 100,
+) -> Expansion:
+    """Turn BLEND ``edge`` into a SIM edge to a new vertex whose N clips are blended.
+
+    ``clips[c]`` must be the clip simulated under control ``c`` from
+    :func:`expansion_start_state`. All changes happen here, together.
+    """
+    if len(clips) != graph.n_controls or any(s.control != c for c, (s, _) in enumerate(clips)):
+        raise ValueError("an expansion needs exactly one clip per control, in control order")
+    dead_end = graph.edge_clip[edge]
+    if graph.edge_kind[edge] != EdgeKind.BLEND:
+        raise ValueError(f"edge {edge} is not a BLEND edge")
+    vertex = graph.add_vertex(graph.edge_control(edge), dead_end)
+    graph.set_sim(edge, dead_end, vertex)
+    new_clips = []
+    for sim, features in clips:
+        clip = graph.add_clip(vertex, features)
+        bank.put(clip, sim, features)
+        new_clips.append(clip)
+    blends = []
+    for control, clip in enumerate(new_clips):
+        target = best_target(graph, bank, dynamics, clip, control, prefilter_k=prefilter_k)
+        blend_edge = graph.edge_id(vertex, control)
+        graph.set_blend(blend_edge, clip, target.edge, target.err)
+        blends.append(blend_edge)
+    return Expansion(edge=edge, vertex=vertex, clips=tuple(new_clips), blends=tuple(blends))
+
+
+def expand_blend_edge(
+    graph: StateGraph, bank: ClipBank, dynamics: Dynamics, edge: int, *, prefilter_k: int = 100
+) -> Expansion:
+    """Simulate and integrate one expansion in-process (the eager path)."""
+    state = expansion_start_state(graph, bank, edge)
+    clips = [simulate_clip(dynamics, state, c) for c in range(graph.n_controls)]
+    return integrate_expansion(graph, bank, dynamics, edge, clips, prefilter_k=prefilter_k)
+
+
+def relink_blend_edge(
+    graph: StateGraph, bank: ClipBank, dynamics: Dynamics, edge: int, *, prefilter_k: int = 100
+) -> bool:
+    """Search ``edge``'s best target again; relink and return True if it is strictly better."""
+    clip = graph.edge_clip[edge]
+    target = best_target(
+        graph, bank, dynamics, clip, graph.edge_control(edge), prefilter_k=prefilter_k
+    )
+    if target.err < graph.edge_err[edge] and target.edge != graph.edge_target[edge]:
+        graph.set_blend(edge, clip, target.edge, target.err)
+        return True
+    return False
+
+
+def relink_all(
+    graph: StateGraph, bank: ClipBank, dynamics: Dynamics, *, prefilter_k: int = 100
+) -> list[int]:
+    """Pre-publish relinking: give every BLEND edge the best target the graph now has."""
+    return [
+        int(edge)
+        for edge in graph.blend_edges()
+        if relink_blend_edge(graph, bank, dynamics, int(edge), prefilter_k=prefilter_k)
+    ]
+
+
+@dataclass
+class EpochOutcome:
+    expanded: list[int] = field(default_factory=list)
+    relinked: list[int] = field(default_factory=list)
+
+
+def select_for_expansion(
+    graph: StateGraph,
+    weights: np.ndarray,
+    count: int,
+    relink: Callable[[int], bool],
+) -> EpochOutcome:
+    """Pop BLEND edges by priority ``weights[e] * err[e]``, relinking each lazily first.
+
+    A relinked edge goes back into the queue with its new priority instead of being
+    simulated (paper 6.1); the outcome lists the edges to expand, best first.
+    """
+    err = np.asarray(graph.edge_err)
+    blends = graph.blend_edges()
+    queue = [(-float(weights[e] * err[e]), int(e)) for e in blends]
+    heapq.heapify(queue)
+    outcome = EpochOutcome()
+    while queue and len(outcome.expanded) < count:
+        _, edge = heapq.heappop(queue)
+        if relink(edge):
+            outcome.relinked.append(edge)
+            heapq.heappush(queue, (-float(weights[edge] * graph.edge_err[edge]), edge))
+        else:
+            outcome.expanded.append(edge)
+    return outcome

@@ -1,0 +1,204 @@
+"""Player models P(c|v): what control a player takes at each vertex (paper section 4).
+
+Both models return a dense (V, N) array whose row v is the distribution over controls at
+vertex v; STATERANK turns it into visit probabilities. The heuristic model bootstraps a new
+graph; the crowd model is learned from traces, each a sequence of (vertex, control) steps.
+"""
+
+from __future__ import annotations
+
+from collections.abc import Iterable, Sequence
+
+import numpy as np
+import scipy.sparse as sp
+from scipy.spatial import cKDTree
+
+#: One step of a trace: the vertex the player was at and the control they took there.
+Trace = Sequence[tuple[int, int]] | np.ndarray
+
+
+def heuristic_player_model(vertex_control: np.ndarray, n_controls: int, alpha: float) -> np.ndarray:
+    r"""Bootstrap model: keep the current control, otherwise pick any (paper eq. 1).
+
+    .. math:: P_h(c|v) = \alpha [c = c_v] + (1 - \alpha) / N
+
+    where :math:`c_v` is the control of the clip that produced :math:`v`. This is the
+    form DESIGN section 3 fixes: the "otherwise" branch picks uniformly among all N
+    controls, so each row sums to 1 exactly (eq. 1 as printed does not).
+
+    Parameters
+    ----------
+    vertex_control : ndarray of int, shape (V,)
+        :math:`c_v` of every vertex.
+    n_controls : int
+        Number of controls N.
+    alpha : float
+        Probability in [0, 1] of deliberately keeping the current control.
+
+    Returns
+    -------
+    ndarray, shape (V, N)
+    """
+    vertex_control = _validated_controls(vertex_control, n_controls)
+    if not 0.0 <= alpha <= 1.0:
+        raise ValueError(f"alpha must lie in [0, 1], got {alpha}")
+    model = np.full((vertex_control.size, n_controls), (1.0 - alpha) / n_controls)
+    model[np.arange(vertex_control.size), vertex_control] += alpha
+    return model
+
+
+def crowd_player_model(
+    descriptors: np.ndarray,
+    vertex_control: np.ndarray,
+    control_counts: np.ndarray,
+    radius: float,
+    eps: float,
+    *,
+    fallback: np.ndarray,
+) -> np.ndarray:
+    r"""Player model learned from traces by kernel density estimation (paper eq. 2).
+
+    .. math::
+
+        P(c|v) \propto \sum_{u \in V,\ c_u = c_v} w_u\, P_{obs}(c|u)\, P_{obs}(u),
+        \qquad w_u = k_{tri}(r, \lVert d_u - d_v \rVert_2) + \epsilon,
+        \qquad k_{tri}(r, x) = \max(0, 1 - x/r).
+
+    :math:`P_{obs}(c|u)` normalises the control counts at :math:`u` and :math:`P_{obs}(u)`
+    is :math:`u`'s share of all visits, so their product is ``counts[u, c] / total`` and
+    only visited vertices contribute. Players are assumed to act alike in states that look
+    alike (descriptor distance, eq. 7), separately for each control :math:`c_v` they were
+    holding; the :math:`\epsilon` term is a prior that lets the model answer for vertices
+    far from every visited one, by the control frequencies of their whole control group.
+
+    Evaluated for all vertices at once: per control group, one KD-tree ball query between
+    the group's vertices and its visited vertices gives the kernel part, and one sum over
+    the group's counts gives the prior.
+
+    Parameters
+    ----------
+    descriptors : ndarray, shape (V, D)
+        Shape descriptor :math:`d_v` of every vertex.
+    vertex_control : ndarray of int, shape (V,)
+        :math:`c_v` of every vertex.
+    control_counts : ndarray, shape (V, N)
+        How often control c was taken at vertex v in the traces
+        (:func:`observed_control_counts`).
+    radius : float
+        Kernel radius r > 0 in descriptor space.
+    eps : float
+        Prior weight :math:`\epsilon \ge 0`.
+    fallback : ndarray, shape (V, N)
+        Model for rows without support, typically :func:`heuristic_player_model`.
+
+    Returns
+    -------
+    ndarray, shape (V, N)
+        Row v is :math:`P(\cdot|v)`. A row without support (no visited vertex shares
+        :math:`c_v`, or ``eps`` is 0 and none lies within ``radius``) is ``fallback[v]``.
+
+    References
+    ----------
+    M. Stanton et al. Self-refining games using player analytics. ACM Trans. Graph. 33(4),
+    2014, section 4.2.
+    """
+    descriptors = np.asarray(descriptors, dtype=np.float64)
+    counts = np.asarray(control_counts, dtype=np.float64)
+    fallback = np.asarray(fallback, dtype=np.float64)
+    if descriptors.ndim != 2:
+        raise ValueError(f"descriptors must be 2-D (V, D), got shape {descriptors.shape}")
+    n_vertices = descriptors.shape[0]
+    if counts.ndim != 2 or counts.shape[0] != n_vertices:
+        raise ValueError(f"control_counts must be ({n_vertices}, N), got shape {counts.shape}")
+    n_controls = counts.shape[1]
+    vertex_control = _validated_controls(vertex_control, n_controls)
+    if vertex_control.size != n_vertices:
+        raise ValueError(f"vertex_control has {vertex_control.size} entries, expected {n_vertices}")
+    if fallback.shape != counts.shape:
+        raise ValueError(f"fallback must have shape {counts.shape}, got {fallback.shape}")
+    if np.any(fallback < 0.0) or not np.allclose(fallback.sum(axis=1), 1.0):
+        raise ValueError("fallback rows must be probability distributions (non-negative, sum 1)")
+    if not np.all(np.isfinite(counts)) or np.any(counts < 0.0):
+        raise ValueError("control_counts must be finite and non-negative")
+    if radius <= 0.0:
+        raise ValueError(f"radius must be positive, got {radius}")
+    if eps < 0.0:
+        raise ValueError(f"eps must be non-negative, got {eps}")
+
+    scores = np.zeros_like(counts)
+    visited = counts.sum(axis=1) > 0.0
+    for group in range(n_controls):
+        in_group = vertex_control == group
+        members = np.flatnonzero(in_group)
+        sources = np.flatnonzero(in_group & visited)
+        if sources.size == 0:
+            continue
+        source_counts = counts[sources]
+        pairs = cKDTree(descriptors[members]).sparse_distance_matrix(
+            cKDTree(descriptors[sources]), radius, output_type="ndarray"
+        )
+        kernel = sp.csr_array(
+            (1.0 - pairs["v"] / radius, (pairs["i"], pairs["j"])),
+            shape=(members.size, sources.size),
+        )
+        scores[members] = kernel @ source_counts + eps * source_counts.sum(axis=0)
+
+    totals = scores.sum(axis=1)
+    supported = totals > 0.0
+    model = fallback.copy()
+    model[supported] = scores[supported] / totals[supported, None]
+    return model
+
+
+def trace_edges(traces: Iterable[Trace], n_vertices: int, n_controls: int) -> np.ndarray:
+    """Edge id ``v * N + c`` of every step of every trace, in order, as one int64 array.
+
+    Raises ValueError if a step names a vertex or control outside the graph.
+    """
+    parts = [np.asarray(trace, dtype=np.int64).reshape(-1, 2) for trace in traces]
+    steps = np.concatenate(parts) if parts else np.empty((0, 2), dtype=np.int64)
+    vertex, control = steps[:, 0], steps[:, 1]
+    if steps.size and not (vertex.min() >= 0 and vertex.max() < n_vertices):
+        raise ValueError(f"a trace visits a vertex outside 0..{n_vertices - 1}")
+    if steps.size and not (control.min() >= 0 and control.max() < n_controls):
+        raise ValueError(f"a trace takes a control outside 0..{n_controls - 1}")
+    return vertex * n_controls + control
+
+
+def observed_control_counts(
+    traces: Iterable[Trace], n_vertices: int, n_controls: int
+) -> np.ndarray:
+    """How often each control was taken at each vertex: int64 array of shape (V, N).
+
+    Row sums are the visit counts of the vertices, so this array carries both
+    :math:`P_{obs}(c|v)` and :math:`P_{obs}(v)` of eq. 2.
+    """
+    edges = trace_edges(traces, n_vertices, n_controls)
+    return np.bincount(edges, minlength=n_vertices * n_controls).reshape(n_vertices, n_controls)
+
+
+def mean_session_length(traces: Iterable[Trace]) -> float:
+    """Mean number of steps per session, L; STATERANK restarts with probability 1/L.
+
+    Empty traces are not sessions and are skipped. Raises ValueError when no trace has a
+    step: the caller then uses its default L.
+    """
+    lengths = [len(trace) for trace in traces if len(trace) > 0]
+    if not lengths:
+        raise ValueError("no trace has a step; the mean session length is undefined")
+    return float(np.mean(lengths))
+
+
+def _validated_controls(vertex_control: np.ndarray, n_controls: int) -> np.ndarray:
+    if n_controls < 1:
+        raise ValueError(f"n_controls must be at least 1, got {n_controls}")
+    vertex_control = np.asarray(vertex_control)
+    if vertex_control.ndim != 1:
+        raise ValueError(f"vertex_control must be 1-D, got shape {vertex_control.shape}")
+    if vertex_control.size and not np.issubdtype(vertex_control.dtype, np.integer):
+        raise ValueError(f"vertex_control must hold integers, got dtype {vertex_control.dtype}")
+    if vertex_control.size and not (
+        vertex_control.min() >= 0 and vertex_control.max() < n_controls
+    ):
+        raise ValueError(f"vertex_control holds controls outside 0..{n_controls - 1}")
+    return vertex_control.astype(np.int64, copy=False)

@@ -1,0 +1,50 @@
+"""A frozen, playable copy of a graph: what players and bots see.
+
+Growth goes on behind a publication; a trace names the publication it was played on,
+so observed errors are always read against the edges the player actually saw.
+"""
+
+from __future__ import annotations
+
+from dataclasses import dataclass
+
+import numpy as np
+
+from app.core.graph import StateGraph
+
+
+@dataclass(frozen=True)
+class Publication:
+    n_controls: int
+    start: int
+    edge_dst: np.ndarray
+    edge_kind: np.ndarray
+    edge_err: np.ndarray
+    edge_score: np.ndarray
+
+    @property
+    def n_vertices(self) -> int:
+        return len(self.edge_dst) // self.n_controls
+
+    def destination(self, vertex: int, control: int) -> int:
+        return int(self.edge_dst[vertex * self.n_controls + control])
+
+    def follows_edges(self, steps: np.ndarray) -> bool:
+        """Whether a trace (rows of vertex, control) starts anywhere valid and follows edges."""
+        if steps.ndim != 2 or steps.shape[1] != 2 or len(steps) == 0:
+            return False
+        v, c = steps[:, 0], steps[:, 1]
+        if v.min() < 0 or v.max() >= self.n_vertices or c.min() < 0 or c.max() >= self.n_controls:
+            return False
+        return bool(np.all(self.edge_dst[v[:-1] * self.n_controls + c[:-1]] == v[1:]))
+
+
+def freeze(graph: StateGraph) -> Publication:
+    return Publication(
+        n_controls=graph.n_controls,
+        start=graph.start,
+        edge_dst=np.asarray(graph.edge_dst, dtype=np.int64),
+        edge_kind=np.asarray(graph.edge_kind, dtype=np.int8),
+        edge_err=np.asarray(graph.edge_err, dtype=np.float64),
+        edge_score=np.asarray([graph.clip_score[c] for c in graph.edge_clip], dtype=np.float64),
+    )

@@ -1,0 +1,168 @@
+"""The self-refining loop on one graph: rank, pick, relink lazily, expand; learn; publish.
+
+:class:`Refiner` is the one growth driver. The eager CLI, the experiment and the Celery
+``grow_epoch`` all call it; only where clips are simulated differs (in-process here,
+fanned out to workers there, through :func:`app.core.growth.integrate_expansion`).
+"""
+
+from __future__ import annotations
+
+from collections.abc import Callable, Sequence
+from dataclasses import dataclass, field
+
+import numpy as np
+
+from app.core.clipbank import ClipBank
+from app.core.dynamics import Dynamics
+from app.core.graph import StateGraph
+from app.core.growth import (
+    EpochOutcome,
+    Expansion,
+    expand_blend_edge,
+    relink_all,
+    relink_blend_edge,
+    select_for_expansion,
+)
+from app.core.player_models import (
+    crowd_player_model,
+    heuristic_player_model,
+    mean_session_length,
+    observed_control_counts,
+)
+from app.core.publication import Publication, freeze
+from app.core.staterank import edge_probabilities, staterank
+from app.core.strategies import EdgeWeights, Strategy, edge_weights
+
+Trace = np.ndarray
+
+
+@dataclass(frozen=True)
+class RefinerConfig:
+    alpha: float = 0.8
+    crowd_radius: float = 0.15
+    crowd_eps: float = 1e-3
+    default_session_steps: float = 90.0
+    prefilter_k: int = 100
+    batch_size: int = 4
+
+
+@dataclass
+class Refiner:
+    graph: StateGraph
+    bank: ClipBank
+    dynamics: Dynamics
+    strategy: Strategy
+    config: RefinerConfig = RefinerConfig()
+    traces: list[Trace] = field(default_factory=list)
+    _pi: np.ndarray | None = None
+
+    # ---- player model and ranking -------------------------------------------------
+    def heuristic_model(self) -> np.ndarray:
+        return heuristic_player_model(
+            np.asarray(self.graph.vertex_control), self.graph.n_controls, self.config.alpha
+        )
+
+    def player_model(self) -> np.ndarray:
+        """P(c|v) for every vertex: the crowd model once sr-crowd has traces, else P_h."""
+        heuristic = self.heuristic_model()
+        if not (self.strategy.learns_from_traces and self.traces):
+            return heuristic
+        counts = observed_control_counts(self.traces, self.graph.n_vertices, self.graph.n_controls)
+        return crowd_player_model(
+            self.graph.vertex_descriptors(),
+            np.asarray(self.graph.vertex_control),
+            counts,
+            self.config.crowd_radius,
+            self.config.crowd_eps,
+            fallback=heuristic,
+        )
+
+    @property
+    def restart(self) -> float:
+        """rho = 1/L with L the mean session length seen in traces (or the default)."""
+        steps = (
+            mean_session_length(self.traces) if self.traces else self.config.default_session_steps
+        )
+        return 1.0 / max(steps, 1.0)
+
+    def weights(self) -> EdgeWeights:
+        result = edge_weights(
+            self.strategy,
+            self.graph,
+            self.player_model(),
+            restart=self.restart,
+            warm_start=self._pi,
+        )
+        if result.rank is not None:
+            self._pi = result.rank.pi
+        return result
+
+    def predicted_edge_probabilities(self, model: np.ndarray | None = None) -> np.ndarray:
+        """P(e) = pi(v) P(c|v) under ``model`` (default: this refiner's player model)."""
+        model = self.player_model() if model is None else model
+        src, _, dst = self.graph.edge_arrays()
+        prob = model.reshape(-1)
+        rank = staterank(src, dst, prob, self.graph.n_vertices, self.graph.start, self.restart)
+        return edge_probabilities(rank.pi, src, prob)
+
+    # ---- growth -----------------------------------------------------------------------
+    def relink(self, edge: int) -> bool:
+        return relink_blend_edge(
+            self.graph, self.bank, self.dynamics, edge, prefilter_k=self.config.prefilter_k
+        )
+
+    def plan_epoch(self, count: int | None = None) -> EpochOutcome:
+        """Rank, then pop the top BLEND edges (relinking lazily) to expand next."""
+        return select_for_expansion(
+            self.graph, self.weights().weights, count or self.config.batch_size, self.relink
+        )
+
+    def grow(
+        self,
+        *,
+        frames: int | None = None,
+        expansions: int | None = None,
+        on_expansion: Callable[[Expansion], None] | None = None,
+    ) -> list[EpochOutcome]:
+        """Grow by a budget of simulated frames or of expansions (whichever is given)."""
+        if (frames is None) == (expansions is None):
+            raise ValueError("give exactly one budget: frames or expansions")
+        target_frames = self.graph.size_frames + frames if frames is not None else None
+        done = 0
+        epochs = []
+
+        def budget_left() -> int:
+            if target_frames is not None:
+                per_expansion = self.graph.n_controls * self.graph.frames_per_clip
+                return -(-(target_frames - self.graph.size_frames) // per_expansion)
+            assert expansions is not None
+            return expansions - done
+
+        while budget_left() > 0:
+            epoch = self.plan_epoch(min(self.config.batch_size, budget_left()))
+            if not epoch.expanded:
+                break
+            for edge in epoch.expanded:
+                expansion = expand_blend_edge(
+                    self.graph,
+                    self.bank,
+                    self.dynamics,
+                    edge,
+                    prefilter_k=self.config.prefilter_k,
+                )
+                done += 1
+                if on_expansion is not None:
+                    on_expansion(expansion)
+            epochs.append(epoch)
+        return epochs
+
+    # ---- play ---------------------------------------------------------------------------
+    def publish(self) -> tuple[Publication, list[int]]:
+        """Pre-publish relinking, then a frozen copy; returns the relinked edges too."""
+        relinked = relink_all(
+            self.graph, self.bank, self.dynamics, prefilter_k=self.config.prefilter_k
+        )
+        return freeze(self.graph), relinked
+
+    def learn(self, traces: Sequence[Trace]) -> None:
+        self.traces.extend(np.asarray(t, dtype=np.int64) for t in traces)

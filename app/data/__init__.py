@@ -1,0 +1,1 @@
+"""Reference data sets shipped with the package (read with importlib.resources)."""

@@ -1,0 +1,1 @@
+"""OpenCL kernels and their wrappers: the only package that imports pyopencl."""

@@ -1,0 +1,79 @@
+"""OpenCL device, context, queue and program cache.
+
+The device is the first whose name contains ``Settings.opencl_device`` (default ``''``:
+prefer PoCL's CPU device). Contexts are created lazily and keyed by process id, so a
+Celery worker forked from a parent that already used OpenCL builds its own context
+instead of inheriting one that does not survive ``fork``. Programs are built once per
+context and source/options.
+"""
+
+from __future__ import annotations
+
+import logging
+import os
+from dataclasses import dataclass, field
+from importlib import resources
+
+import pyopencl as cl
+
+from app.config import get_settings
+
+log = logging.getLogger(__name__)
+
+#: explicit build options: IEEE float32 semantics (no fast-math), for reproducible output
+BUILD_OPTIONS = ("-cl-std=CL1.2",)
+
+
+@dataclass
+class ClRuntime:
+    """One process's OpenCL context, in-order queue and built programs."""
+
+    device: cl.Device
+    context: cl.Context
+    queue: cl.CommandQueue
+    programs: dict[str, cl.Program] = field(default_factory=dict)
+
+    def program(self, source_name: str) -> cl.Program:
+        """The program of ``app/kernels/<source_name>``, built on first use."""
+        if source_name not in self.programs:
+            source = resources.files("app.kernels").joinpath(source_name).read_text()
+            self.programs[source_name] = cl.Program(self.context, source).build(
+                options=list(BUILD_OPTIONS)
+            )
+        return self.programs[source_name]
+
+
+_RUNTIMES: dict[int, ClRuntime] = {}
+
+
+def select_device(name_contains: str) -> cl.Device:
+    """First device whose name contains ``name_contains``; '' prefers a PoCL CPU device."""
+    devices = [(p, d) for p in cl.get_platforms() for d in p.get_devices()]
+    if not devices:
+        raise RuntimeError("no OpenCL device found")
+    if name_contains:
+        for _, d in devices:
+            if name_contains.lower() in d.name.lower():
+                return d
+        names = [d.name for _, d in devices]
+        raise RuntimeError(f"no OpenCL device matches {name_contains!r}; have {names}")
+    for p, d in devices:
+        if "portable computing language" in p.name.lower() and d.type & cl.device_type.CPU:
+            return d
+    return devices[0][1]
+
+
+def runtime() -> ClRuntime:
+    """This process's runtime, created on first call (and again after a fork)."""
+    pid = os.getpid()
+    if pid not in _RUNTIMES:
+        device = select_device(get_settings().opencl_device)
+        log.info(
+            "OpenCL device %s on %s (%s)",
+            device.name,
+            device.platform.name,
+            device.platform.version,
+        )
+        context = cl.Context([device])
+        _RUNTIMES[pid] = ClRuntime(device, context, cl.CommandQueue(context))
+    return _RUNTIMES[pid]

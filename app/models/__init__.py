@@ -1,0 +1,20 @@
+"""SQLAlchemy models; importing this package registers every table on ``Base.metadata``."""
+
+from app.models.base import Base
+from app.models.graph import Artifact, Clip, Edge, Graph, GrowthEpoch, Vertex
+from app.models.play import Player, Publication, PublicationEdge, Trace, TraceStep
+
+__all__ = [
+    "Artifact",
+    "Base",
+    "Clip",
+    "Edge",
+    "Graph",
+    "GrowthEpoch",
+    "Player",
+    "Publication",
+    "PublicationEdge",
+    "Trace",
+    "TraceStep",
+    "Vertex",
+]

@@ -1,0 +1,128 @@
+"""Tables of a state graph: the graph row, its vertices, clips and edges, growth epochs.
+
+Vertices, clips and edges are keyed by the graph's dense indices (``idx``, and
+``(vertex, control)`` for edges), mirroring :class:`app.core.graph.StateGraph`, so a
+graph loads with three ordered scans and saves with bulk inserts.
+"""
+
+from __future__ import annotations
+
+from datetime import datetime
+from typing import Any
+
+from sqlalchemy import (
+    JSON,
+    BigInteger,
+    Boolean,
+    DateTime,
+    Double,
+    ForeignKey,
+    ForeignKeyConstraint,
+    Integer,
+    LargeBinary,
+    SmallInteger,
+    String,
+    UniqueConstraint,
+)
+from sqlalchemy.orm import Mapped, mapped_column
+
+from app.models.base import HASH_LENGTH, Base, created_at_column
+
+
+class Artifact(Base):
+    """A content-addressed file under the artifact directory (sha256 of its bytes)."""
+
+    __tablename__ = "artifacts"
+
+    hash: Mapped[str] = mapped_column(String(HASH_LENGTH), primary_key=True)
+    size: Mapped[int] = mapped_column(BigInteger)
+    media_type: Mapped[str] = mapped_column(String(100))
+    created_at: Mapped[datetime] = created_at_column()
+
+
+class Graph(Base):
+    __tablename__ = "graphs"
+
+    id: Mapped[int] = mapped_column(primary_key=True)
+    name: Mapped[str] = mapped_column(String(200), unique=True)
+    dynamics: Mapped[str] = mapped_column(String(64))
+    scene: Mapped[dict[str, Any]] = mapped_column(JSON)
+    n_controls: Mapped[int] = mapped_column(Integer)
+    frames_per_clip: Mapped[int] = mapped_column(Integer)
+    seed: Mapped[int] = mapped_column(Integer)
+    strategy: Mapped[str] = mapped_column(String(32))
+    growing: Mapped[bool] = mapped_column(Boolean, default=False)
+    #: bumped by every save; a save that finds another revision lost a race or a rollback
+    revision: Mapped[int] = mapped_column(Integer, default=0)
+    created_at: Mapped[datetime] = created_at_column()
+
+
+class Vertex(Base):
+    __tablename__ = "vertices"
+
+    graph_id: Mapped[int] = mapped_column(
+        ForeignKey("graphs.id", ondelete="CASCADE"), primary_key=True
+    )
+    idx: Mapped[int] = mapped_column(Integer, primary_key=True)
+    control: Mapped[int] = mapped_column(SmallInteger)
+    #: the clip that produced the vertex; NULL for the start vertex
+    clip_idx: Mapped[int | None] = mapped_column(Integer)
+
+
+class Clip(Base):
+    __tablename__ = "clips"
+
+    graph_id: Mapped[int] = mapped_column(
+        ForeignKey("graphs.id", ondelete="CASCADE"), primary_key=True
+    )
+    idx: Mapped[int] = mapped_column(Integer, primary_key=True)
+    source: Mapped[int] = mapped_column(Integer)
+    control: Mapped[int] = mapped_column(SmallInteger)
+    kinetic: Mapped[float] = mapped_column(Double)
+    #: float64 bytes, one potential energy per control
+    potential: Mapped[bytes] = mapped_column(LargeBinary)
+    score: Mapped[float] = mapped_column(Double)
+    #: float32 bytes of the flattened descriptor (the exact one lives in the bundle)
+    descriptor: Mapped[bytes] = mapped_column(LargeBinary)
+    #: .npz artifact: frames, end_state, occupancy, descriptor
+    bundle: Mapped[str] = mapped_column(ForeignKey("artifacts.hash"))
+    animation: Mapped[str | None] = mapped_column(ForeignKey("artifacts.hash"))
+
+
+class Edge(Base):
+    __tablename__ = "edges"
+    __table_args__ = (
+        ForeignKeyConstraint(
+            ["graph_id", "vertex"], ["vertices.graph_id", "vertices.idx"], ondelete="CASCADE"
+        ),
+    )
+
+    graph_id: Mapped[int] = mapped_column(
+        ForeignKey("graphs.id", ondelete="CASCADE"), primary_key=True
+    )
+    vertex: Mapped[int] = mapped_column(Integer, primary_key=True)
+    control: Mapped[int] = mapped_column(SmallInteger, primary_key=True)
+    #: 0 SIM, 1 BLEND (app.core.graph.EdgeKind)
+    kind: Mapped[int] = mapped_column(SmallInteger)
+    clip_idx: Mapped[int] = mapped_column(Integer)
+    dst: Mapped[int] = mapped_column(Integer)
+    #: edge index (vertex * N + control) of a BLEND edge's SIM target
+    target: Mapped[int | None] = mapped_column(Integer)
+    err: Mapped[float] = mapped_column(Double)
+    animation: Mapped[str | None] = mapped_column(ForeignKey("artifacts.hash"))
+
+
+class GrowthEpoch(Base):
+    __tablename__ = "growth_epochs"
+    __table_args__ = (UniqueConstraint("graph_id", "number"),)
+
+    id: Mapped[int] = mapped_column(primary_key=True)
+    graph_id: Mapped[int] = mapped_column(ForeignKey("graphs.id", ondelete="CASCADE"))
+    number: Mapped[int] = mapped_column(Integer)
+    strategy: Mapped[str] = mapped_column(String(32))
+    status: Mapped[str] = mapped_column(String(16))
+    started_at: Mapped[datetime] = created_at_column()
+    finished_at: Mapped[datetime | None] = mapped_column(DateTime(timezone=True))
+    expansions: Mapped[int] = mapped_column(Integer, default=0)
+    relinks: Mapped[int] = mapped_column(Integer, default=0)
+    size_frames: Mapped[int] = mapped_column(Integer, default=0)

@@ -1,0 +1,87 @@
+"""Tables of play: publications players see, players, and the traces they upload."""
+
+from __future__ import annotations
+
+from datetime import datetime
+
+from sqlalchemy import (
+    CheckConstraint,
+    Double,
+    ForeignKey,
+    Integer,
+    SmallInteger,
+    String,
+    UniqueConstraint,
+)
+from sqlalchemy.orm import Mapped, mapped_column
+
+from app.models.base import HASH_LENGTH, Base, created_at_column
+
+
+class Publication(Base):
+    __tablename__ = "publications"
+    __table_args__ = (UniqueConstraint("graph_id", "number"),)
+
+    id: Mapped[int] = mapped_column(primary_key=True)
+    graph_id: Mapped[int] = mapped_column(ForeignKey("graphs.id", ondelete="CASCADE"))
+    #: 1, 2, ... per graph, in publication order
+    number: Mapped[int] = mapped_column(Integer)
+    created_at: Mapped[datetime] = created_at_column()
+    n_vertices: Mapped[int] = mapped_column(Integer)
+    n_edges: Mapped[int] = mapped_column(Integer)
+    size_frames: Mapped[int] = mapped_column(Integer)
+    start: Mapped[int] = mapped_column(Integer)
+
+
+class PublicationEdge(Base):
+    """The frozen copy of one edge: what a player on this publication actually saw."""
+
+    __tablename__ = "publication_edges"
+
+    publication_id: Mapped[int] = mapped_column(
+        ForeignKey("publications.id", ondelete="CASCADE"), primary_key=True
+    )
+    vertex: Mapped[int] = mapped_column(Integer, primary_key=True)
+    control: Mapped[int] = mapped_column(SmallInteger, primary_key=True)
+    dst: Mapped[int] = mapped_column(Integer)
+    kind: Mapped[int] = mapped_column(SmallInteger)
+    err: Mapped[float] = mapped_column(Double)
+    score: Mapped[float] = mapped_column(Double)
+    animation: Mapped[str | None] = mapped_column(ForeignKey("artifacts.hash"))
+
+
+class Player(Base):
+    __tablename__ = "players"
+    __table_args__ = (CheckConstraint("kind IN ('human', 'bot')", name="kind"),)
+
+    id: Mapped[int] = mapped_column(primary_key=True)
+    name: Mapped[str] = mapped_column(String(100), unique=True)
+    kind: Mapped[str] = mapped_column(String(8))
+    #: sha256 of the bearer token; the token itself is never stored
+    token_hash: Mapped[str] = mapped_column(String(HASH_LENGTH), unique=True)
+    created_at: Mapped[datetime] = created_at_column()
+
+
+class Trace(Base):
+    __tablename__ = "traces"
+    __table_args__ = (UniqueConstraint("player_id", "idempotency_key"),)
+
+    id: Mapped[int] = mapped_column(primary_key=True)
+    publication_id: Mapped[int] = mapped_column(
+        ForeignKey("publications.id", ondelete="CASCADE"), index=True
+    )
+    player_id: Mapped[int] = mapped_column(ForeignKey("players.id", ondelete="CASCADE"))
+    idempotency_key: Mapped[str] = mapped_column(String(128))
+    created_at: Mapped[datetime] = created_at_column()
+    n_steps: Mapped[int] = mapped_column(Integer)
+
+
+class TraceStep(Base):
+    __tablename__ = "trace_steps"
+
+    trace_id: Mapped[int] = mapped_column(
+        ForeignKey("traces.id", ondelete="CASCADE"), primary_key=True
+    )
+    step: Mapped[int] = mapped_column(Integer, primary_key=True)
+    vertex: Mapped[int] = mapped_column(Integer)
+    control: Mapped[int] = mapped_column(SmallInteger)

@@ -1,0 +1,1 @@
+"""Reports for people: PNG plots (matplotlib) and markdown."""

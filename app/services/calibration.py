@@ -1,0 +1,123 @@
+"""Measure a liquid preset's constants and store them (``srg calibrate --preset small``).
+
+* **T0** (``rest_kinetic``): the largest kinetic energy over the last second of a 3 s
+  settle (the scene's definition), unless the scene already carries a measured value.
+* **w_e** (``energy_weight``): fitted so that ``dist_s ~ w_e dist_e`` over pairs of nearly-
+  at-rest clips (paper section 5.1). Those clips start from the settled tank given a
+  uniform horizontal push whose kinetic energy is 0, 1/2, 1, 2, 4 and 8 T0, and run
+  under the level control, so their shapes and energies differ by about what separates
+  "visually at rest" clips.
+* **crowd_radius**: the median over clips of the pdist to the nearest other clip of the
+  same control, in a depth-2 tree of clips from the settled tank plus the near-rest
+  clips: the kernel of one visited vertex reaches its typical neighbours.
+* **high_error_threshold**: the 90th percentile over the same clips of the best blend
+  error (eq. 3) to another clip of the same control: a blend as bad as the worst tenth
+  of a fresh graph's blends is a high-error one.
+"""
+
+from __future__ import annotations
+
+import itertools
+
+import numpy as np
+
+from app.core.dynamics import ClipFeatures
+from app.core.liquid_metrics import (
+    LiquidMetricParams,
+    clip_distance,
+    descriptor_distance,
+    energy_distance,
+    fit_energy_weight,
+    shape_distance,
+)
+from app.core.scene import kinetic_energy
+from app.services.liquid import (
+    CALIBRATION_DIR,
+    LiquidCalibration,
+    LiquidDynamics,
+    calibration_json,
+)
+
+#: kinetic energies of the pushed near-rest clips, in units of T0
+PUSH_ENERGIES = (0.0, 0.5, 1.0, 2.0, 4.0, 8.0)
+HIGH_ERROR_PERCENTILE = 90.0
+
+
+def measure_rest_kinetic(dyn: LiquidDynamics) -> tuple[np.ndarray, float]:
+    """The state after a 3 s settle and the max kinetic energy over its last second."""
+    sim = dyn.simulator
+    state = sim.settle(seconds=2.0)
+    energies = []
+    for _ in range(dyn.scene.fps):
+        _, state = sim.run(state, 0, 1)
+        energies.append(kinetic_energy(dyn.scene, state))
+    return state, max(energies)
+
+
+def pushed(dyn: LiquidDynamics, rest: np.ndarray, energy: float) -> np.ndarray:
+    """The rest state plus a uniform x velocity carrying ``energy`` (J) more kinetic energy."""
+    state = rest.copy()
+    mass = dyn.scene.particle_mass * len(state)
+    state[:, 3] += np.float32(np.sqrt(2.0 * energy / mass))
+    return state
+
+
+def _nearest(values: np.ndarray, controls: list[int]) -> np.ndarray:
+    """Per row, the smallest value to another clip of the same control."""
+    same = np.equal.outer(controls, controls) & ~np.eye(len(controls), dtype=bool)
+    return np.where(same, values, np.inf).min(axis=1)
+
+
+def calibrate(preset: str) -> dict:
+    """Measure T0, w_e, the crowd radius and the high-error threshold; write the JSON.
+
+    Returns the stored dict (also written to ``app/data/calibration/<preset>.json``).
+    Takes about 30 s on ``tiny`` and 3 min on ``small`` (2 CPU cores).
+    """
+    probe = LiquidDynamics(preset, calibration=LiquidCalibration(0.0, 1.0, 0.0, 0.0))
+    rest, measured_t0 = measure_rest_kinetic(probe)
+    t0 = probe.scene.rest_kinetic or measured_t0
+    dyn = LiquidDynamics(preset, calibration=LiquidCalibration(t0, 1.0, 0.0, 0.0))
+
+    near_rest = [dyn.features(dyn.simulate(pushed(dyn, rest, f * t0), 0)) for f in PUSH_ENERGIES]
+    pairs = list(itertools.combinations(near_rest, 2))
+    shapes = np.array(
+        [shape_distance(a.occupancy, b.occupancy, dyn.grid.voxel_volume) for a, b in pairs]
+    )
+    energies = np.array([energy_distance(a.energy(0), b.energy(0), t0) for a, b in pairs])
+    w_e = fit_energy_weight(shapes, energies)
+
+    tree: list[ClipFeatures] = []
+    for first in range(dyn.n_controls):
+        clip = dyn.simulate(rest, first)
+        tree.append(dyn.features(clip))
+        tree += [dyn.features(dyn.simulate(clip.end_state, c)) for c in range(dyn.n_controls)]
+    clips = tree + near_rest
+    controls = [c.control for c in clips]
+    params = LiquidMetricParams(t0, w_e, dyn.grid.voxel_volume)
+    dists = np.array(
+        [
+            [clip_distance(a, b, b.control, params) if a is not b else np.inf for b in clips]
+            for a in clips
+        ]
+    )
+    pdists = np.array([[descriptor_distance(a, b) for b in clips] for a in clips])
+    calibration = LiquidCalibration(
+        rest_kinetic=t0,
+        energy_weight=w_e,
+        crowd_radius=float(np.median(_nearest(pdists, controls))),
+        high_error_threshold=float(np.percentile(_nearest(dists, controls), HIGH_ERROR_PERCENTILE)),
+    )
+    details = {
+        "measured_rest_kinetic": measured_t0,
+        "near_rest_pairs": len(pairs),
+        "near_rest_shape_distance_median": float(np.median(shapes)),
+        "near_rest_energy_distance_median": float(np.median(energies)),
+        "clips": len(clips),
+        "pdist_median": float(np.median(pdists[np.triu_indices(len(clips), 1)])),
+        "best_blend_dist_median": float(np.median(_nearest(dists, controls))),
+    }
+    CALIBRATION_DIR.mkdir(parents=True, exist_ok=True)
+    text = calibration_json(preset, calibration, details)
+    (CALIBRATION_DIR / f"{preset}.json").write_text(text)
+    return {"preset": preset, **calibration.__dict__, **details}

@@ -1,0 +1,188 @@
+"""``LiquidDynamics``: the tilt-tank liquid as a :class:`~app.core.dynamics.Dynamics`.
+
+It composes the PCISPH simulator (``app.kernels.sph``), the Zhu-Bridson SDF kernel
+(``app.kernels.sdf``), the paper's metrics and blend (``app.core.liquid_metrics``) and
+the Mitsuba renderer (``app.render``). A clip's ``frames`` are its SDFs quantised to
+int8 (``app.core.surface.quantise_sdf``): the store keeps them as they are, and blends
+return the same kind. Occupancy in the features is uint8 for the same reason.
+
+The constants the paper measures (T0, w_e) and the defaults of the crowd radius and the
+high-error threshold come from the preset's stored calibration
+(``app/data/calibration/<preset>.json``, written by ``app.services.calibration``).
+"""
+
+from __future__ import annotations
+
+import json
+from dataclasses import asdict, dataclass
+from pathlib import Path
+
+import numpy as np
+
+from app.core.dynamics import ClipFeatures, SimClip
+from app.core.liquid_metrics import (
+    LiquidMetricParams,
+    blend_sdf,
+    clip_distance,
+    descriptor_distance,
+)
+from app.core.scene import Scene, kinetic_energy, potential_energies, tilt_tank
+from app.core.surface import (
+    SurfaceGrid,
+    clip_descriptor,
+    clip_score,
+    dequantise_sdf,
+    occupancy,
+    quantise_occupancy,
+    quantise_sdf,
+    surface_grid,
+)
+from app.kernels.sdf import SdfKernel
+from app.kernels.sph import SphSimulator
+from app.render.mitsuba_scene import LiquidRenderer, RenderSettings
+
+CALIBRATION_DIR = Path(__file__).resolve().parents[1] / "data" / "calibration"
+
+
+class MissingCalibration(LookupError):
+    """The preset has no stored calibration: run ``srg calibrate --preset <preset>``."""
+
+
+@dataclass(frozen=True)
+class LiquidCalibration:
+    """Measured constants of a preset (see ``app.services.calibration``)."""
+
+    rest_kinetic: float
+    energy_weight: float
+    crowd_radius: float
+    high_error_threshold: float
+
+
+def load_calibration(preset: str, directory: Path = CALIBRATION_DIR) -> LiquidCalibration:
+    path = directory / f"{preset}.json"
+    if not path.exists():
+        raise MissingCalibration(f"no calibration for preset {preset!r}; run srg calibrate")
+    data = json.loads(path.read_text())
+    return LiquidCalibration(**{k: float(data[k]) for k in LiquidCalibration.__annotations__})
+
+
+def calibration_json(preset: str, calibration: LiquidCalibration, details: dict) -> str:
+    """The stored form: the four constants plus how they were measured."""
+    return json.dumps({"preset": preset, **asdict(calibration), **details}, indent=2) + "\n"
+
+
+class LiquidDynamics:
+    """PCISPH liquid in the tilting tank, clips as SDF frames (paper section 5).
+
+    Parameters
+    ----------
+    preset : str
+        ``tiny``, ``small`` or ``paper`` (``app.core.scene.tilt_tank``).
+    calibration : LiquidCalibration, optional
+        Defaults to the stored one of the preset.
+    render_settings : RenderSettings, optional
+        Image size and samples per pixel of :meth:`render`.
+    """
+
+    frames_per_clip: int
+    n_controls: int
+
+    def __init__(
+        self,
+        preset: str = "small",
+        calibration: LiquidCalibration | None = None,
+        render_settings: RenderSettings | None = None,
+    ) -> None:
+        self.preset = preset
+        self.scene: Scene = tilt_tank(preset)
+        self.grid: SurfaceGrid = surface_grid(self.scene)
+        self.calibration = calibration or load_calibration(preset)
+        self.frames_per_clip = self.scene.frames_per_clip
+        self.n_controls = self.scene.n_controls
+        self.render_settings = render_settings or RenderSettings()
+        self.params = LiquidMetricParams(
+            rest_kinetic=self.rest_kinetic,
+            energy_weight=self.calibration.energy_weight,
+            voxel_volume=self.grid.voxel_volume,
+        )
+        self._simulator: SphSimulator | None = None
+        self._sdf: SdfKernel | None = None
+        self._renderer: LiquidRenderer | None = None
+        self._rest: np.ndarray | None = None
+
+    # ---- Dynamics constants --------------------------------------------------------
+    @property
+    def name(self) -> str:
+        return "liquid"
+
+    @property
+    def rest_kinetic(self) -> float:
+        """T0: the scene's measured value when it has one, else the calibration's."""
+        return self.scene.rest_kinetic or self.calibration.rest_kinetic
+
+    @property
+    def crowd_radius(self) -> float:
+        return self.calibration.crowd_radius
+
+    @property
+    def high_error_threshold(self) -> float:
+        return self.calibration.high_error_threshold
+
+    # ---- engines, built on first use -------------------------------------------------
+    @property
+    def simulator(self) -> SphSimulator:
+        if self._simulator is None:
+            self._simulator = SphSimulator(self.scene)
+        return self._simulator
+
+    @property
+    def sdf_kernel(self) -> SdfKernel:
+        if self._sdf is None:
+            self._sdf = SdfKernel(self.grid)
+        return self._sdf
+
+    @property
+    def renderer(self) -> LiquidRenderer:
+        if self._renderer is None:
+            self._renderer = LiquidRenderer(self.scene, self.grid, self.render_settings)
+        return self._renderer
+
+    # ---- Dynamics operations ---------------------------------------------------------
+    def initial_state(self) -> np.ndarray:
+        """The settled tank (computed once per instance: a few seconds of simulation)."""
+        if self._rest is None:
+            self._rest = self.simulator.settle()
+        return self._rest.copy()
+
+    def surface_frames(self, positions: np.ndarray) -> np.ndarray:
+        """int8 SDF frames (k, X, Y, Z) of (k, n, 3) particle positions."""
+        return quantise_sdf(self.grid, self.sdf_kernel.frames(positions))
+
+    def simulate(self, state: np.ndarray, control: int) -> SimClip:
+        positions, end_state = self.simulator.simulate_clip(state, control)
+        return SimClip(control=control, frames=self.surface_frames(positions), end_state=end_state)
+
+    def features(self, clip: SimClip) -> ClipFeatures:
+        occ = occupancy(self.grid, dequantise_sdf(self.grid, clip.frames))
+        return ClipFeatures(
+            control=clip.control,
+            kinetic=kinetic_energy(self.scene, clip.end_state),
+            potential=potential_energies(self.scene, clip.end_state),
+            occupancy=quantise_occupancy(occ),
+            descriptor=clip_descriptor(self.grid, self.scene.tank, occ),
+            score=clip_score(self.grid, self.scene.target, occ),
+        )
+
+    def dist(self, a: ClipFeatures, b: ClipFeatures, control: int) -> float:
+        return clip_distance(a, b, control, self.params)
+
+    def pdist(self, a: ClipFeatures, b: ClipFeatures) -> float:
+        return descriptor_distance(a, b)
+
+    def blend(self, src: np.ndarray, dst: np.ndarray) -> np.ndarray:
+        """Eq. 8 on the SDFs, returned quantised like the clips' own frames."""
+        g = self.grid
+        return quantise_sdf(g, blend_sdf(dequantise_sdf(g, src), dequantise_sdf(g, dst)))
+
+    def render(self, frames: np.ndarray) -> np.ndarray:
+        return self.renderer.frames(dequantise_sdf(self.grid, frames))

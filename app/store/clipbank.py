@@ -1,0 +1,88 @@
+"""A :class:`~app.core.clipbank.ClipBank` backed by the artifact store.
+
+Each saved clip has one ``.npz`` bundle (frames, end_state, occupancy, descriptor). The
+small feature columns (control, energies, score) come from the loaded graph, so only the
+occupancy and descriptor are read to rebuild :class:`ClipFeatures`; both reads go through
+LRU caches because best-target searches compare the same popular clips again and again.
+Clips put since the last save stay in memory until :func:`app.store.graphs.save_graph`
+writes their bundles and calls :meth:`StoredClipBank.mark_saved`.
+"""
+
+from __future__ import annotations
+
+from collections.abc import Mapping
+from functools import lru_cache
+
+import numpy as np
+
+from app.core.clipbank import ClipBank
+from app.core.dynamics import ClipFeatures, SimClip
+from app.core.graph import StateGraph
+from app.store.artifacts import ArtifactStore
+
+FEATURE_CACHE_SIZE = 4096
+BUNDLE_CACHE_SIZE = 64
+
+
+def clip_bundle(bank: ClipBank, clip: int) -> dict[str, np.ndarray]:
+    """The arrays of a clip's bundle artifact, from any bank holding the clip."""
+    features = bank.features(clip)
+    return {
+        "frames": np.asarray(bank.frames(clip)),
+        "end_state": np.asarray(bank.end_state(clip)),
+        "occupancy": np.asarray(features.occupancy),
+        "descriptor": np.asarray(features.descriptor),
+    }
+
+
+class StoredClipBank:
+    def __init__(
+        self, graph: StateGraph, artifacts: ArtifactStore, bundles: Mapping[int, str]
+    ) -> None:
+        self._graph = graph
+        self._artifacts = artifacts
+        self._bundles = dict(bundles)
+        self._pending: dict[int, tuple[SimClip, ClipFeatures]] = {}
+        self._shape_members = lru_cache(maxsize=FEATURE_CACHE_SIZE)(self._read_shape)
+        self._state_members = lru_cache(maxsize=BUNDLE_CACHE_SIZE)(self._read_state)
+
+    def features(self, clip: int) -> ClipFeatures:
+        if clip in self._pending:
+            return self._pending[clip][1]
+        occupancy, descriptor = self._shape_members(clip)
+        graph = self._graph
+        return ClipFeatures(
+            control=graph.clip_control[clip],
+            kinetic=graph.clip_kinetic[clip],
+            potential=graph.clip_potential[clip],
+            occupancy=occupancy,
+            descriptor=descriptor,
+            score=graph.clip_score[clip],
+        )
+
+    def end_state(self, clip: int) -> np.ndarray:
+        if clip in self._pending:
+            return self._pending[clip][0].end_state
+        return self._state_members(clip)[1]
+
+    def frames(self, clip: int) -> np.ndarray:
+        if clip in self._pending:
+            return self._pending[clip][0].frames
+        return self._state_members(clip)[0]
+
+    def put(self, clip: int, sim: SimClip, features: ClipFeatures) -> None:
+        self._pending[clip] = (sim, features)
+
+    def mark_saved(self, bundles: Mapping[int, str]) -> None:
+        """Record that these clips' bundles are stored; their arrays leave memory."""
+        for clip, digest in bundles.items():
+            self._bundles[clip] = digest
+            self._pending.pop(clip, None)
+
+    def _read_shape(self, clip: int) -> tuple[np.ndarray, np.ndarray]:
+        arrays = self._artifacts.get_arrays(self._bundles[clip], ("occupancy", "descriptor"))
+        return arrays["occupancy"], arrays["descriptor"]
+
+    def _read_state(self, clip: int) -> tuple[np.ndarray, np.ndarray]:
+        arrays = self._artifacts.get_arrays(self._bundles[clip], ("frames", "end_state"))
+        return arrays["frames"], arrays["end_state"]

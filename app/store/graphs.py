@@ -1,0 +1,327 @@
+"""Saving and loading state graphs.
+
+:func:`save_graph` writes only what changed since the graph object was loaded or last
+saved: new vertices, clips and edges as bulk inserts, changed edges as one bulk update.
+It remembers what it persisted in a snapshot kept beside the graph object (keyed by the
+object's identity, dropped with it), and guards every save with the ``graphs.revision``
+counter: a save whose snapshot is not the database's current revision (another writer got
+there first, or the transaction of the previous save rolled back) raises
+:class:`StaleGraph` instead of writing a wrong diff. Reload and redo the work then.
+"""
+
+from __future__ import annotations
+
+import weakref
+from collections.abc import Iterable, Mapping
+from dataclasses import dataclass
+from typing import Any
+
+import numpy as np
+from sqlalchemy import select, update
+from sqlalchemy.orm import Session
+
+from app.core.clipbank import ClipBank
+from app.core.graph import NO_TARGET, EdgeKind, StateGraph
+from app.models import Clip, Edge, Graph, Vertex
+from app.store._sql import bulk_insert
+from app.store.artifacts import NPZ_MEDIA_TYPE, ArtifactStore, encode_arrays
+from app.store.clipbank import StoredClipBank, clip_bundle
+
+#: "no clip" in vertex_clip (the start vertex) and in the placeholders of unfilled edges
+NO_CLIP = -1
+
+
+class GraphNotFound(LookupError):
+    """No graph with that name or id."""
+
+
+class StaleGraph(RuntimeError):
+    """The in-memory graph is not based on the database's current revision of it."""
+
+
+def create_graph(
+    session: Session,
+    *,
+    name: str,
+    dynamics: str,
+    n_controls: int,
+    frames_per_clip: int,
+    scene: Mapping[str, Any] | None = None,
+    seed: int = 0,
+    strategy: str = "sr-crowd",
+) -> int:
+    """Add an empty graph row and return its id; :func:`save_graph` fills it."""
+    row = Graph(
+        name=name,
+        dynamics=dynamics,
+        scene=dict(scene or {}),
+        n_controls=n_controls,
+        frames_per_clip=frames_per_clip,
+        seed=seed,
+        strategy=strategy,
+        growing=False,
+        revision=0,
+    )
+    session.add(row)
+    session.flush()
+    return row.id
+
+
+def get_graph_row(session: Session, name_or_id: str | int) -> Graph:
+    """The graph row by id (an int, or a string of digits) or else by name."""
+    row: Graph | None
+    if isinstance(name_or_id, int) or name_or_id.isdigit():
+        row = session.get(Graph, int(name_or_id))
+    else:
+        row = session.scalars(select(Graph).where(Graph.name == name_or_id)).one_or_none()
+    if row is None:
+        raise GraphNotFound(f"no graph {name_or_id!r}")
+    return row
+
+
+@dataclass(frozen=True)
+class _Persisted:
+    """What one graph object last wrote to (or read from) the database."""
+
+    graph_id: int
+    revision: int
+    n_vertices: int
+    n_clips: int
+    edges: np.ndarray  # (E, 5) float64: kind, clip, dst, target, err
+
+
+_snapshots: dict[int, _Persisted] = {}
+
+
+def _remember(graph: StateGraph, persisted: _Persisted) -> None:
+    key = id(graph)
+    if key not in _snapshots:
+        weakref.finalize(graph, _snapshots.pop, key, None)
+    _snapshots[key] = persisted
+
+
+def _edge_table(graph: StateGraph) -> np.ndarray:
+    return np.column_stack(
+        [
+            np.asarray(graph.edge_kind, dtype=np.float64),
+            np.asarray(graph.edge_clip, dtype=np.float64),
+            np.asarray(graph.edge_dst, dtype=np.float64),
+            np.asarray(graph.edge_target, dtype=np.float64),
+            np.asarray(graph.edge_err, dtype=np.float64),
+        ]
+    ).reshape(graph.n_edges, 5)
+
+
+def save_graph(
+    session: Session, graph_id: int, graph: StateGraph, bank: ClipBank, artifacts: ArtifactStore
+) -> None:
+    """Write what changed in ``graph`` since it was loaded or saved, bundles included.
+
+    Changed edges lose their animation (it showed the old transition); render again and
+    call :func:`set_animations`. Raises :class:`StaleGraph` (see the module docstring).
+    """
+    graph.check()
+    before = _snapshots.get(id(graph))
+    if before is None or before.graph_id != graph_id:
+        before = _Persisted(graph_id, 0, 0, 0, np.empty((0, 5)))
+    bumped = session.execute(
+        update(Graph)
+        .where(Graph.id == graph_id, Graph.revision == before.revision)
+        .values(revision=before.revision + 1)
+    )
+    if bumped.rowcount != 1:  # type: ignore[attr-defined]
+        get_graph_row(session, graph_id)
+        raise StaleGraph(f"graph {graph_id} changed since revision {before.revision}; reload it")
+
+    new_clips = range(before.n_clips, graph.n_clips)
+    digests = artifacts.put_many(
+        (encode_arrays(clip_bundle(bank, clip)) for clip in new_clips),
+        media_type=NPZ_MEDIA_TYPE,
+        session=session,
+    )
+    bulk_insert(session, Vertex, _vertex_rows(graph_id, graph, before.n_vertices))
+    bulk_insert(session, Clip, _clip_rows(graph_id, graph, new_clips, digests))
+    edges = _edge_table(graph)
+    old = len(before.edges)
+    bulk_insert(session, Edge, _edge_rows(graph_id, graph, range(old, graph.n_edges)))
+    changed = np.flatnonzero(np.any(edges[:old] != before.edges, axis=1))
+    if len(changed):
+        rows = _edge_rows(graph_id, graph, changed.tolist())
+        session.execute(update(Edge), [{**row, "animation": None} for row in rows])
+    if isinstance(bank, StoredClipBank):
+        bank.mark_saved(dict(zip(new_clips, digests, strict=True)))
+    _remember(
+        graph,
+        _Persisted(graph_id, before.revision + 1, graph.n_vertices, graph.n_clips, edges),
+    )
+
+
+def require_saved(session: Session, graph_id: int, graph: StateGraph) -> None:
+    """Raise :class:`StaleGraph` unless ``graph`` equals the database's current revision."""
+    persisted = _snapshots.get(id(graph))
+    current = get_graph_row(session, graph_id).revision
+    if (
+        persisted is None
+        or persisted.graph_id != graph_id
+        or persisted.revision != current
+        or persisted.n_clips != graph.n_clips
+        or not np.array_equal(persisted.edges, _edge_table(graph))
+    ):
+        raise StaleGraph(f"graph {graph_id} has unsaved or stale changes; save or reload it")
+
+
+def set_animations(
+    session: Session,
+    graph_id: int,
+    *,
+    clips: Mapping[int, str] | None = None,
+    edges: Mapping[int, str] | None = None,
+) -> None:
+    """Attach rendered animation artifacts to clips (by index) and edges (by edge index)."""
+    row = get_graph_row(session, graph_id)
+    if clips:
+        session.execute(
+            update(Clip),
+            [{"graph_id": graph_id, "idx": i, "animation": h} for i, h in clips.items()],
+        )
+    if edges:
+        n = row.n_controls
+        session.execute(
+            update(Edge),
+            [
+                {"graph_id": graph_id, "vertex": e // n, "control": e % n, "animation": h}
+                for e, h in edges.items()
+            ],
+        )
+
+
+def load_graph(
+    session: Session, graph_id: int, artifacts: ArtifactStore
+) -> tuple[StateGraph, StoredClipBank]:
+    """The graph as last saved, with a bank that reads clip bundles lazily.
+
+    Descriptors come back as float64 of the stored float32 values; everything else is
+    exact. The energy index is rebuilt through ``set_sim`` in ascending energy order,
+    where each insertion is an append.
+    """
+    row = get_graph_row(session, graph_id)
+    graph = StateGraph(n_controls=row.n_controls, frames_per_clip=row.frames_per_clip)
+    vertices = session.execute(
+        select(Vertex.control, Vertex.clip_idx)
+        .where(Vertex.graph_id == graph_id)
+        .order_by(Vertex.idx)
+    ).all()
+    graph.vertex_control = [control for control, _ in vertices]
+    graph.vertex_clip = [NO_CLIP if clip is None else clip for _, clip in vertices]
+    bundles = _load_clips(session, graph_id, graph)
+    sims = _load_edges(session, graph_id, graph)
+    for energy_order in sims:
+        for edge, clip, dst in energy_order:
+            graph.set_sim(edge, clip, dst)
+    graph.check()
+    _remember(
+        graph,
+        _Persisted(graph_id, row.revision, graph.n_vertices, graph.n_clips, _edge_table(graph)),
+    )
+    return graph, StoredClipBank(graph, artifacts, dict(enumerate(bundles)))
+
+
+def _load_clips(session: Session, graph_id: int, graph: StateGraph) -> list[str]:
+    rows = session.execute(
+        select(
+            Clip.source,
+            Clip.control,
+            Clip.kinetic,
+            Clip.potential,
+            Clip.score,
+            Clip.descriptor,
+            Clip.bundle,
+        )
+        .where(Clip.graph_id == graph_id)
+        .order_by(Clip.idx)
+    ).all()
+    graph.clip_source = [r.source for r in rows]
+    graph.clip_control = [r.control for r in rows]
+    graph.clip_kinetic = [r.kinetic for r in rows]
+    graph.clip_potential = [np.frombuffer(r.potential, dtype=np.float64).copy() for r in rows]
+    graph.clip_score = [r.score for r in rows]
+    graph.clip_descriptor = [
+        np.frombuffer(r.descriptor, dtype=np.float32).astype(np.float64) for r in rows
+    ]
+    return [r.bundle for r in rows]
+
+
+def _load_edges(
+    session: Session, graph_id: int, graph: StateGraph
+) -> list[list[tuple[int, int, int]]]:
+    """Fill the edge columns; return each control's SIM edges (edge, clip, dst) by energy.
+
+    SIM edges are left as unfilled placeholders for the caller to ``set_sim``, which
+    also files them in the energy index.
+    """
+    rows = session.execute(
+        select(Edge.kind, Edge.clip_idx, Edge.dst, Edge.target, Edge.err)
+        .where(Edge.graph_id == graph_id)
+        .order_by(Edge.vertex, Edge.control)
+    ).all()
+    n = graph.n_controls
+    sims: list[list[tuple[float, int, int, int]]] = [[] for _ in range(n)]
+    for edge, (kind, clip, dst, target, err) in enumerate(rows):
+        if kind == EdgeKind.SIM:
+            control = edge % n
+            sims[control].append((graph.clip_energy(clip, control), edge, clip, dst))
+            kind, clip, dst, target, err = EdgeKind.BLEND, NO_CLIP, NO_CLIP, None, np.inf
+        graph.edge_kind.append(EdgeKind(kind))
+        graph.edge_clip.append(clip)
+        graph.edge_dst.append(dst)
+        graph.edge_target.append(NO_TARGET if target is None else target)
+        graph.edge_err.append(err)
+    return [[(edge, clip, dst) for _, edge, clip, dst in sorted(s)] for s in sims]
+
+
+def _vertex_rows(graph_id: int, graph: StateGraph, first: int) -> list[dict[str, Any]]:
+    return [
+        {
+            "graph_id": graph_id,
+            "idx": v,
+            "control": graph.vertex_control[v],
+            "clip_idx": None if graph.vertex_clip[v] < 0 else graph.vertex_clip[v],
+        }
+        for v in range(first, graph.n_vertices)
+    ]
+
+
+def _clip_rows(
+    graph_id: int, graph: StateGraph, clips: range, digests: list[str]
+) -> list[dict[str, Any]]:
+    return [
+        {
+            "graph_id": graph_id,
+            "idx": i,
+            "source": graph.clip_source[i],
+            "control": graph.clip_control[i],
+            "kinetic": graph.clip_kinetic[i],
+            "potential": np.asarray(graph.clip_potential[i], dtype=np.float64).tobytes(),
+            "score": graph.clip_score[i],
+            "descriptor": np.asarray(graph.clip_descriptor[i], dtype=np.float32).tobytes(),
+            "bundle": digest,
+        }
+        for i, digest in zip(clips, digests, strict=True)
+    ]
+
+
+def _edge_rows(graph_id: int, graph: StateGraph, edges: Iterable[int]) -> list[dict[str, Any]]:
+    n = graph.n_controls
+    return [
+        {
+            "graph_id": graph_id,
+            "vertex": e // n,
+            "control": e % n,
+            "kind": int(graph.edge_kind[e]),
+            "clip_idx": graph.edge_clip[e],
+            "dst": graph.edge_dst[e],
+            "target": None if graph.edge_target[e] == NO_TARGET else graph.edge_target[e],
+            "err": float(graph.edge_err[e]),
+        }
+        for e in edges
+    ]

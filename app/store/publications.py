@@ -1,0 +1,106 @@
+"""Publications: frozen, playable copies of a graph's edges.
+
+A publication copies every edge (destination, kind, error, score, animation) in one bulk
+insert, so growth can rewrite the live edges while players keep playing, and a trace can
+always be read against exactly the edges its player saw.
+"""
+
+from __future__ import annotations
+
+import numpy as np
+from sqlalchemy import func, select
+from sqlalchemy.orm import Session
+
+from app.core.graph import StateGraph
+from app.core.publication import Publication, freeze
+from app.models import Edge, PublicationEdge
+from app.models import Publication as PublicationRow
+from app.store._sql import bulk_insert
+from app.store.graphs import get_graph_row, require_saved
+
+
+class PublicationNotFound(LookupError):
+    """No publication with that id."""
+
+
+def publish(session: Session, graph_id: int, graph: StateGraph) -> int:
+    """Freeze the saved ``graph`` as the graph's next publication; return its id.
+
+    The graph must be saved first (:class:`~app.store.graphs.StaleGraph` otherwise), so
+    the copied animations belong to the edges being published.
+    """
+    require_saved(session, graph_id, graph)
+    frozen = freeze(graph)
+    last = session.scalar(
+        select(func.max(PublicationRow.number)).where(PublicationRow.graph_id == graph_id)
+    )
+    row = PublicationRow(
+        graph_id=graph_id,
+        number=(last or 0) + 1,
+        n_vertices=graph.n_vertices,
+        n_edges=graph.n_edges,
+        size_frames=graph.size_frames,
+        start=graph.start,
+    )
+    session.add(row)
+    session.flush()
+    animations = {
+        edge: animation
+        for edge, animation in session.execute(
+            select(Edge.vertex * graph.n_controls + Edge.control, Edge.animation).where(
+                Edge.graph_id == graph_id, Edge.animation.is_not(None)
+            )
+        )
+    }
+    n = graph.n_controls
+    bulk_insert(
+        session,
+        PublicationEdge,
+        [
+            {
+                "publication_id": row.id,
+                "vertex": e // n,
+                "control": e % n,
+                "dst": int(frozen.edge_dst[e]),
+                "kind": int(frozen.edge_kind[e]),
+                "err": float(frozen.edge_err[e]),
+                "score": float(frozen.edge_score[e]),
+                "animation": animations.get(e),
+            }
+            for e in range(graph.n_edges)
+        ],
+    )
+    return row.id
+
+
+def load_publication(session: Session, publication_id: int) -> Publication:
+    row = session.get(PublicationRow, publication_id)
+    if row is None:
+        raise PublicationNotFound(f"no publication {publication_id}")
+    n_controls = get_graph_row(session, row.graph_id).n_controls
+    edges = session.execute(
+        select(
+            PublicationEdge.dst, PublicationEdge.kind, PublicationEdge.err, PublicationEdge.score
+        )
+        .where(PublicationEdge.publication_id == publication_id)
+        .order_by(PublicationEdge.vertex, PublicationEdge.control)
+    ).all()
+    columns = np.array(edges, dtype=np.float64).reshape(len(edges), 4)
+    return Publication(
+        n_controls=n_controls,
+        start=row.start,
+        edge_dst=columns[:, 0].astype(np.int64),
+        edge_kind=columns[:, 1].astype(np.int8),
+        edge_err=columns[:, 2],
+        edge_score=columns[:, 3],
+    )
+
+
+def latest_publication(session: Session, graph_id: int) -> PublicationRow | None:
+    """The graph's most recent publication row, or None before the first."""
+    return session.scalars(
+        select(PublicationRow)
+        .where(PublicationRow.graph_id == graph_id)
+        .order_by(PublicationRow.number.desc())
+        .limit(1)
+    ).one_or_none()

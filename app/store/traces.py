@@ -1,0 +1,161 @@
+"""Players and their traces.
+
+A trace is a played session: rows of (vertex, control) on one publication. Uploads are
+validated against that publication before anything is written, and are idempotent on
+the client's ``(player, idempotency_key)``: a retried upload returns the trace already
+stored and writes nothing, even when two retries race (the unique constraint decides).
+"""
+
+from __future__ import annotations
+
+import hashlib
+import secrets
+from collections.abc import Sequence
+
+import numpy as np
+from sqlalchemy import select
+from sqlalchemy.exc import IntegrityError
+from sqlalchemy.orm import Session
+
+from app.core.publication import Publication
+from app.models import Player, Trace, TraceStep
+from app.store._sql import bulk_insert
+from app.store.publications import load_publication
+
+PLAYER_KINDS = ("human", "bot")
+MAX_KEY_LENGTH = 128
+
+
+class InvalidTrace(ValueError):
+    """The trace cannot be stored as given; the message says why."""
+
+
+class IdempotencyConflict(InvalidTrace):
+    """The idempotency key was already used for a different trace."""
+
+
+def _token_hash(token: str) -> str:
+    return hashlib.sha256(token.encode()).hexdigest()
+
+
+def get_or_create_player(session: Session, name: str, kind: str) -> tuple[int, str]:
+    """The player named ``name`` (created if new) and a fresh bearer token for it.
+
+    Only the token's hash is stored, so an existing player gets a new token and its
+    earlier tokens stop working.
+    """
+    if kind not in PLAYER_KINDS:
+        raise ValueError(f"player kind must be one of {PLAYER_KINDS}, got {kind!r}")
+    token = secrets.token_urlsafe(32)
+    player = session.scalars(select(Player).where(Player.name == name)).one_or_none()
+    if player is None:
+        player = Player(name=name, kind=kind, token_hash=_token_hash(token))
+        session.add(player)
+    else:
+        player.token_hash = _token_hash(token)
+    session.flush()
+    return player.id, token
+
+
+def player_for_token(session: Session, token: str) -> int | None:
+    return session.scalar(select(Player.id).where(Player.token_hash == _token_hash(token)))
+
+
+def record_trace(
+    session: Session,
+    publication_id: int,
+    player_id: int,
+    idempotency_key: str,
+    steps: np.ndarray,
+    *,
+    publication: Publication | None = None,
+) -> tuple[int, bool]:
+    """Store a trace; return ``(trace_id, created)``.
+
+    Raises :class:`InvalidTrace` (nothing written) unless every step follows an edge of
+    the publication; ``publication`` may be passed to skip loading it again.
+    :class:`IdempotencyConflict` if the key already names a different trace.
+    """
+    steps = _validated_steps(steps, idempotency_key)
+    existing = _replay(session, publication_id, player_id, idempotency_key, steps)
+    if existing is not None:
+        return existing, False
+    if session.get(Player, player_id) is None:
+        raise InvalidTrace(f"no player {player_id}")
+    if publication is None:
+        publication = load_publication(session, publication_id)
+    if not publication.follows_edges(steps):
+        raise InvalidTrace(
+            f"trace does not follow the edges of publication {publication_id}: every step "
+            f"needs 0 <= vertex < {publication.n_vertices}, 0 <= control < "
+            f"{publication.n_controls}, and the next vertex must be that edge's destination"
+        )
+    try:
+        with session.begin_nested():
+            trace = Trace(
+                publication_id=publication_id,
+                player_id=player_id,
+                idempotency_key=idempotency_key,
+                n_steps=len(steps),
+            )
+            session.add(trace)
+            session.flush()
+    except IntegrityError:
+        existing = _replay(session, publication_id, player_id, idempotency_key, steps)
+        if existing is None:
+            raise
+        return existing, False
+    bulk_insert(
+        session,
+        TraceStep,
+        [
+            {"trace_id": trace.id, "step": i, "vertex": int(v), "control": int(c)}
+            for i, (v, c) in enumerate(steps)
+        ],
+    )
+    return trace.id, True
+
+
+def load_traces(session: Session, publication_ids: Sequence[int]) -> list[np.ndarray]:
+    """Every trace played on these publications, oldest first, as (n, 2) int64 arrays."""
+    rows = session.execute(
+        select(TraceStep.trace_id, TraceStep.vertex, TraceStep.control)
+        .join(Trace, Trace.id == TraceStep.trace_id)
+        .where(Trace.publication_id.in_(list(publication_ids)))
+        .order_by(TraceStep.trace_id, TraceStep.step)
+    ).all()
+    table = np.array(rows, dtype=np.int64).reshape(len(rows), 3)
+    starts = np.flatnonzero(np.diff(table[:, 0])) + 1
+    return [part[:, 1:].copy() for part in np.split(table, starts)] if len(rows) else []
+
+
+def _validated_steps(steps: np.ndarray, idempotency_key: str) -> np.ndarray:
+    if not 0 < len(idempotency_key) <= MAX_KEY_LENGTH:
+        raise InvalidTrace(f"idempotency key must have 1 to {MAX_KEY_LENGTH} characters")
+    steps = np.asarray(steps)
+    if steps.ndim != 2 or steps.shape[1] != 2 or len(steps) == 0:
+        raise InvalidTrace(f"a trace is a non-empty (n, 2) array, got shape {steps.shape}")
+    if not np.issubdtype(steps.dtype, np.integer):
+        raise InvalidTrace(f"trace steps must be integers, got {steps.dtype}")
+    return steps.astype(np.int64)
+
+
+def _replay(
+    session: Session, publication_id: int, player_id: int, key: str, steps: np.ndarray
+) -> int | None:
+    """The id of the stored trace under this key, if it is this very trace."""
+    trace = session.scalars(
+        select(Trace).where(Trace.player_id == player_id, Trace.idempotency_key == key)
+    ).one_or_none()
+    if trace is None:
+        return None
+    stored = session.execute(
+        select(TraceStep.vertex, TraceStep.control)
+        .where(TraceStep.trace_id == trace.id)
+        .order_by(TraceStep.step)
+    ).all()
+    if trace.publication_id != publication_id or not np.array_equal(
+        np.array(stored, dtype=np.int64).reshape(len(stored), 2), steps
+    ):
+        raise IdempotencyConflict(f"idempotency key {key!r} was used for a different trace")
+    return trace.id

@@ -1,0 +1,14 @@
+# Sourced by the set-up scripts: makes ./.venv with Python >= 3.11, installs the project
+# (with the extras named in $SRG_EXTRAS) and puts .venv/bin first on PATH.
+python_bin=${PYTHON:-python3.11}
+if ! command -v "$python_bin" >/dev/null; then python_bin=python3; fi
+if [ ! -x .venv/bin/python ]; then
+  if ! "$python_bin" -m venv .venv 2>/dev/null; then
+    echo "installing python3-venv (Debian)" >&2
+    apt-get update -qq && apt-get install -y -qq python3-venv python3.11-venv >/dev/null
+    rm -rf .venv && "$python_bin" -m venv .venv
+  fi
+fi
+.venv/bin/python -m pip install -q --upgrade pip >/dev/null
+.venv/bin/python -m pip install -q -e ".${SRG_EXTRAS:+[$SRG_EXTRAS]}"
+export PATH="$PWD/.venv/bin:$PATH"

@@ -1,0 +1,76 @@
+"""Helpers of the API tests: a client on the test's session, players, traces, row counts."""
+
+from __future__ import annotations
+
+from collections.abc import Iterator
+from dataclasses import dataclass
+from pathlib import Path
+from typing import Any
+
+from fastapi.testclient import TestClient
+from sqlalchemy import func, select
+from sqlalchemy.orm import Session
+
+from app.api.app import create_app
+from app.api.deps import get_session
+from app.config import Settings
+from app.core.publication import Publication
+from app.models import Trace, TraceStep
+
+ADMIN_TOKEN = "test-admin-token"
+
+
+@dataclass(frozen=True)
+class Published:
+    name: str
+    graph_id: int
+    publication_id: int
+    publication: Publication
+    #: an image artifact attached to edge 0 (vertex 0, control 0) only
+    animation: str
+    #: a clip bundle artifact: stored, but not an animation
+    bundle: str
+
+
+def make_client(session: Session, db_url: str, artifact_dir: Path, **settings: Any) -> TestClient:
+    values: dict[str, Any] = {
+        "database_url": db_url,
+        "artifact_dir": artifact_dir,
+        "admin_token": ADMIN_TOKEN,
+        **settings,
+    }
+    app = create_app(Settings(**values))
+
+    def joined_session() -> Iterator[Session]:
+        try:
+            yield session
+        except BaseException:
+            session.rollback()
+            raise
+
+    app.dependency_overrides[get_session] = joined_session
+    return TestClient(app)
+
+
+def register(client: TestClient, kind: str = "human") -> dict[str, str]:
+    """Authorization headers of a freshly registered player."""
+    reply = client.post("/api/players", json={"kind": kind})
+    assert reply.status_code == 201, reply.text
+    return {"Authorization": f"Bearer {reply.json()['token']}"}
+
+
+def walk(publication: Publication, controls: list[int]) -> list[list[int]]:
+    """The trace that plays ``controls`` from the start vertex."""
+    steps, vertex = [], publication.start
+    for control in controls:
+        steps.append([vertex, control])
+        vertex = publication.destination(vertex, control)
+    return steps
+
+
+def row_counts(session: Session) -> tuple[int, int, int]:
+    """(traces, trace steps, sum of traces.n_steps): equal step counts mean no partial trace."""
+    traces = session.scalar(select(func.count()).select_from(Trace)) or 0
+    steps = session.scalar(select(func.count()).select_from(TraceStep)) or 0
+    declared = session.scalar(select(func.coalesce(func.sum(Trace.n_steps), 0))) or 0
+    return int(traces), int(steps), int(declared)

@@ -1,0 +1,81 @@
+"""Graphs, publications, animation files, players, admin auth, the static client."""
+
+from __future__ import annotations
+
+import numpy as np
+from api_helpers import ADMIN_TOKEN, Published
+from fastapi.testclient import TestClient
+
+
+def test_graphs_list_the_latest_publication(client: TestClient, published: Published) -> None:
+    reply = client.get("/api/graphs")
+    assert reply.status_code == 200
+    (graph,) = reply.json()
+    assert graph["name"] == published.name
+    assert graph["latest_publication"] == published.publication_id
+
+
+def test_the_publication_carries_every_edge(client: TestClient, published: Published) -> None:
+    reply = client.get(f"/api/graphs/{published.name}/publication")
+    assert reply.status_code == 200
+    data = reply.json()
+    core = published.publication
+    assert data["publication_id"] == published.publication_id
+    assert (data["start"], data["n_controls"], data["fps"]) == (core.start, 3, 30.0)
+    assert data["frames_per_clip"] == 10 and data["n_vertices"] == core.n_vertices
+    edges = [e for vertex in data["vertices"] for e in vertex]
+    assert [e["dst"] for e in edges] == core.edge_dst.tolist()
+    assert np.allclose([e["score"] for e in edges], core.edge_score)
+    assert np.allclose([e["err"] for e in edges], core.edge_err)
+    assert [e["kind"] == "blend" for e in edges] == (core.edge_kind == 1).tolist()
+    assert edges[0]["animation"] == f"/api/animations/{published.animation}"
+    assert all(e["animation"] is None for e in edges[1:])
+
+
+def test_unknown_graphs_and_unpublished_graphs_are_404(
+    client: TestClient, published: Published
+) -> None:
+    reply = client.get("/api/graphs/nope/publication")
+    assert reply.status_code == 404 and reply.json() == {"error": "no graph 'nope'"}
+    assert client.get("/api/nowhere").json() == {"error": "Not Found"}
+
+
+def test_animations_are_served_immutable_by_hash(client: TestClient, published: Published) -> None:
+    url = f"/api/animations/{published.animation}"
+    reply = client.get(url)
+    assert reply.status_code == 200
+    assert reply.content == b"RIFF-not-really-webp"
+    assert reply.headers["content-type"] == "image/webp"
+    assert reply.headers["etag"] == f'"{published.animation}"'
+    assert "immutable" in reply.headers["cache-control"]
+    assert "max-age=31536000" in reply.headers["cache-control"]
+    again = client.get(url, headers={"If-None-Match": reply.headers["etag"]})
+    assert again.status_code == 304 and again.content == b""
+
+
+def test_only_stored_image_artifacts_are_served(client: TestClient, published: Published) -> None:
+    for digest in ("0" * 64, "not-a-hash", published.bundle):
+        reply = client.get(f"/api/animations/{digest}")
+        assert reply.status_code == 404 and "no animation" in reply.json()["error"]
+
+
+def test_players_get_distinct_tokens(client: TestClient) -> None:
+    first, second = (client.post("/api/players", json={"kind": "bot"}).json() for _ in range(2))
+    assert first["kind"] == "bot" and first["token"] != second["token"]
+    assert first["name"] != second["name"]
+    assert client.post("/api/players").json()["kind"] == "human"
+    assert client.post("/api/players", json={"kind": "robot"}).status_code == 422
+
+
+def test_admin_actions_need_the_admin_token(client: TestClient, published: Published) -> None:
+    for action in ("publish", "grow"):
+        url = f"/api/graphs/{published.name}/{action}"
+        assert client.post(url).status_code == 401
+        wrong = client.post(url, headers={"Authorization": f"Bearer {ADMIN_TOKEN}x"})
+        assert wrong.status_code == 403 and wrong.json()["error"] == "admin token required"
+
+
+def test_the_web_client_is_served_at_the_root(client: TestClient) -> None:
+    page = client.get("/")
+    assert page.status_code == 200 and "client.js" in page.text
+    assert client.get("/client.js").status_code == 200

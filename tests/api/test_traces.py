@@ -1,0 +1,176 @@
+"""Trace upload: every error path answers JSON and writes nothing; replays are idempotent."""
+
+from __future__ import annotations
+
+from pathlib import Path
+
+import pytest
+from api_helpers import Published, make_client, register, row_counts, walk
+from fastapi.testclient import TestClient
+from sqlalchemy.orm import Session
+
+
+def body(published: Published, steps: list[list[int]], key: str = "key-1") -> dict[str, object]:
+    return {"publication_id": published.publication_id, "idempotency_key": key, "steps": steps}
+
+
+def test_first_upload_201_then_replay_200_with_the_same_trace(
+    client: TestClient, player: dict[str, str], published: Published, session: Session
+) -> None:
+    steps = walk(published.publication, [0, 1, 1, 2, 0, 2])
+    first = client.post("/api/traces", json=body(published, steps), headers=player)
+    assert first.status_code == 201, first.text
+    assert first.json()["created"] is True and first.json()["n_steps"] == 6
+    replay = client.post("/api/traces", json=body(published, steps), headers=player)
+    assert replay.status_code == 200
+    assert replay.json()["trace_id"] == first.json()["trace_id"]
+    assert replay.json()["created"] is False
+    assert row_counts(session) == (1, 6, 6)
+
+
+def test_the_same_key_for_another_trace_is_a_409(
+    client: TestClient, player: dict[str, str], published: Published, session: Session
+) -> None:
+    first = walk(published.publication, [0])
+    client.post("/api/traces", json=body(published, first), headers=player)
+    other = walk(published.publication, [1, 1])
+    reply = client.post("/api/traces", json=body(published, other), headers=player)
+    assert reply.status_code == 409 and "idempotency key" in reply.json()["error"]
+    assert row_counts(session) == (1, 1, 1)
+
+
+def test_keys_are_per_player(
+    client: TestClient, player: dict[str, str], published: Published, session: Session
+) -> None:
+    steps = walk(published.publication, [2, 2])
+    reply = client.post("/api/traces", json=body(published, steps), headers=player)
+    assert reply.status_code == 201
+    other = register(client)
+    assert client.post("/api/traces", json=body(published, steps), headers=other).status_code == 201
+    assert row_counts(session) == (2, 4, 4)
+
+
+@pytest.mark.parametrize(
+    ("headers", "status"),
+    [
+        ({}, 401),
+        ({"Authorization": "Basic dXNlcjpwdw=="}, 401),
+        ({"Authorization": "Bearer "}, 401),
+        ({"Authorization": "Bearer not-a-token"}, 403),
+    ],
+)
+def test_a_missing_or_unknown_token_is_refused(
+    client: TestClient, published: Published, session: Session, headers: dict, status: int
+) -> None:
+    steps = walk(published.publication, [0, 1])
+    reply = client.post("/api/traces", json=body(published, steps), headers=headers)
+    assert reply.status_code == status
+    assert reply.json()["error"]
+    if status == 401:
+        assert reply.headers["WWW-Authenticate"] == "Bearer"
+    assert row_counts(session) == (0, 0, 0)
+
+
+def test_an_unknown_publication_is_a_404(
+    client: TestClient, player: dict[str, str], published: Published, session: Session
+) -> None:
+    payload = body(published, walk(published.publication, [0]))
+    payload["publication_id"] = published.publication_id + 1000
+    reply = client.post("/api/traces", json=payload, headers=player)
+    assert reply.status_code == 404 and "publication" in reply.json()["error"]
+    assert row_counts(session) == (0, 0, 0)
+
+
+def test_a_step_off_the_edges_is_a_422_and_writes_nothing(
+    client: TestClient, player: dict[str, str], published: Published, session: Session
+) -> None:
+    steps = walk(published.publication, [0, 1, 2])
+    wrong_next = (steps[1][0] + 1) % published.publication.n_vertices
+    steps[1][0] = wrong_next
+    reply = client.post("/api/traces", json=body(published, steps), headers=player)
+    assert reply.status_code == 422 and "does not follow" in reply.json()["error"]
+    for off_graph in ([[published.publication.n_vertices, 0]], [[0, 3]]):
+        reply = client.post("/api/traces", json=body(published, off_graph), headers=player)
+        assert reply.status_code == 422
+    assert row_counts(session) == (0, 0, 0)
+
+
+@pytest.mark.parametrize(
+    ("payload", "where"),
+    [
+        ({"idempotency_key": "k", "steps": [[0, 0]]}, "publication_id"),
+        ({"publication_id": 1, "idempotency_key": "k", "steps": []}, "steps"),
+        ({"publication_id": 1, "idempotency_key": "k", "steps": [[0, True]]}, "steps"),
+        ({"publication_id": 1, "idempotency_key": "k", "steps": [[0, 1.0]]}, "steps"),
+        ({"publication_id": 1, "idempotency_key": "k", "steps": [[0, 1, 2]]}, "steps"),
+        ({"publication_id": 1, "idempotency_key": "k", "steps": [[-1, 0]]}, "steps"),
+        ({"publication_id": 1, "idempotency_key": "k", "steps": [[2**40, 0]]}, "steps"),
+        ({"publication_id": 1, "idempotency_key": "a\u0000", "steps": [[0, 0]]}, "idempotency_key"),
+        ({"publication_id": 1, "idempotency_key": "k" * 129, "steps": [[0, 0]]}, "idempotency_key"),
+        ({"publication_id": "1", "idempotency_key": "k", "steps": [[0, 0]]}, "publication_id"),
+        ({"publication_id": 1, "idempotency_key": "k", "steps": [[0, 0]], "x": 1}, "x"),
+        ([1, 2, 3], ""),
+    ],
+)
+def test_schema_errors_are_422_saying_where(
+    client: TestClient,
+    player: dict[str, str],
+    published: Published,
+    session: Session,
+    payload: object,
+    where: str,
+) -> None:
+    reply = client.post("/api/traces", json=payload, headers=player)
+    assert reply.status_code == 422
+    answer = reply.json()
+    assert answer["error"] == "invalid trace upload"
+    assert any(where in detail["loc"] for detail in answer["details"]) or not where
+    assert row_counts(session) == (0, 0, 0)
+
+
+def test_a_body_that_is_not_json_is_a_422(
+    client: TestClient, player: dict[str, str], published: Published
+) -> None:
+    reply = client.post("/api/traces", content=b"{not json", headers=player)
+    assert reply.status_code == 422 and reply.json()["details"]
+
+
+def test_a_too_large_body_is_a_413_before_parsing(
+    session: Session, db_url: str, artifact_dir: Path, published: Published
+) -> None:
+    with make_client(session, db_url, artifact_dir, max_trace_bytes=200) as small:
+        headers = register(small)
+        steps = walk(published.publication, [0, 1, 2] * 20)
+        reply = small.post("/api/traces", json=body(published, steps), headers=headers)
+        assert reply.status_code == 413
+        assert reply.json() == {"error": "body larger than 200 bytes", "max_bytes": 200}
+        # No Content-Length (chunked): counted while it streams in, refused all the same.
+        chunks = (b"x" * 64 for _ in range(10))
+        streamed = small.post("/api/traces", content=chunks, headers=headers)
+        assert streamed.status_code == 413
+        # Just under the limit is parsed (and here found invalid: not JSON).
+        assert small.post("/api/traces", content=b"x" * 200, headers=headers).status_code == 422
+    assert row_counts(session) == (0, 0, 0)
+
+
+def test_uploads_over_the_rate_are_429_with_retry_after(
+    session: Session, db_url: str, artifact_dir: Path, published: Published
+) -> None:
+    with make_client(session, db_url, artifact_dir, uploads_per_minute=2) as limited:
+        headers, other = register(limited), register(limited)
+        statuses = [
+            limited.post(
+                "/api/traces",
+                json=body(published, walk(published.publication, [0]), key=f"k{i}"),
+                headers=headers,
+            )
+            for i in range(3)
+        ]
+        assert [r.status_code for r in statuses] == [201, 201, 429]
+        refused = statuses[2]
+        assert int(refused.headers["Retry-After"]) >= 1
+        assert refused.json()["error"].startswith("too many uploads")
+        # The limit is per player.
+        payload = body(published, walk(published.publication, [1]), key="k0")
+        assert limited.post("/api/traces", json=payload, headers=other).status_code == 201
+    assert row_counts(session) == (3, 3, 3)

@@ -1,0 +1,59 @@
+"""The content-addressed artifact store."""
+
+from __future__ import annotations
+
+import hashlib
+import zipfile
+
+import numpy as np
+import pytest
+from sqlalchemy import func, select
+from sqlalchemy.orm import Session
+
+from app.models import Artifact
+from app.store.artifacts import ArtifactNotFound, ArtifactStore
+
+
+def test_bytes_are_stored_by_sha256_with_fan_out(
+    artifacts: ArtifactStore, session: Session
+) -> None:
+    digest = artifacts.put_bytes(b"tank", media_type="text/plain", session=session)
+    assert digest == hashlib.sha256(b"tank").hexdigest()
+    path = artifacts.path_for(digest)
+    assert path.relative_to(artifacts.root).parts == (digest[:2], digest[2:4], digest)
+    assert artifacts.get_bytes(digest) == b"tank"
+    row = session.get_one(Artifact, digest)
+    assert (row.size, row.media_type) == (4, "text/plain")
+
+
+def test_put_is_idempotent(artifacts: ArtifactStore, session: Session) -> None:
+    first = artifacts.put_bytes(b"same", media_type="text/plain", session=session)
+    second = ArtifactStore(artifacts.root).put_bytes(
+        b"same", media_type="text/plain", session=session
+    )
+    assert first == second
+    assert session.scalar(select(func.count()).select_from(Artifact)) == 1
+    assert not [p for p in artifacts.root.rglob("*") if p.name.startswith(".tmp-")]
+
+
+def test_arrays_round_trip_and_equal_arrays_share_a_hash(
+    artifacts: ArtifactStore, session: Session
+) -> None:
+    arrays = {"frames": np.arange(12, dtype=np.float32).reshape(3, 4), "end": np.array([1.5])}
+    digest = artifacts.put_arrays(arrays, session=session)
+    assert artifacts.put_arrays({k: v.copy() for k, v in arrays.items()}, session=session) == digest
+    loaded = artifacts.get_arrays(digest)
+    assert set(loaded) == set(arrays)
+    for name, array in arrays.items():
+        assert loaded[name].dtype == array.dtype
+        np.testing.assert_array_equal(loaded[name], array)
+    assert set(artifacts.get_arrays(digest, ["end"])) == {"end"}
+    with zipfile.ZipFile(artifacts.path_for(digest)) as archive:  # a valid zip, CRCs and all
+        assert archive.testzip() is None
+
+
+def test_missing_artifact_is_a_named_error(artifacts: ArtifactStore) -> None:
+    with pytest.raises(ArtifactNotFound):
+        artifacts.get_bytes("0" * 64)
+    with pytest.raises(ArtifactNotFound):
+        artifacts.get_arrays("0" * 64)

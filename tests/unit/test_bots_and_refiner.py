@@ -1,0 +1,82 @@
+"""Bots, strategies and the refining loop on the toy."""
+
+from __future__ import annotations
+
+import numpy as np
+import pytest
+
+from app.core.bots import BotKind, play_sessions
+from app.core.clipbank import MemoryClipBank
+from app.core.growth import initial_tree
+from app.core.refinement import Refiner, RefinerConfig
+from app.core.strategies import Strategy, edge_weights, parse_strategy
+from app.core.toy import ToyDynamics
+
+DYN = ToyDynamics()
+
+
+def refiner(strategy: Strategy) -> Refiner:
+    bank = MemoryClipBank()
+    graph = initial_tree(DYN, bank)
+    return Refiner(graph, bank, DYN, strategy, RefinerConfig(batch_size=4))
+
+
+@pytest.fixture(scope="module")
+def publication():  # type: ignore[no-untyped-def]
+    r = refiner(Strategy.SR_HEURISTIC)
+    r.grow(expansions=60)
+    return r.publish()[0]
+
+
+@pytest.mark.parametrize("kind", list(BotKind))
+def test_bots_are_reproducible_and_follow_edges(publication, kind: BotKind) -> None:  # type: ignore[no-untyped-def]
+    a = play_sessions(publication, kind, sessions=5, mean_steps=30, seed=7)
+    b = play_sessions(publication, kind, sessions=5, mean_steps=30, seed=7)
+    assert all(np.array_equal(x, y) for x, y in zip(a, b, strict=True))
+    assert all(publication.follows_edges(t) and t[0, 0] == publication.start for t in a)
+
+
+def test_goal_directed_bots_score_more_than_random_ones(publication) -> None:  # type: ignore[no-untyped-def]
+    def mean_score(kind: BotKind) -> float:
+        traces = play_sessions(publication, kind, sessions=40, mean_steps=40, seed=1)
+        steps = np.concatenate(traces)
+        return float(publication.edge_score[steps[:, 0] * 3 + steps[:, 1]].mean())
+
+    assert mean_score(BotKind.GOAL_DIRECTED) > 1.5 * mean_score(BotKind.RANDOM)
+
+
+def test_unknown_strategy_names_the_known_ones() -> None:
+    with pytest.raises(ValueError, match="sr-crowd"):
+        parse_strategy("best")
+
+
+def test_staterank_weights_are_edge_probabilities_and_baseline_is_local() -> None:
+    r = refiner(Strategy.SR_HEURISTIC)
+    r.grow(expansions=10)
+    model = r.heuristic_model()
+    ranked = edge_weights(Strategy.SR_HEURISTIC, r.graph, model, restart=1 / 90)
+    assert ranked.weights.sum() == pytest.approx(1.0)
+    baseline = edge_weights(Strategy.BASELINE, r.graph, model, restart=1 / 90)
+    assert np.array_equal(baseline.weights, model.reshape(-1))
+    assert baseline.rank is None
+
+
+def test_grow_by_frames_meets_the_budget() -> None:
+    r = refiner(Strategy.BASELINE)
+    start = r.graph.size_frames
+    r.grow(frames=300)
+    assert r.graph.size_frames >= start + 300
+    assert r.graph.size_frames < start + 300 + DYN.n_controls * DYN.frames_per_clip
+    with pytest.raises(ValueError, match="exactly one budget"):
+        r.grow()
+
+
+def test_sr_crowd_learns_from_traces_and_others_ignore_them(publication) -> None:  # type: ignore[no-untyped-def]
+    crowd, heuristic = refiner(Strategy.SR_CROWD), refiner(Strategy.SR_HEURISTIC)
+    for r in (crowd, heuristic):
+        r.grow(expansions=20)
+        pub = r.publish()[0]
+        r.learn(play_sessions(pub, BotKind.GOAL_DIRECTED, sessions=10, mean_steps=30, seed=2))
+    assert not np.allclose(crowd.player_model(), crowd.heuristic_model())
+    assert np.array_equal(heuristic.player_model(), heuristic.heuristic_model())
+    assert crowd.restart != pytest.approx(1 / 90)

@@ -1,0 +1,75 @@
+"""LiquidDynamics on the tiny preset: the Dynamics contract on real simulated clips."""
+
+from __future__ import annotations
+
+import numpy as np
+import pytest
+
+from app.core.dynamics import Dynamics, SimClip
+from app.core.surface import dequantise_sdf, liquid_volumes, occupancy
+from app.services.liquid import LiquidDynamics, load_calibration
+
+
+@pytest.fixture(scope="module")
+def dyn() -> LiquidDynamics:
+    return LiquidDynamics("tiny")
+
+
+@pytest.fixture(scope="module")
+def rest(dyn: LiquidDynamics) -> np.ndarray:
+    return dyn.initial_state()
+
+
+@pytest.fixture(scope="module")
+def tilted(dyn: LiquidDynamics, rest: np.ndarray) -> SimClip:
+    return dyn.simulate(rest, 1)
+
+
+def volumes(dyn: LiquidDynamics, frames: np.ndarray) -> np.ndarray:
+    return liquid_volumes(dyn.grid, occupancy(dyn.grid, dequantise_sdf(dyn.grid, frames)))
+
+
+def test_satisfies_the_protocol_with_calibrated_constants(dyn: LiquidDynamics) -> None:
+    assert isinstance(dyn, Dynamics)
+    stored = load_calibration("tiny")
+    assert dyn.rest_kinetic > 0 and stored.energy_weight > 0
+    assert dyn.crowd_radius > 0 and dyn.high_error_threshold > 0
+
+
+def test_clip_frames_are_quantised_sdfs_and_features_are_consistent(
+    dyn: LiquidDynamics, rest: np.ndarray, tilted: SimClip
+) -> None:
+    assert tilted.frames.dtype == np.int8
+    assert tilted.frames.shape == (dyn.frames_per_clip, *dyn.grid.shape)
+    assert tilted.end_state.shape == rest.shape
+    f = dyn.features(tilted)
+    assert f.occupancy.dtype == np.uint8 and f.descriptor.shape == (216,)
+    assert f.kinetic > dyn.rest_kinetic and f.potential.shape == (3,)
+    # the liquid keeps its volume (within the surface reconstruction's few per cent)
+    np.testing.assert_allclose(
+        volumes(dyn, tilted.frames), volumes(dyn, tilted.frames)[0], rtol=0.08
+    )
+    assert dyn.dist(f, f, 1) == 0.0
+
+
+def test_settled_clips_of_one_control_are_at_distance_zero(
+    dyn: LiquidDynamics, rest: np.ndarray
+) -> None:
+    first = dyn.simulate(rest, 0)
+    second = dyn.simulate(first.end_state, 0)
+    a, b = dyn.features(first), dyn.features(second)
+    assert max(a.kinetic, b.kinetic) < dyn.rest_kinetic
+    assert dyn.dist(a, b, 0) == 0.0 and dyn.dist(b, a, 0) == 0.0
+    assert dyn.pdist(a, b) < dyn.crowd_radius
+
+
+def test_blend_of_nearby_clips(dyn: LiquidDynamics, rest: np.ndarray, tilted: SimClip) -> None:
+    """Ends on the endpoints; volume never exceeds the larger endpoint by 10 %."""
+    _, later_state = dyn.simulator.run(rest, 1, 1)  # the same tilt one frame later
+    later = dyn.simulate(later_state, 1)
+    blended = dyn.blend(tilted.frames, later.frames)
+    assert np.array_equal(blended[0], tilted.frames[0])
+    assert np.array_equal(blended[-1], later.frames[-1])
+    bound = np.maximum(volumes(dyn, tilted.frames), volumes(dyn, later.frames))
+    assert np.all(volumes(dyn, blended) <= 1.10 * bound)
+    assert dyn.dist(dyn.features(tilted), dyn.features(later), 1) > 0.0
