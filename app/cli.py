@@ -16,8 +16,10 @@ from typing import Any
 import typer
 from rich.progress import BarColumn, MofNCompleteColumn, Progress, TextColumn, TimeElapsedColumn
 
+from app.cli_api import register_api_commands
 from app.cli_bench import bench_app
 from app.cli_graph import register_graph_commands
+from app.cli_liquid import register_liquid_commands
 from app.services.experiment import ExperimentPlan, parse_checkpoints, run_experiment
 
 app = typer.Typer(
@@ -28,6 +30,8 @@ app = typer.Typer(
 )
 app.add_typer(bench_app, name="bench")
 register_graph_commands(app)
+register_api_commands(app, bench_app)
+register_liquid_commands(app, bench_app)
 
 
 class UserError(Exception):
@@ -91,14 +95,20 @@ def experiment(
 
 
 def main() -> None:
+    import httpx
     from sqlalchemy.exc import OperationalError
+
+    from app.api.client import ServerError
 
     try:
         app()
-    except (UserError, ValueError, LookupError) as exc:
+    except (UserError, ValueError, LookupError, ServerError) as exc:
         message = exc.args[0] if exc.args else exc
         typer.echo(f"srg: error: {message}", err=True)
         sys.exit(2)
     except OperationalError as exc:
         typer.echo(f"srg: error: cannot use the database: {exc.orig}".splitlines()[0], err=True)
+        sys.exit(2)
+    except httpx.TransportError as exc:
+        typer.echo(f"srg: error: cannot reach the server: {exc}".splitlines()[0], err=True)
         sys.exit(2)

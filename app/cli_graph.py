@@ -1,9 +1,209 @@
-"""``srg db``, ``init``, ``grow``, ``publish``, ``play``, ``status``: persisted graphs."""
+"""``srg db``, ``init``, ``grow``, ``publish``, ``play``, ``status``: persisted graphs.
+
+Each command runs one service call in one transaction: it commits when the service
+returns and rolls back (writing nothing) when it raises.
+"""
 
 from __future__ import annotations
 
+import json
+from collections.abc import Callable, Iterator
+from contextlib import contextmanager
+from dataclasses import asdict, is_dataclass
+from pathlib import Path
+from typing import Any
+
 import typer
+from sqlalchemy.orm import Session
+
+db_app = typer.Typer(help="The database schema (Alembic migrations).", no_args_is_help=True)
+ROOT = Path(__file__).resolve().parents[1]
+
+
+@contextmanager
+def transaction() -> Iterator[Session]:
+    """One session whose work is committed at the end, or rolled back on any error."""
+    from app.db import session_factory
+
+    with session_factory()() as session:
+        try:
+            yield session
+            session.commit()
+        except BaseException:
+            session.rollback()
+            raise
+
+
+def emit(result: Any, as_json: bool) -> None:
+    data = asdict(result) if is_dataclass(result) and not isinstance(result, type) else result
+    if as_json:
+        typer.echo(json.dumps(data, indent=2, default=str))
+    else:
+        typer.echo(" ".join(f"{k}={v}" for k, v in data.items()))
+
+
+def alembic_config() -> Any:
+    from alembic.config import Config
+
+    ini = ROOT / "alembic.ini"
+    if not ini.exists():
+        raise LookupError(f"alembic.ini not found at {ini}: run srg from a source checkout")
+    return Config(str(ini))
+
+
+@db_app.command("upgrade")
+def db_upgrade(revision: str = typer.Argument("head", help="target revision")) -> None:
+    """Migrate the configured database up to ``revision`` (default: the latest)."""
+    from alembic import command
+    from app.config import get_settings
+
+    command.upgrade(alembic_config(), revision)
+    typer.echo(f"database at {revision}: {get_settings().resolved_database_url}", err=True)
+
+
+@db_app.command("downgrade")
+def db_downgrade(
+    revision: str = typer.Argument(..., help="target revision ('base': empty)"),
+) -> None:
+    """Migrate the configured database down to ``revision``."""
+    from alembic import command
+
+    command.downgrade(alembic_config(), revision)
+
+
+def init(
+    name: str = typer.Argument(..., help="name of the new graph"),
+    dynamics: str = typer.Option("toy", help="toy or liquid"),
+    preset: str | None = typer.Option(None, help="liquid preset: tiny, small or paper"),
+    strategy: str = typer.Option("sr-crowd", help="max-error, baseline, sr-heuristic, sr-crowd"),
+    depth: int = typer.Option(2, help="depth of the initial simulation tree (>= 2)"),
+    json_output: bool = typer.Option(False, "--json", help="print JSON"),
+) -> None:
+    """Create a graph: the initial tree of the dynamics, its leaves blended back."""
+    from app.config import get_settings
+    from app.services.graphs import init_graph
+
+    if dynamics == "liquid" and preset is None:
+        preset = "small"
+    with transaction() as session:
+        summary = init_graph(
+            session,
+            get_settings(),
+            name=name,
+            dynamics=dynamics,
+            preset=preset,
+            strategy=strategy,
+            depth=depth,
+        )
+    emit(summary, json_output)
+
+
+def grow(
+    name: str = typer.Argument(..., help="graph name or id"),
+    strategy: str | None = typer.Option(None, help="override the graph's strategy"),
+    frames: int | None = typer.Option(None, help="budget in simulated frames"),
+    expansions: int | None = typer.Option(None, help="budget in expansions"),
+    json_output: bool = typer.Option(False, "--json", help="print JSON"),
+) -> None:
+    """Grow a graph in-process (eagerly) by a budget of frames or expansions."""
+    from app.cli import progress_bar
+    from app.config import get_settings
+    from app.core.strategies import parse_strategy
+    from app.services.graphs import grow_graph
+
+    if frames is not None and expansions is not None:
+        raise ValueError("give --frames or --expansions, not both")
+    if strategy is not None:
+        parse_strategy(strategy)
+    settings = get_settings()
+    total = frames if frames is not None else expansions or settings.batch_size
+    label = "frames" if frames is not None else "expansions"
+    with transaction() as session, progress_bar(total, label) as advance:
+        result = grow_graph(
+            session,
+            settings,
+            name=name,
+            strategy=strategy,
+            frames=frames,
+            expansions=expansions,
+            progress=advance,
+        )
+    emit(result, json_output)
+
+
+def publish(
+    name: str = typer.Argument(..., help="graph name or id"),
+    json_output: bool = typer.Option(False, "--json", help="print JSON"),
+) -> None:
+    """Relink every blend, render what is missing, freeze a publication for players."""
+    from app.cli import progress_bar
+    from app.config import get_settings
+    from app.services.graphs import count_missing_animations, publish_graph
+    from app.store.graphs import get_graph_row
+
+    with transaction() as session:
+        missing = count_missing_animations(session, get_graph_row(session, name).id)
+        with progress_bar(missing, "animations") as advance:
+            result = publish_graph(session, get_settings(), name=name, progress=advance)
+    emit(result, json_output)
+
+
+def play(
+    name: str = typer.Argument(..., help="graph name or id"),
+    bot: str = typer.Option("goal-directed", help="goal-directed, heuristic or random"),
+    sessions: int = typer.Option(20, help="sessions to play"),
+    mean_steps: int = typer.Option(90, help="mean session length in steps"),
+    seed: int = typer.Option(0),
+    url: str | None = typer.Option(None, help="play over HTTP against `srg serve` at this URL"),
+    json_output: bool = typer.Option(False, "--json", help="print JSON"),
+) -> None:
+    """Bots play the latest publication; their traces are stored like players' uploads."""
+    from app.config import get_settings
+
+    if url is not None:
+        from app.api.client import play_over_http
+
+        emit(
+            play_over_http(url, name, bot, sessions=sessions, mean_steps=mean_steps, seed=seed),
+            json_output,
+        )
+        return
+    from app.services.graphs import play_graph
+
+    with transaction() as session:
+        result = play_graph(
+            session,
+            get_settings(),
+            name=name,
+            bot=bot,
+            sessions=sessions,
+            mean_steps=mean_steps,
+            seed=seed,
+        )
+    emit(result, json_output)
+
+
+def status(
+    name: str | None = typer.Argument(None, help="graph name or id (default: all graphs)"),
+    json_output: bool = typer.Option(False, "--json", help="print JSON"),
+) -> None:
+    """Sizes, publications and epochs of one graph or of all."""
+    from app.services.graphs import graph_summary, list_graphs
+
+    with transaction() as session:
+        rows = [graph_summary(session, name)] if name is not None else list_graphs(session)
+    if json_output:
+        typer.echo(json.dumps(rows if name is None else rows[0], indent=2))
+        return
+    if not rows:
+        typer.echo("no graphs yet: srg init NAME")
+    for row in rows:
+        emit(row, False)
 
 
 def register_graph_commands(app: typer.Typer) -> None:
     """Attach the graph commands to the main app."""
+    app.add_typer(db_app, name="db")
+    commands: list[Callable[..., None]] = [init, grow, publish, play, status]
+    for command in commands:
+        app.command(command.__name__)(command)

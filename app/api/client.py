@@ -24,6 +24,10 @@ UPLOAD_ATTEMPTS = 3
 TIMEOUT_S = 30.0
 
 
+class ServerError(RuntimeError):
+    """The server refused a request; the message carries its status and JSON error."""
+
+
 def publication_from_json(data: dict[str, Any]) -> Publication:
     """The core publication described by ``GET /api/graphs/{name}/publication``."""
     edges = [edge for vertex in data["vertices"] for edge in vertex]
@@ -97,7 +101,7 @@ def _upload(http: httpx.Client, body: dict[str, Any]) -> httpx.Response:
 
 
 def _checked(response: httpx.Response) -> Any:
-    """The JSON body; a RuntimeError carrying the server's error message otherwise."""
+    """The JSON body; a :class:`ServerError` carrying the server's error message otherwise."""
     if response.is_success:
         return response.json()
     try:
@@ -105,4 +109,4 @@ def _checked(response: httpx.Response) -> Any:
     except ValueError:
         message = response.text
     request = response.request
-    raise RuntimeError(f"{request.method} {request.url.path}: {response.status_code} {message}")
+    raise ServerError(f"{request.method} {request.url.path}: {response.status_code} {message}")

@@ -57,6 +57,11 @@ class Dynamics(Protocol):
     def frames_per_clip(self) -> int: ...
 
     @property
+    def fps(self) -> float:
+        """Frames per second the clips play at (the client's clock)."""
+        ...
+
+    @property
     def rest_kinetic(self) -> float:
         """Kinetic energy below which the system is visually at rest (T0)."""
         ...

@@ -86,6 +86,7 @@ class LiquidDynamics:
 
     frames_per_clip: int
     n_controls: int
+    fps: float
 
     def __init__(
         self,
@@ -99,6 +100,7 @@ class LiquidDynamics:
         self.calibration = calibration or load_calibration(preset)
         self.frames_per_clip = self.scene.frames_per_clip
         self.n_controls = self.scene.n_controls
+        self.fps = float(self.scene.fps)
         self.render_settings = render_settings or RenderSettings()
         self.params = LiquidMetricParams(
             rest_kinetic=self.rest_kinetic,

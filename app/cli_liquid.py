@@ -1,0 +1,151 @@
+"""``srg validate``, ``srg calibrate`` and ``srg bench sph|clip|store``: the liquid's CLI.
+
+Each command checks its arguments before it imports the liquid (PyOpenCL, Mitsuba) or
+starts a simulation, so bad input fails at once with a ``ValueError``: ``app.cli.main``
+prints it as one line and exits 2. Results are JSON on stdout; progress goes to stderr.
+"""
+
+from __future__ import annotations
+
+import json
+from dataclasses import asdict
+from pathlib import Path
+from typing import Any
+
+import typer
+
+from app.services.dynamics import DEFAULT_LIQUID_PRESET, check_liquid_preset
+
+PRESET_HELP = "tilt-tank preset: tiny, small or paper"
+
+
+def register_liquid_commands(app: typer.Typer, bench_app: typer.Typer) -> None:
+    """Attach the liquid commands to the main app and the bench group."""
+    app.command("validate")(validate_command)
+    app.command("calibrate")(calibrate_command)
+    bench_app.command("sph")(bench_sph_command)
+    bench_app.command("clip")(bench_clip_command)
+    bench_app.command("store")(bench_store_command)
+
+
+def _dumps(data: dict[str, Any]) -> str:
+    return json.dumps(data, indent=2, default=str)
+
+
+def _flat(data: dict[str, Any], prefix: str = "") -> dict[str, Any]:
+    """Nested dicts as one level of dotted keys, for the ``key=value`` line of ``--no-json``."""
+    out: dict[str, Any] = {}
+    for key, value in data.items():
+        if isinstance(value, dict):
+            out.update(_flat(value, f"{prefix}{key}."))
+        else:
+            out[f"{prefix}{key}"] = f"{value:.4g}" if isinstance(value, float) else value
+    return out
+
+
+def _print(result: dict[str, Any], json_output: bool) -> None:
+    if json_output:
+        typer.echo(_dumps(result))
+    else:
+        typer.echo(" ".join(f"{k}={v}" for k, v in _flat(result).items()))
+
+
+def _positive(name: str, value: int) -> int:
+    if value <= 0:
+        raise ValueError(f"{name} must be positive, got {value}")
+    return value
+
+
+def validate_command(
+    preset: str = typer.Option(DEFAULT_LIQUID_PRESET, help=PRESET_HELP),
+    json_path: str | None = typer.Option(
+        None, "--json", help="write the JSON to this file ('-' or absent: stdout)"
+    ),
+) -> None:
+    """Physical checks of the PCISPH liquid (minutes on small); exit 1 if one fails.
+
+    Runs the kernel/NumPy twins, bit-reproducibility, a hydrostatic tank, Martin and
+    Moyce's dam break and the settling after a tilt. With ``--json FILE`` the JSON goes
+    to the file and one line per check to stdout.
+    """
+    check_liquid_preset(preset)
+    from app.services.sph_validation import validate
+
+    typer.echo(f"validating tilt-tank/{preset} (minutes) ...", err=True)
+    report = validate(preset)
+    if json_path and json_path != "-":
+        Path(json_path).parent.mkdir(parents=True, exist_ok=True)
+        Path(json_path).write_text(_dumps(report) + "\n")
+        for name, check in report["checks"].items():
+            typer.echo(f"{name}: {'passed' if check['passed'] else 'FAILED'}")
+        typer.echo(f"all passed: {report['passed']} (details: {json_path})")
+    else:
+        typer.echo(_dumps(report))
+    if not report["passed"]:
+        raise typer.Exit(1)
+
+
+def calibrate_command(
+    preset: str = typer.Option(..., help=PRESET_HELP),
+) -> None:
+    """Measure T0, w_e, the crowd radius and the high-error threshold of a preset.
+
+    Stores them in ``app/data/calibration/<preset>.json`` (read by ``LiquidDynamics``)
+    and prints them. About 30 s on tiny, 3 min on small, tens of minutes on paper.
+    """
+    check_liquid_preset(preset)
+    from app.services.calibration import calibrate
+
+    typer.echo(f"calibrating tilt-tank/{preset} ...", err=True)
+    typer.echo(_dumps(calibrate(preset)))
+
+
+def bench_sph_command(
+    preset: str = typer.Option(DEFAULT_LIQUID_PRESET, help=PRESET_HELP),
+    steps: int = typer.Option(300, help="substeps timed (rounded down to whole frames)"),
+    splishsplash: bool = typer.Option(
+        True, "--splishsplash/--no-splishsplash", help="also time SPlisHSPlasH's PCISPH"
+    ),
+    json_output: bool = typer.Option(True, "--json/--no-json", help="print JSON (default)"),
+) -> None:
+    """Particle-substeps per second of the PCISPH kernels (converged and at 3 iterations)."""
+    check_liquid_preset(preset)
+    _positive("--steps", steps)
+    from app.services.sph_bench import bench_sph
+
+    _print(bench_sph(preset, steps, compare_splishsplash=splishsplash), json_output)
+
+
+def bench_clip_command(
+    preset: str = typer.Option(DEFAULT_LIQUID_PRESET, help=PRESET_HELP),
+    json_output: bool = typer.Option(True, "--json/--no-json", help="print JSON (default)"),
+) -> None:
+    """Seconds per clip of each stage of a liquid edge (SPH to WebP) and its bytes."""
+    check_liquid_preset(preset)
+    from app.services.bench_clip import bench_clip
+
+    _print(bench_clip(preset), json_output)
+
+
+def bench_store_command(
+    edges: int = typer.Option(100_000, help="edges of the synthetic graph"),
+    database_url: str | None = typer.Option(
+        None, help="a migrated database (default: a temporary SQLite file)"
+    ),
+    distinct_bundles: int | None = typer.Option(
+        None, help="clips share this many bundles (default: one per clip)"
+    ),
+    json_output: bool = typer.Option(True, "--json/--no-json", help="print JSON (default)"),
+) -> None:
+    """Seconds to save and to load a whole graph of N edges (the work is rolled back)."""
+    _positive("--edges", edges)
+    if distinct_bundles is not None:
+        _positive("--distinct-bundles", distinct_bundles)
+    from app.services.bench_store import bench_store
+
+    result = asdict(
+        bench_store(edges, database_url=database_url, distinct_bundles=distinct_bundles)
+    )
+    result["save_edges_per_s"] = result["n_edges"] / max(result["save_seconds"], 1e-12)
+    result["load_edges_per_s"] = result["n_edges"] / max(result["load_seconds"], 1e-12)
+    _print(result, json_output)

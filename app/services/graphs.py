@@ -1,0 +1,405 @@
+"""Use cases on persisted graphs: create, grow, render, publish, play, report.
+
+The CLI, the HTTP admin routes and the Celery tasks call these. Each takes the caller's
+session and never commits (the caller owns the transaction), so a failure anywhere
+leaves the database as it was. Growth itself is :class:`~app.core.refinement.Refiner`:
+here it is only fed from and written back to the store.
+"""
+
+from __future__ import annotations
+
+from collections.abc import Callable
+from dataclasses import dataclass, field
+
+import numpy as np
+from sqlalchemy import func, select
+from sqlalchemy.exc import IntegrityError
+from sqlalchemy.orm import Session
+
+from app.config import Settings
+from app.core.bots import BotKind, play_sessions
+from app.core.clipbank import ClipBank, MemoryClipBank
+from app.core.dynamics import Dynamics
+from app.core.graph import EdgeKind, StateGraph
+from app.core.growth import initial_tree
+from app.core.metrics import high_error_fraction, observed_mean_error
+from app.core.refinement import Refiner, RefinerConfig
+from app.core.strategies import Strategy, parse_strategy
+from app.models import Clip, Edge, Graph, GrowthEpoch
+from app.models import Publication as PublicationRow
+from app.render.animation import STRIP_MEDIA_TYPE, encode_strip
+from app.services.dynamics import make_dynamics
+from app.store.artifacts import ArtifactStore
+from app.store.epochs import finish_epoch, start_epoch
+from app.store.graphs import create_graph, get_graph_row, load_graph, save_graph, set_animations
+from app.store.publications import latest_publication, load_publication, publish
+from app.store.traces import get_or_create_player, load_traces, record_trace
+
+Progress = Callable[[int], None]
+
+
+class GraphExists(ValueError):
+    """A graph of that name is already stored."""
+
+
+class NothingPublished(LookupError):
+    """The graph has no publication to play yet."""
+
+
+@dataclass
+class LoadedGraph:
+    """A stored graph in memory with what growing it needs."""
+
+    row: Graph
+    graph: StateGraph
+    bank: ClipBank
+    dynamics: Dynamics
+    artifacts: ArtifactStore
+
+
+def artifact_store(settings: Settings) -> ArtifactStore:
+    return ArtifactStore(settings.resolved_artifact_dir)
+
+
+def refiner_config(settings: Settings, dynamics: Dynamics) -> RefinerConfig:
+    return RefinerConfig(
+        alpha=settings.alpha,
+        crowd_radius=settings.crowd_radius or dynamics.crowd_radius,
+        crowd_eps=settings.crowd_eps,
+        default_session_steps=settings.restart_steps,
+        prefilter_k=settings.prefilter_k,
+        batch_size=settings.batch_size,
+    )
+
+
+def open_graph(session: Session, settings: Settings, name: str | int) -> LoadedGraph:
+    row = get_graph_row(session, name)
+    artifacts = artifact_store(settings)
+    graph, bank = load_graph(session, row.id, artifacts)
+    dynamics = make_dynamics(row.dynamics, row.scene.get("preset"))
+    return LoadedGraph(row, graph, bank, dynamics, artifacts)
+
+
+def graph_traces(session: Session, graph_id: int) -> list[np.ndarray]:
+    """Every trace played on any publication of the graph (vertex ids are stable)."""
+    ids = session.scalars(select(PublicationRow.id).where(PublicationRow.graph_id == graph_id))
+    return load_traces(session, list(ids))
+
+
+def refiner_for(
+    session: Session, settings: Settings, loaded: LoadedGraph, strategy: Strategy | None = None
+) -> Refiner:
+    """The graph's refiner, with the crowd's traces when its strategy learns from them."""
+    strategy = strategy or parse_strategy(loaded.row.strategy)
+    refiner = Refiner(
+        loaded.graph,
+        loaded.bank,
+        loaded.dynamics,
+        strategy,
+        refiner_config(settings, loaded.dynamics),
+    )
+    if strategy.learns_from_traces:
+        refiner.learn(graph_traces(session, loaded.row.id))
+    return refiner
+
+
+# ---- create ---------------------------------------------------------------------------
+def init_graph(
+    session: Session,
+    settings: Settings,
+    *,
+    name: str,
+    dynamics: str = "toy",
+    preset: str | None = None,
+    strategy: str = "sr-crowd",
+    depth: int = 2,
+    seed: int = 0,
+) -> dict[str, object]:
+    """Store the initial tree (paper Fig. 3) of a new graph; return its summary."""
+    chosen = parse_strategy(strategy)
+    if not name or name.isdigit():
+        raise ValueError("a graph name must be non-empty and not all digits (ids are)")
+    if session.scalar(select(Graph.id).where(Graph.name == name)) is not None:
+        raise GraphExists(f"a graph named {name!r} already exists")
+    model = make_dynamics(dynamics, preset)
+    bank = MemoryClipBank()
+    graph = initial_tree(model, bank, depth=depth, prefilter_k=settings.prefilter_k)
+    scene: dict[str, object] = {"fps": model.fps}
+    if preset is not None:
+        scene["preset"] = preset
+    try:
+        graph_id = create_graph(
+            session,
+            name=name,
+            dynamics=dynamics,
+            n_controls=model.n_controls,
+            frames_per_clip=model.frames_per_clip,
+            scene=scene,
+            seed=seed,
+            strategy=chosen.value,
+        )
+    except IntegrityError:
+        raise GraphExists(f"a graph named {name!r} already exists") from None
+    save_graph(session, graph_id, graph, bank, artifact_store(settings))
+    return graph_summary(session, graph_id)
+
+
+# ---- grow -----------------------------------------------------------------------------
+@dataclass
+class GrowResult:
+    graph: str
+    strategy: str
+    epochs: int = 0
+    expansions: int = 0
+    relinks: int = 0
+    size_frames: int = 0
+    epoch_ids: list[int] = field(default_factory=list)
+
+
+def grow_graph(
+    session: Session,
+    settings: Settings,
+    *,
+    name: str | int,
+    strategy: str | None = None,
+    frames: int | None = None,
+    expansions: int | None = None,
+    progress: Progress | None = None,
+) -> GrowResult:
+    """Grow in-process by a budget of frames or expansions, one epoch row per batch.
+
+    Each epoch is the same unit the Celery ``grow_epoch`` task runs: rank, pick the top
+    BLEND edges (relinking lazily), expand them in order, save.
+    """
+    if frames is None and expansions is None:
+        expansions = settings.batch_size
+    for budget in (frames, expansions):
+        if budget is not None and budget <= 0:
+            raise ValueError("the growth budget must be positive")
+    loaded = open_graph(session, settings, name)
+    refiner = refiner_for(session, settings, loaded, parse_strategy(strategy) if strategy else None)
+    graph = loaded.graph
+    result = GrowResult(graph=loaded.row.name, strategy=refiner.strategy.value)
+    per_expansion = graph.n_controls * graph.frames_per_clip
+
+    def advance(_: object) -> None:
+        if progress is not None:
+            progress(per_expansion if frames is not None else 1)
+
+    target_frames = graph.size_frames + frames if frames is not None else None
+    while True:
+        if target_frames is not None:
+            left = -(-(target_frames - graph.size_frames) // per_expansion)
+        else:
+            assert expansions is not None
+            left = expansions - result.expansions
+        if left <= 0:
+            break
+        epoch_id = start_epoch(session, loaded.row.id, refiner.strategy.value)
+        epochs = refiner.grow(expansions=min(left, refiner.config.batch_size), on_expansion=advance)
+        done = sum(len(e.expanded) for e in epochs)
+        relinks = sum(len(e.relinked) for e in epochs)
+        save_graph(session, loaded.row.id, graph, loaded.bank, loaded.artifacts)
+        finish_epoch(
+            session, epoch_id, expansions=done, relinks=relinks, size_frames=graph.size_frames
+        )
+        result.epochs += 1
+        result.expansions += done
+        result.relinks += relinks
+        result.epoch_ids.append(epoch_id)
+        if done == 0:
+            break
+    result.size_frames = graph.size_frames
+    return result
+
+
+# ---- render and publish ----------------------------------------------------------------
+def render_missing_animations(
+    session: Session, loaded: LoadedGraph, progress: Progress | None = None
+) -> int:
+    """Render every edge that has no animation yet; return how many were rendered.
+
+    A SIM edge shows its clip (rendered once per clip and kept on the clip row); a BLEND
+    edge shows eq. 8's blend of its dead-end clip into its target's clip.
+    """
+    graph_id, graph, bank, dyn = loaded.row.id, loaded.graph, loaded.bank, loaded.dynamics
+    n = graph.n_controls
+    missing = [
+        vertex * n + control
+        for vertex, control in session.execute(
+            select(Edge.vertex, Edge.control).where(
+                Edge.graph_id == graph_id, Edge.animation.is_(None)
+            )
+        )
+    ]
+    clip_animations = dict(
+        session.execute(
+            select(Clip.idx, Clip.animation).where(
+                Clip.graph_id == graph_id, Clip.animation.is_not(None)
+            )
+        )
+        .tuples()
+        .all()
+    )
+    new_clips: dict[int, str] = {}
+    edges: dict[int, str] = {}
+    for edge in missing:
+        clip = graph.edge_clip[edge]
+        if graph.edge_kind[edge] == EdgeKind.SIM:
+            digest = clip_animations.get(clip) or new_clips.get(clip)
+            if digest is None:
+                digest = _store_strip(session, loaded, dyn.render(bank.frames(clip)))
+                new_clips[clip] = digest
+        else:
+            target_clip = graph.edge_clip[graph.edge_target[edge]]
+            frames = dyn.blend(bank.frames(clip), bank.frames(target_clip))
+            digest = _store_strip(session, loaded, dyn.render(frames))
+        edges[edge] = digest
+        if progress is not None:
+            progress(1)
+    set_animations(session, graph_id, clips=new_clips, edges=edges)
+    return len(edges)
+
+
+def _store_strip(session: Session, loaded: LoadedGraph, images: np.ndarray) -> str:
+    return loaded.artifacts.put_bytes(
+        encode_strip(images), media_type=STRIP_MEDIA_TYPE, session=session
+    )
+
+
+def count_missing_animations(session: Session, graph_id: int) -> int:
+    return len(
+        session.scalars(
+            select(Edge.vertex).where(Edge.graph_id == graph_id, Edge.animation.is_(None))
+        ).all()
+    )
+
+
+@dataclass
+class PublishResult:
+    graph: str
+    publication_id: int
+    number: int
+    relinked: int
+    rendered: int
+    size_frames: int
+
+
+def publish_graph(
+    session: Session, settings: Settings, *, name: str | int, progress: Progress | None = None
+) -> PublishResult:
+    """Pre-publish relinking, animations for every edge, then a frozen publication."""
+    loaded = open_graph(session, settings, name)
+    refiner = refiner_for(session, settings, loaded, Strategy.BASELINE)
+    relinked = len(refiner.publish()[1])
+    save_graph(session, loaded.row.id, loaded.graph, loaded.bank, loaded.artifacts)
+    rendered = render_missing_animations(session, loaded, progress)
+    publication_id = publish(session, loaded.row.id, loaded.graph)
+    row = session.get_one(PublicationRow, publication_id)
+    return PublishResult(
+        graph=loaded.row.name,
+        publication_id=publication_id,
+        number=row.number,
+        relinked=relinked,
+        rendered=rendered,
+        size_frames=loaded.graph.size_frames,
+    )
+
+
+# ---- play -------------------------------------------------------------------------------
+def latest_publication_id(session: Session, graph_id: int) -> int:
+    row = latest_publication(session, graph_id)
+    if row is None:
+        raise NothingPublished(f"graph {graph_id} has no publication yet: run `srg publish`")
+    return row.id
+
+
+@dataclass
+class PlayResult:
+    graph: str
+    publication_id: int
+    traces: int
+    steps: int
+    observed_mean_error: float
+    high_error_fraction: float
+    mean_score_per_step: float
+
+
+def play_graph(
+    session: Session,
+    settings: Settings,
+    *,
+    name: str | int,
+    bot: str = "goal-directed",
+    sessions: int = 20,
+    mean_steps: int = 90,
+    seed: int = 0,
+) -> PlayResult:
+    """Bots play the latest publication in-process; their traces are stored as uploads."""
+    try:
+        kind = BotKind(bot)
+    except ValueError:
+        known = ", ".join(k.value for k in BotKind)
+        raise ValueError(f"unknown bot {bot!r} (known: {known})") from None
+    if sessions <= 0 or mean_steps < 2:
+        raise ValueError("sessions must be positive and mean steps at least 2")
+    row = get_graph_row(session, name)
+    publication_id = latest_publication_id(session, row.id)
+    publication = load_publication(session, publication_id)
+    traces = play_sessions(publication, kind, sessions=sessions, mean_steps=mean_steps, seed=seed)
+    player_id, _ = get_or_create_player(session, f"bot-{kind.value}", "bot")
+    for index, trace in enumerate(traces):
+        key = f"local-{publication_id}-{kind.value}-{seed}-{index}"
+        record_trace(session, publication_id, player_id, key, trace, publication=publication)
+    dynamics = make_dynamics(row.dynamics, row.scene.get("preset"))
+    threshold = settings.high_error_threshold or dynamics.high_error_threshold
+    steps = np.concatenate(traces)
+    return PlayResult(
+        graph=row.name,
+        publication_id=publication_id,
+        traces=len(traces),
+        steps=len(steps),
+        observed_mean_error=observed_mean_error(traces, publication.edge_err, row.n_controls),
+        high_error_fraction=high_error_fraction(
+            traces, publication.edge_err, row.n_controls, threshold
+        ),
+        mean_score_per_step=float(
+            publication.edge_score[steps[:, 0] * row.n_controls + steps[:, 1]].mean()
+        ),
+    )
+
+
+# ---- report -----------------------------------------------------------------------------
+def graph_summary(session: Session, name: str | int) -> dict[str, object]:
+    """What `srg status` shows: sizes from the stored rows, publications and epochs."""
+    row = get_graph_row(session, name)
+    kinds = dict(
+        session.execute(
+            select(Edge.kind, func.count()).where(Edge.graph_id == row.id).group_by(Edge.kind)
+        )
+        .tuples()
+        .all()
+    )
+    frames = (session.scalar(select(func.count()).where(Clip.graph_id == row.id)) or 0) * (
+        row.frames_per_clip
+    )
+    latest = latest_publication(session, row.id)
+    epochs = session.scalar(select(func.count()).where(GrowthEpoch.graph_id == row.id)) or 0
+    return {
+        "id": row.id,
+        "name": row.name,
+        "dynamics": row.dynamics,
+        "preset": row.scene.get("preset"),
+        "strategy": row.strategy,
+        "growing": row.growing,
+        "size_frames": int(frames),
+        "sim_edges": int(kinds.get(int(EdgeKind.SIM), 0)),
+        "blend_edges": int(kinds.get(int(EdgeKind.BLEND), 0)),
+        "epochs": int(epochs),
+        "latest_publication": None if latest is None else latest.number,
+        "unrendered_edges": count_missing_animations(session, row.id),
+    }
+
+
+def list_graphs(session: Session) -> list[dict[str, object]]:
+    return [graph_summary(session, gid) for gid in session.scalars(select(Graph.id))]
