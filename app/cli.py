@@ -14,13 +14,14 @@ from pathlib import Path
 from typing import Any
 
 import typer
+from rich.console import Console
 from rich.progress import BarColumn, MofNCompleteColumn, Progress, TextColumn, TimeElapsedColumn
 
 from app.cli_api import register_api_commands
 from app.cli_bench import bench_app
+from app.cli_demo import demo
 from app.cli_graph import register_graph_commands
 from app.cli_liquid import register_liquid_commands
-from app.services.experiment import ExperimentPlan, parse_checkpoints, run_experiment
 
 app = typer.Typer(
     help="Self-refining games: grow, publish and play precomputed state graphs.",
@@ -29,6 +30,7 @@ app = typer.Typer(
     add_completion=False,
 )
 app.add_typer(bench_app, name="bench")
+app.command()(demo)
 register_graph_commands(app)
 register_api_commands(app, bench_app)
 register_liquid_commands(app, bench_app)
@@ -42,7 +44,7 @@ class UserError(Exception):
 def progress_bar(total: int, label: str) -> Iterator[Callable[[int], None]]:
     """A progress bar on stderr; yields the ``advance(n)`` callback services take."""
     columns = (TextColumn(label), BarColumn(), MofNCompleteColumn(), TimeElapsedColumn())
-    with Progress(*columns, transient=False, redirect_stdout=False) as bar:
+    with Progress(*columns, console=Console(stderr=True), transient=False) as bar:
         task = bar.add_task(label, total=total)
         yield lambda n: bar.advance(task, n)
 
@@ -70,6 +72,7 @@ def experiment(
 ) -> None:
     """Grow one graph per strategy through checkpoints and compare what bots see (paper 7)."""
     from app.reports.experiment import write_report
+    from app.services.experiment import ExperimentPlan, parse_checkpoints, run_experiment
 
     base = ExperimentPlan.quick(dynamics) if quick else ExperimentPlan(dynamics=dynamics)
     try:

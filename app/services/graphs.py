@@ -8,6 +8,7 @@ here it is only fed from and written back to the store.
 
 from __future__ import annotations
 
+import uuid
 from collections.abc import Callable
 from dataclasses import dataclass, field
 
@@ -30,7 +31,6 @@ from app.models import Publication as PublicationRow
 from app.render.animation import STRIP_MEDIA_TYPE, encode_strip
 from app.services.dynamics import make_dynamics
 from app.store.artifacts import ArtifactStore
-from app.store.epochs import finish_epoch, start_epoch
 from app.store.graphs import create_graph, get_graph_row, load_graph, save_graph, set_animations
 from app.store.publications import latest_publication, load_publication, publish
 from app.store.traces import get_or_create_player, load_traces, record_trace
@@ -156,6 +156,10 @@ class GrowResult:
     epoch_ids: list[int] = field(default_factory=list)
 
 
+class GrowthBusy(ValueError):
+    """An epoch of the graph is running on the workers; eager growth would race it."""
+
+
 def grow_graph(
     session: Session,
     settings: Settings,
@@ -168,48 +172,54 @@ def grow_graph(
 ) -> GrowResult:
     """Grow in-process by a budget of frames or expansions, one epoch row per batch.
 
-    Each epoch is the same unit the Celery ``grow_epoch`` task runs: rank, pick the top
-    BLEND edges (relinking lazily), expand them in order, save.
+    Each epoch is the very unit the Celery ``grow_epoch`` task runs, step by step
+    (:mod:`app.services.growth`): plan (rank, pick the top BLEND edges, relink lazily),
+    simulate and render each clip, integrate the expansions in plan order, render the
+    new blends; here all in the caller's transaction.
     """
+    from app.services.growth import plan_epoch, run_epoch_in_process
+
     if frames is None and expansions is None:
         expansions = settings.batch_size
     for budget in (frames, expansions):
         if budget is not None and budget <= 0:
             raise ValueError("the growth budget must be positive")
-    loaded = open_graph(session, settings, name)
-    refiner = refiner_for(session, settings, loaded, parse_strategy(strategy) if strategy else None)
-    graph = loaded.graph
-    result = GrowResult(graph=loaded.row.name, strategy=refiner.strategy.value)
-    per_expansion = graph.n_controls * graph.frames_per_clip
+    row = get_graph_row(session, name)
+    chosen = parse_strategy(strategy) if strategy else parse_strategy(row.strategy)
+    result = GrowResult(graph=row.name, strategy=chosen.value)
+    per_expansion = row.n_controls * row.frames_per_clip
+    size = (session.scalar(select(func.count()).where(Clip.graph_id == row.id)) or 0) * (
+        row.frames_per_clip
+    )
 
     def advance(_: object) -> None:
         if progress is not None:
             progress(per_expansion if frames is not None else 1)
 
-    target_frames = graph.size_frames + frames if frames is not None else None
+    target_frames = size + frames if frames is not None else None
     while True:
         if target_frames is not None:
-            left = -(-(target_frames - graph.size_frames) // per_expansion)
+            left = -(-(target_frames - size) // per_expansion)
         else:
             assert expansions is not None
             left = expansions - result.expansions
         if left <= 0:
             break
-        epoch_id = start_epoch(session, loaded.row.id, refiner.strategy.value)
-        epochs = refiner.grow(expansions=min(left, refiner.config.batch_size), on_expansion=advance)
-        done = sum(len(e.expanded) for e in epochs)
-        relinks = sum(len(e.relinked) for e in epochs)
-        save_graph(session, loaded.row.id, graph, loaded.bank, loaded.artifacts)
-        finish_epoch(
-            session, epoch_id, expansions=done, relinks=relinks, size_frames=graph.size_frames
+        plan = plan_epoch(
+            session, settings, row.id, count=min(left, settings.batch_size), strategy=chosen
         )
+        if plan is None:
+            raise GrowthBusy(f"graph {row.name!r} has an epoch running on the workers")
+        done = len(run_epoch_in_process(session, settings, plan, on_expansion=advance))
+        epoch = session.get_one(GrowthEpoch, plan.epoch_id)
+        size = epoch.size_frames
         result.epochs += 1
         result.expansions += done
-        result.relinks += relinks
-        result.epoch_ids.append(epoch_id)
-        if done == 0:
+        result.relinks += plan.relinks
+        result.epoch_ids.append(plan.epoch_id)
+        if not plan.expansions:
             break
-    result.size_frames = graph.size_frames
+    result.size_frames = size
     return result
 
 
@@ -232,15 +242,14 @@ def render_missing_animations(
             )
         )
     ]
-    clip_animations = dict(
-        session.execute(
+    clip_animations: dict[int, str | None] = {
+        clip: animation
+        for clip, animation in session.execute(
             select(Clip.idx, Clip.animation).where(
                 Clip.graph_id == graph_id, Clip.animation.is_not(None)
             )
         )
-        .tuples()
-        .all()
-    )
+    }
     new_clips: dict[int, str] = {}
     edges: dict[int, str] = {}
     for edge in missing:
@@ -348,8 +357,9 @@ def play_graph(
     publication = load_publication(session, publication_id)
     traces = play_sessions(publication, kind, sessions=sessions, mean_steps=mean_steps, seed=seed)
     player_id, _ = get_or_create_player(session, f"bot-{kind.value}", "bot")
+    run = uuid.uuid4().hex  # each play is new play data, as each browser session is
     for index, trace in enumerate(traces):
-        key = f"local-{publication_id}-{kind.value}-{seed}-{index}"
+        key = f"local-{run}-{index}"
         record_trace(session, publication_id, player_id, key, trace, publication=publication)
     dynamics = make_dynamics(row.dynamics, row.scene.get("preset"))
     threshold = settings.high_error_threshold or dynamics.high_error_threshold
@@ -373,13 +383,12 @@ def play_graph(
 def graph_summary(session: Session, name: str | int) -> dict[str, object]:
     """What `srg status` shows: sizes from the stored rows, publications and epochs."""
     row = get_graph_row(session, name)
-    kinds = dict(
-        session.execute(
+    kinds: dict[int, int] = {
+        kind: count
+        for kind, count in session.execute(
             select(Edge.kind, func.count()).where(Edge.graph_id == row.id).group_by(Edge.kind)
         )
-        .tuples()
-        .all()
-    )
+    }
     frames = (session.scalar(select(func.count()).where(Clip.graph_id == row.id)) or 0) * (
         row.frames_per_clip
     )

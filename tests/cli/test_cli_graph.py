@@ -1,0 +1,125 @@
+"""The `srg` command end to end: the happy path and its error paths.
+
+Commands run in-process through ``app.cli.main`` (the console script's own entry, with
+its error handling) against a SQLite file under a temp SRG_VAR_DIR; one test runs the
+real console script in a subprocess. Errors must be one line on stderr, exit status 2,
+and leave the database as it was.
+"""
+
+from __future__ import annotations
+
+import contextlib
+import io
+import json
+import os
+import subprocess
+import sys
+from pathlib import Path
+
+import pytest
+
+from app.cli import main
+from app.config import get_settings
+from app.db import get_engine
+
+SRG = Path(sys.executable).with_name("srg")
+
+
+def srg(var: Path, *args: str, **env: str) -> subprocess.CompletedProcess[str]:
+    """Run ``srg args`` in this process with SRG_VAR_DIR=var (and ``env``) set."""
+    with pytest.MonkeyPatch.context() as patch:
+        patch.delenv("SRG_DATABASE_URL", raising=False)
+        for key, value in {"SRG_VAR_DIR": str(var), **env}.items():
+            patch.setenv(key, value)
+        patch.setattr(sys, "argv", ["srg", *args])
+        get_settings.cache_clear()
+        get_engine.cache_clear()
+        out, err = io.StringIO(), io.StringIO()
+        code = 0
+        try:
+            with contextlib.redirect_stdout(out), contextlib.redirect_stderr(err):
+                main()
+        except SystemExit as exit_:
+            code = exit_.code if isinstance(exit_.code, int) else 1
+        finally:
+            get_engine().dispose()
+            get_settings.cache_clear()
+            get_engine.cache_clear()
+    return subprocess.CompletedProcess(args, code, out.getvalue(), err.getvalue())
+
+
+def ok(var: Path, *args: str) -> str:
+    done = srg(var, *args)
+    assert done.returncode == 0, done.stderr
+    return done.stdout
+
+
+def one_line_error(done: subprocess.CompletedProcess[str], fragment: str) -> None:
+    assert done.returncode == 2, done.stdout + done.stderr
+    errors = [line for line in done.stderr.splitlines() if line.startswith("srg: error:")]
+    assert len(errors) == 1 and fragment in errors[0], done.stderr
+    assert "Traceback" not in done.stderr
+
+
+@pytest.fixture(scope="module")
+def var(tmp_path_factory: pytest.TempPathFactory) -> Path:
+    """A database with one toy graph grown, published and played."""
+    var = tmp_path_factory.mktemp("var")
+    ok(var, "db", "upgrade")
+    ok(var, "init", "toy1")
+    ok(var, "grow", "toy1", "--expansions", "6")
+    ok(var, "publish", "toy1")
+    ok(var, "play", "toy1", "--sessions", "5")
+    return var
+
+
+def status(var: Path) -> dict[str, object]:
+    return dict(json.loads(ok(var, "status", "toy1", "--json")))
+
+
+def test_the_graph_commands_grow_publish_and_play(var: Path) -> None:
+    before = status(var)
+    assert before["sim_edges"] == 3 + 6 and before["latest_publication"] == 1
+    assert before["unrendered_edges"] == 0
+    grown = json.loads(ok(var, "grow", "toy1", "--frames", "90", "--json"))
+    assert grown["expansions"] == 3 and grown["size_frames"] == before["size_frames"] + 90
+    played = json.loads(ok(var, "play", "toy1", "--sessions", "3", "--json"))
+    assert played["traces"] == 3 and played["publication_id"] == 1
+
+
+def test_an_unknown_graph_is_one_line_and_exit_2(var: Path) -> None:
+    for command in (["grow", "nope"], ["publish", "nope"], ["play", "nope"], ["status", "nope"]):
+        one_line_error(srg(var, *command), "no graph 'nope'")
+
+
+def test_bad_strategy_bot_and_budget_write_nothing(var: Path) -> None:
+    before = status(var)
+    one_line_error(srg(var, "grow", "toy1", "--strategy", "greedy"), "unknown strategy 'greedy'")
+    one_line_error(srg(var, "grow", "toy1", "--expansions", "0"), "must be positive")
+    one_line_error(srg(var, "grow", "toy1", "--expansions", "1", "--frames", "30"), "not both")
+    one_line_error(srg(var, "play", "toy1", "--bot", "cheater"), "unknown bot 'cheater'")
+    one_line_error(srg(var, "init", "toy1"), "already exists")
+    one_line_error(srg(var, "init", "x", "--dynamics", "lava"), "unknown dynamics 'lava'")
+    assert status(var) == before
+
+
+def test_an_unpublished_graph_cannot_be_played(var: Path) -> None:
+    ok(var, "init", "fresh")
+    one_line_error(srg(var, "play", "fresh"), "no publication yet")
+
+
+def test_the_console_script_reports_an_unreachable_database_in_one_line(tmp_path: Path) -> None:
+    environment = {
+        **os.environ,
+        "SRG_VAR_DIR": str(tmp_path),
+        "SRG_DATABASE_URL": "postgresql+psycopg://nobody@127.0.0.1:9/none",
+    }
+    done = subprocess.run(
+        [str(SRG), "status"], capture_output=True, text=True, env=environment, timeout=120
+    )
+    one_line_error(done, "cannot use the database")
+
+
+def test_an_unreachable_server_is_one_line(tmp_path: Path) -> None:
+    done = srg(tmp_path, "play", "toy1", "--url", "http://127.0.0.1:9")
+    one_line_error(done, "cannot reach the server")
