@@ -39,7 +39,20 @@ class Settings(BaseSettings):
     # Celery
     task_soft_time_limit: int = 600
     task_time_limit: int = 900
-    task_max_retries: int = 3
+    task_max_retries: int = Field(
+        3, description="retries of a task that waits, and redeliveries of a lost one, at most"
+    )
+    beat_interval: float = Field(30.0, description="seconds between beat's growth ticks")
+    epoch_resend_after: float = Field(
+        1800.0, description="seconds without progress after which a running epoch is re-sent"
+    )
+    growth_renders: bool = Field(
+        True, description="render clip and blend animations while growing (else at publish)"
+    )
+    occupancy_cache_ttl: int = Field(7 * 24 * 3600, description="Redis occupancy cache TTL (s)")
+    test_simulate_delay: float = Field(
+        0.0, description="TEST ONLY: seconds `simulate` sleeps first, to kill a worker mid-task"
+    )
 
     # API
     admin_token: str = "change-me"
@@ -55,6 +68,22 @@ class Settings(BaseSettings):
     @property
     def resolved_artifact_dir(self) -> Path:
         return self.artifact_dir if self.artifact_dir is not None else self.var_dir / "data"
+
+    @property
+    def visibility_timeout(self) -> int:
+        """Redis broker visibility timeout: well above the longest hard time limit.
+
+        An unacknowledged (acks_late) message goes back to the queue only after this, so
+        it must outlast any task still running, or a slow task would run twice at once.
+        """
+        return max(3600, 4 * self.task_time_limit)
+
+    @property
+    def resolved_redis_url(self) -> str:
+        """Redis for caches and locks: ``redis_url``, else a ``redis://`` broker, else none."""
+        if self.redis_url:
+            return self.redis_url
+        return self.broker_url if self.broker_url.startswith(("redis://", "rediss://")) else ""
 
     @property
     def eager(self) -> bool:

@@ -44,8 +44,24 @@ def _configure_sqlite(dbapi_connection: Any, _record: Any) -> None:
     cursor.close()
 
 
+#: execution option naming SQLite's BEGIN mode ("IMMEDIATE": take the write lock at once)
+SQLITE_BEGIN = "srg_sqlite_begin"
+
+
 def _begin_sqlite(connection: Any) -> None:
-    connection.exec_driver_sql("BEGIN")
+    mode = connection.get_execution_options().get(SQLITE_BEGIN, "")
+    connection.exec_driver_sql(f"BEGIN {mode}".strip())
+
+
+def begin_immediate(session: Session) -> None:
+    """Start ``session``'s transaction as a writer: BEGIN IMMEDIATE on SQLite.
+
+    Call it before the transaction's first statement. On SQLite a deferred transaction
+    that reads and then writes can fail when another writer committed in between; an
+    immediate one waits for the write lock up front. Other databases lock rows instead.
+    """
+    if session.get_bind().dialect.name == "sqlite" and not session.in_transaction():
+        session.connection(execution_options={SQLITE_BEGIN: "IMMEDIATE"})
 
 
 @lru_cache(maxsize=1)

@@ -149,7 +149,13 @@ class StateGraph:
         self.edge_err[edge] = 0.0
         control = self.edge_control(edge)
         energy = self.clip_energy(clip, control)
-        at = bisect.bisect_left(self._sim_energy[control], energy)
+        # Order by (energy, edge): equal energies (clips of a system at rest) then sit in
+        # the same order however the graph was built, grown in memory or loaded, so the
+        # best-target search gives the same answer on every worker.
+        energies, edges = self._sim_energy[control], self._sim_edges[control]
+        at = bisect.bisect_left(energies, energy)
+        while at < len(energies) and energies[at] == energy and edges[at] < edge:
+            at += 1
         self._sim_energy[control].insert(at, energy)
         self._sim_edges[control].insert(at, edge)
 

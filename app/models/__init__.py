@@ -1,7 +1,7 @@
 """SQLAlchemy models; importing this package registers every table on ``Base.metadata``."""
 
 from app.models.base import Base
-from app.models.graph import Artifact, Clip, Edge, Graph, GrowthEpoch, Vertex
+from app.models.graph import Artifact, Clip, Edge, ExpansionClip, Graph, GrowthEpoch, Vertex
 from app.models.play import Player, Publication, PublicationEdge, Trace, TraceStep
 
 __all__ = [
@@ -9,6 +9,7 @@ __all__ = [
     "Base",
     "Clip",
     "Edge",
+    "ExpansionClip",
     "Graph",
     "GrowthEpoch",
     "Player",

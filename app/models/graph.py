@@ -126,3 +126,28 @@ class GrowthEpoch(Base):
     expansions: Mapped[int] = mapped_column(Integer, default=0)
     relinks: Mapped[int] = mapped_column(Integer, default=0)
     size_frames: Mapped[int] = mapped_column(Integer, default=0)
+    #: the planned expansions in integration order: [[edge, dead-end clip], ...]
+    plan: Mapped[list[list[int]] | None] = mapped_column(JSON)
+    #: .npz artifact of the STATERANK pi ranked at planning: the next epoch's warm start
+    warm_start: Mapped[str | None] = mapped_column(ForeignKey("artifacts.hash"))
+    #: unix time of the last progress (clip stored, expansion integrated, re-send)
+    heartbeat: Mapped[float | None] = mapped_column(Double)
+
+
+class ExpansionClip(Base):
+    """One simulated clip of a planned expansion: written by a worker, read on integration.
+
+    Keyed by (epoch, position in the plan, control), so a redelivered task that stores the
+    same clip again changes nothing.
+    """
+
+    __tablename__ = "expansion_clips"
+
+    epoch_id: Mapped[int] = mapped_column(
+        ForeignKey("growth_epochs.id", ondelete="CASCADE"), primary_key=True
+    )
+    position: Mapped[int] = mapped_column(Integer, primary_key=True)
+    control: Mapped[int] = mapped_column(SmallInteger, primary_key=True)
+    #: .npz artifact: frames, end_state and every ClipFeatures field
+    clip: Mapped[str] = mapped_column(ForeignKey("artifacts.hash"))
+    animation: Mapped[str | None] = mapped_column(ForeignKey("artifacts.hash"))

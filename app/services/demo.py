@@ -197,7 +197,8 @@ def contact_sheet(
     ).all()
     by_vertex: dict[int, str] = {}
     for vertex, animation in animations:
-        by_vertex.setdefault(vertex, animation)
+        if animation is not None:
+            by_vertex.setdefault(vertex, animation)
     chosen = [by_vertex[v] for v in visited if v in by_vertex][:edges] or list(by_vertex.values())[
         :edges
     ]

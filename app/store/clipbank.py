@@ -12,6 +12,7 @@ from __future__ import annotations
 
 from collections.abc import Mapping
 from functools import lru_cache
+from typing import Protocol
 
 import numpy as np
 
@@ -22,6 +23,14 @@ from app.store.artifacts import ArtifactStore
 
 FEATURE_CACHE_SIZE = 4096
 BUNDLE_CACHE_SIZE = 64
+
+
+class ShapeCache(Protocol):
+    """A shared cache of (occupancy, descriptor) by bundle digest (content-addressed)."""
+
+    def get(self, digest: str) -> tuple[np.ndarray, np.ndarray] | None: ...
+
+    def put(self, digest: str, occupancy: np.ndarray, descriptor: np.ndarray) -> None: ...
 
 
 def clip_bundle(bank: ClipBank, clip: int) -> dict[str, np.ndarray]:
@@ -43,6 +52,7 @@ class StoredClipBank:
         self._artifacts = artifacts
         self._bundles = dict(bundles)
         self._pending: dict[int, tuple[SimClip, ClipFeatures]] = {}
+        self._shape_cache: ShapeCache | None = None
         self._shape_members = lru_cache(maxsize=FEATURE_CACHE_SIZE)(self._read_shape)
         self._state_members = lru_cache(maxsize=BUNDLE_CACHE_SIZE)(self._read_state)
 
@@ -79,8 +89,17 @@ class StoredClipBank:
             self._bundles[clip] = digest
             self._pending.pop(clip, None)
 
+    def use_shape_cache(self, cache: ShapeCache) -> None:
+        """Read occupancy grids through ``cache`` (Redis: the paper's animation cache)."""
+        self._shape_cache = cache
+
     def _read_shape(self, clip: int) -> tuple[np.ndarray, np.ndarray]:
-        arrays = self._artifacts.get_arrays(self._bundles[clip], ("occupancy", "descriptor"))
+        digest = self._bundles[clip]
+        if self._shape_cache is not None and (hit := self._shape_cache.get(digest)) is not None:
+            return hit
+        arrays = self._artifacts.get_arrays(digest, ("occupancy", "descriptor"))
+        if self._shape_cache is not None:
+            self._shape_cache.put(digest, arrays["occupancy"], arrays["descriptor"])
         return arrays["occupancy"], arrays["descriptor"]
 
     def _read_state(self, clip: int) -> tuple[np.ndarray, np.ndarray]:
