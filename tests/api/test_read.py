@@ -79,3 +79,23 @@ def test_the_web_client_is_served_at_the_root(client: TestClient) -> None:
     page = client.get("/")
     assert page.status_code == 200 and "client.js" in page.text
     assert client.get("/client.js").status_code == 200
+
+
+def test_admin_grow_then_publish_serves_a_bigger_playable_publication(
+    client: TestClient, published: Published
+) -> None:
+    admin = {"Authorization": f"Bearer {ADMIN_TOKEN}"}
+    base = f"/api/graphs/{published.name}"
+    before = client.get(f"{base}/publication").json()
+    grown = client.post(f"{base}/grow", json={"expansions": 3}, headers=admin)
+    assert grown.status_code == 200, grown.text
+    assert grown.json()["result"]["expansions"] == 3
+    published_again = client.post(f"{base}/publish", headers=admin)
+    assert published_again.status_code == 200, published_again.text
+    after = client.get(f"{base}/publication").json()
+    assert after["number"] == before["number"] + 1
+    assert after["n_vertices"] == before["n_vertices"] + 3
+    edges = [edge for vertex in after["vertices"] for edge in vertex]
+    assert all(edge["animation"] for edge in edges)  # publish renders what was missing
+    assert client.post(f"{base}/grow", json={"expansions": 0}, headers=admin).status_code == 422
+    assert client.post("/api/graphs/nope/grow", headers=admin).status_code == 404
