@@ -5,6 +5,8 @@ from __future__ import annotations
 import json
 import subprocess
 import sys
+from pathlib import Path
+from typing import Any
 
 import pytest
 import typer
@@ -85,6 +87,36 @@ def test_make_dynamics_knows_the_liquid_and_names_its_errors(
     monkeypatch.setattr(liquid, "load_calibration", missing)
     with pytest.raises(LookupError, match=r"run `srg calibrate --preset tiny` first"):
         make_dynamics("liquid", "tiny")
+
+
+def _fake_report(passed: bool) -> dict[str, Any]:
+    checks = {"twins": {"passed": True}, "hydrostatic": {"passed": passed}}
+    return {"preset": "tiny", "checks": checks, "passed": passed}
+
+
+@pytest.mark.parametrize("passed", [True, False])
+def test_validate_prints_the_report_and_exits_1_when_a_check_fails(
+    cli: typer.Typer, monkeypatch: pytest.MonkeyPatch, passed: bool
+) -> None:
+    from app.services import sph_validation
+
+    monkeypatch.setattr(sph_validation, "validate", lambda preset: _fake_report(passed))
+    result = CliRunner().invoke(cli, ["validate", "--preset", "tiny", "--json", "-"])
+    assert result.exit_code == (0 if passed else 1)
+    assert json.loads(result.stdout) == _fake_report(passed)
+
+
+def test_validate_json_file_gets_the_report_and_stdout_a_line_per_check(
+    cli: typer.Typer, monkeypatch: pytest.MonkeyPatch, tmp_path: Path
+) -> None:
+    from app.services import sph_validation
+
+    monkeypatch.setattr(sph_validation, "validate", lambda preset: _fake_report(False))
+    target = tmp_path / "out" / "validate.json"
+    result = CliRunner().invoke(cli, ["validate", "--preset", "tiny", "--json", str(target)])
+    assert result.exit_code == 1
+    assert json.loads(target.read_text()) == _fake_report(False)
+    assert result.stdout.splitlines()[:2] == ["twins: passed", "hydrostatic: FAILED"]
 
 
 def test_importing_the_dynamics_registry_does_not_load_opencl_or_mitsuba() -> None:
