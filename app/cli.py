@@ -22,6 +22,7 @@ from app.cli_bench import bench_app
 from app.cli_demo import demo
 from app.cli_graph import register_graph_commands
 from app.cli_liquid import register_liquid_commands
+from app.cli_runtime import register_runtime_commands
 
 app = typer.Typer(
     help="Self-refining games: grow, publish and play precomputed state graphs.",
@@ -34,6 +35,7 @@ app.command()(demo)
 register_graph_commands(app)
 register_api_commands(app, bench_app)
 register_liquid_commands(app, bench_app)
+register_runtime_commands(app, bench_app)
 
 
 class UserError(Exception):

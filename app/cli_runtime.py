@@ -1,0 +1,109 @@
+"""``srg worker``, ``beat``, ``flower``, ``set-growing``, ``grow-epoch``, ``bench grow``.
+
+The first three start Celery's own programs on the app of :mod:`app.tasks`, configured
+from Settings (``SRG_BROKER_URL``, ``SRG_DATABASE_URL``, ...); see docs/runtime.md.
+"""
+
+from __future__ import annotations
+
+import json
+
+import typer
+
+
+def worker(
+    concurrency: int = typer.Option(1, help="worker processes (prefork pool)"),
+    queues: str = typer.Option("celery", help="comma-separated queues to consume"),
+    loglevel: str = typer.Option("INFO"),
+    hostname: str | None = typer.Option(None, help="node name (default: celery@host)"),
+) -> None:
+    """Run a Celery worker of the growth tasks (needs SRG_BROKER_URL)."""
+    from app.tasks import celery_app
+
+    _require_broker()
+    argv = ["worker", f"--concurrency={concurrency}", f"--queues={queues}"]
+    argv.append(f"--loglevel={loglevel}")
+    if hostname:
+        argv.append(f"--hostname={hostname}")
+    celery_app.worker_main(argv)
+
+
+def beat(
+    loglevel: str = typer.Option("INFO"),
+    schedule: str = typer.Option("var/celerybeat-schedule", help="beat's state file"),
+) -> None:
+    """Run Celery beat: a growth tick every SRG_BEAT_INTERVAL seconds for growing graphs."""
+    from app.tasks import celery_app
+
+    _require_broker()
+    celery_app.start(["beat", f"--loglevel={loglevel}", f"--schedule={schedule}"])
+
+
+def flower(
+    port: int = typer.Option(5555),
+    address: str = typer.Option("127.0.0.1"),
+) -> None:
+    """Run Flower, the Celery monitor (web UI and /api on PORT)."""
+    from app.tasks import celery_app
+
+    _require_broker()
+    celery_app.start(["flower", f"--port={port}", f"--address={address}"])
+
+
+def set_growing(
+    name: str = typer.Argument(..., help="graph name or id"),
+    on: bool = typer.Option(..., "--on/--off", help="grow it on every beat tick, or stop"),
+) -> None:
+    """Mark a graph for beat's periodic growth (or take it off)."""
+    from app.cli_graph import emit, transaction
+    from app.services.growth import set_growing as mark
+
+    with transaction() as session:
+        emit(mark(session, name, on), False)
+
+
+def grow_epoch(name: str = typer.Argument(..., help="graph name or id")) -> None:
+    """Send one grow_epoch task now (what beat sends); prints its task id."""
+    from app.cli_graph import transaction
+    from app.store.graphs import get_graph_row
+    from app.tasks.growth import grow_epoch as task
+
+    with transaction() as session:
+        graph_id = get_graph_row(session, name).id
+    typer.echo(task.delay(graph_id).id)
+
+
+def _require_broker() -> None:
+    from app.config import get_settings
+
+    if get_settings().eager:
+        raise ValueError("no broker: set SRG_BROKER_URL=redis://... (see docs/runtime.md)")
+
+
+def bench_grow(
+    epochs: int = typer.Option(6, help="growth epochs per run"),
+    batch: int = typer.Option(8, help="expansions per epoch"),
+    workers: str = typer.Option("1,2", help="comma-separated worker-process counts"),
+    sizes: str = typer.Option("1000,10000,100000", help="graph sizes (edges) to integrate at"),
+    json_output: bool = typer.Option(True, "--json/--no-json", help="print JSON (default)"),
+) -> None:
+    """Expansions per minute on 1 and 2 worker processes; integration time vs graph size."""
+    from app.services.bench_grow import bench_grow as run
+
+    result = run(
+        epochs=epochs,
+        batch=batch,
+        worker_counts=[int(w) for w in workers.split(",")],
+        sizes=[int(s) for s in sizes.split(",")],
+    )
+    typer.echo(json.dumps(result, indent=2))
+
+
+def register_runtime_commands(app: typer.Typer, bench_app: typer.Typer) -> None:
+    """Attach the runtime commands to the main app and ``bench grow`` to the bench app."""
+    app.command("worker")(worker)
+    app.command("beat")(beat)
+    app.command("flower")(flower)
+    app.command("set-growing")(set_growing)
+    app.command("grow-epoch")(grow_epoch)
+    bench_app.command("grow")(bench_grow)

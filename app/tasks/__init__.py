@@ -1,0 +1,10 @@
+"""Celery: the app (``celery -A app.tasks worker``) and the growth tasks it runs."""
+
+from app.tasks.celery_app import celery_app
+
+app = celery_app
+
+# register the tasks on the app
+from app.tasks import growth as _growth  # noqa: E402,F401
+
+__all__ = ["app", "celery_app"]

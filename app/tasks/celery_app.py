@@ -1,0 +1,106 @@
+"""The Celery app, configured from :class:`~app.config.Settings` (nothing else).
+
+With a broker (``SRG_BROKER_URL=redis://...``) tasks go through Redis to workers; with
+none, ``task_always_eager`` runs every task in-process, so the embedded default needs
+no service at all.
+
+Delivery: ``acks_late`` with ``reject_on_worker_lost`` and a prefetch of one, so a task
+whose worker dies goes back to the queue instead of vanishing; the Redis visibility
+timeout (read by Celery from ``broker_transport_options``) is far above the hard time
+limit, so a message is never handed to a second worker while the first still runs it.
+Every task is idempotent, so a redelivery is harmless; :class:`BoundedTask` caps
+redeliveries so that a task that kills its worker every time does not loop forever.
+"""
+
+from __future__ import annotations
+
+import logging
+from typing import Any
+
+from celery import Celery, Task
+from celery.exceptions import Reject
+
+from app.config import Settings, get_settings
+
+log = logging.getLogger(__name__)
+DELIVERY_KEY = "srg:deliveries:"
+
+
+def celery_config(settings: Settings) -> dict[str, Any]:
+    broker = settings.broker_url or "memory://"
+    transport = {"visibility_timeout": settings.visibility_timeout}
+    return {
+        "broker_url": broker,
+        "result_backend": settings.result_backend or settings.broker_url or "cache+memory://",
+        "task_always_eager": settings.eager,
+        "task_eager_propagates": True,
+        "task_acks_late": True,
+        "task_reject_on_worker_lost": True,
+        "worker_prefetch_multiplier": 1,
+        "task_soft_time_limit": settings.task_soft_time_limit,
+        "task_time_limit": settings.task_time_limit,
+        "broker_transport_options": transport,
+        "result_backend_transport_options": transport,
+        "broker_connection_retry_on_startup": True,
+        "task_serializer": "json",
+        "result_serializer": "json",
+        "accept_content": ["json"],
+        "result_expires": 24 * 3600,
+        # Flower shows what it is told: task events and "started" states
+        "worker_send_task_events": True,
+        "task_send_sent_event": True,
+        "task_track_started": True,
+        "beat_schedule": {
+            "grow-graphs": {"task": "srg.schedule_growth", "schedule": settings.beat_interval}
+        },
+    }
+
+
+class BoundedTask(Task):
+    """A task delivered at most ``task_max_retries + 1`` times (counted in Redis).
+
+    acks_late redelivers a task whose worker died; if the task itself kills the worker
+    (out of memory, a crash in native code) that would never end. The count is keyed by
+    the task id (which a redelivery keeps) and the retry number.
+    """
+
+    def __call__(self, *args: Any, **kwargs: Any) -> Any:
+        if not self.request.is_eager and self.request.id:
+            self._count_delivery(f"{self.request.id}:{self.request.retries or 0}")
+        return super().__call__(*args, **kwargs)
+
+    def _count_delivery(self, task_id: str) -> None:
+        settings = get_settings()
+        url = settings.resolved_redis_url
+        if not url:
+            return
+        try:
+            client = _redis(url)
+            key = DELIVERY_KEY + task_id
+            deliveries = client.incr(key)
+            client.expire(key, settings.visibility_timeout * (settings.task_max_retries + 2))
+        except Exception as exc:  # counting is a safety net; Redis trouble must not block work
+            log.warning("cannot count deliveries of %s: %s", task_id, exc)
+            return
+        if deliveries > settings.task_max_retries + 1:
+            raise Reject(f"task {task_id} delivered {deliveries} times: dropped", requeue=False)
+
+
+_clients: dict[str, Any] = {}
+
+
+def _redis(url: str) -> Any:
+    if url not in _clients:
+        import redis
+
+        _clients[url] = redis.Redis.from_url(url, socket_timeout=2.0)
+    return _clients[url]
+
+
+def make_celery(settings: Settings) -> Celery:
+    app = Celery("srg", task_cls=BoundedTask)
+    app.conf.update(celery_config(settings))
+    return app
+
+
+celery_app = make_celery(get_settings())

@@ -1,0 +1,187 @@
+"""The growth tasks: thin wrappers of :mod:`app.services.growth`, ids in and ids out.
+
+Each task opens one session, runs one step, commits. Arrays never travel through Redis:
+a step writes them to the artifact store and returns the digest. The epoch's canvas is
+flat (:func:`epoch_canvas`)::
+
+    chord([simulate | sdf | render   for every (expansion, control)],
+          integrate(0) | integrate(1) | ... | integrate(n-1) | blend)
+
+The integrating steps form a chain so that they run in the plan's order, the order the
+eager path integrates in (blend targets depend on it). Nothing relies on the chord to
+be safe: ``integrate`` re-checks completeness itself and is idempotent, and work lost
+on the way (a killed worker, a restarted Redis) is found and re-sent by the next
+``grow_epoch`` once the epoch has stalled for ``epoch_resend_after`` seconds.
+"""
+
+from __future__ import annotations
+
+from collections.abc import Iterator
+from contextlib import contextmanager
+from typing import Any
+
+from celery import chain, chord
+from celery.canvas import Signature
+from sqlalchemy import select
+from sqlalchemy.exc import IntegrityError, OperationalError
+from sqlalchemy.orm import Session
+
+from app.config import get_settings
+from app.services import growth
+from app.store.graphs import StaleGraph
+from app.tasks.celery_app import celery_app
+
+#: seconds an integrating step waits before checking again for clips or an earlier step
+NOT_READY_DELAY = 2.0
+
+
+@contextmanager
+def task_session() -> Iterator[Session]:
+    """One transaction per task: committed when the step returns, else rolled back."""
+    from app.db import session_factory
+
+    with session_factory()() as session:
+        try:
+            yield session
+            session.commit()
+        except BaseException:
+            session.rollback()
+            raise
+
+
+@celery_app.task(name="srg.simulate")
+def simulate(epoch_id: int, position: int, control: int) -> str:
+    """Simulate one clip of a planned expansion; the stage artifact's digest.
+
+    Toy: the whole clip. Liquid: PCISPH only (particle positions and end state).
+    """
+    with task_session() as session:
+        return growth.simulate_step(session, get_settings(), epoch_id, position, control)
+
+
+@celery_app.task(name="srg.sdf")
+def sdf(stage: str, epoch_id: int, position: int, control: int) -> str:
+    """Liquid: SDF frames and features of the simulated particles. Toy: pass-through.
+
+    Records the clip on ``expansion_clips``; returns the clip artifact's digest.
+    """
+    with task_session() as session:
+        return growth.sdf_step(session, get_settings(), stage, epoch_id, position, control)
+
+
+@celery_app.task(name="srg.render")
+def render(clip: str, epoch_id: int, position: int, control: int) -> str:
+    """Render the clip's animation strip (stored, attached at integration)."""
+    with task_session() as session:
+        return growth.render_step(session, get_settings(), clip, epoch_id, position, control)
+
+
+@celery_app.task(name="srg.integrate", bind=True)
+def integrate(self: Any, epoch_id: int, position: int) -> int | None:
+    """Swap one planned expansion into the graph (once); the new vertex's index."""
+    settings = get_settings()
+    try:
+        with task_session() as session:
+            outcome = growth.integrate_step(session, settings, epoch_id, position)
+    except growth.ExpansionNotReady as exc:
+        if exc.missing:
+            missing = [(position, c) for c in exc.missing]
+            clip_pipelines(epoch_id, missing, renders=settings.growth_renders).apply_async()
+        raise self.retry(
+            exc=exc, countdown=NOT_READY_DELAY, max_retries=settings.task_max_retries
+        ) from exc
+    except (StaleGraph, OperationalError) as exc:  # a racing writer, a dropped connection
+        raise self.retry(exc=exc, countdown=0.5, max_retries=settings.task_max_retries) from exc
+    return outcome.vertex
+
+
+@celery_app.task(name="srg.blend")
+def blend(epoch_id: int) -> int:
+    """Render eq. 8's blend of the epoch's new BLEND edges; how many were rendered."""
+    with task_session() as session:
+        return growth.blend_step(session, get_settings(), epoch_id)
+
+
+@celery_app.task(name="srg.rank")
+def rank(graph_id: int) -> str | None:
+    """STATERANK of the graph now (warm-started), stored: the ``pi`` artifact's digest."""
+    with task_session() as session:
+        return growth.rank_graph(session, get_settings(), graph_id)
+
+
+@celery_app.task(name="srg.relink", bind=True)
+def relink(self: Any, graph_id: int) -> int:
+    """Relink every BLEND edge to its best target now (between epochs); how many moved."""
+    settings = get_settings()
+    try:
+        with task_session() as session:
+            return growth.relink_graph(session, settings, graph_id)
+    except growth.EpochRunning as exc:
+        raise self.retry(exc=exc, countdown=settings.beat_interval) from exc
+
+
+@celery_app.task(name="srg.publish", bind=True)
+def publish(self: Any, graph_id: int) -> int:
+    """Pre-publish relinking, missing animations, a frozen publication; its id."""
+    settings = get_settings()
+    try:
+        with task_session() as session:
+            return growth.publish_between_epochs(session, settings, graph_id)
+    except growth.EpochRunning as exc:
+        raise self.retry(exc=exc, countdown=settings.beat_interval) from exc
+
+
+@celery_app.task(name="srg.grow_epoch")
+def grow_epoch(graph_id: int) -> int | None:
+    """Plan the graph's next epoch (or re-send a stalled one) and dispatch its canvas.
+
+    Returns the epoch id, or None when an epoch of the graph is already running.
+    """
+    settings = get_settings()
+    try:
+        with task_session() as session:
+            plan = growth.plan_epoch(session, settings, graph_id)
+    except IntegrityError:  # another tick opened the same epoch number first
+        return None
+    if plan is None:
+        return None
+    if plan.expansions:
+        with task_session() as session:
+            work = growth.epoch_work(session, plan.epoch_id)
+        epoch_canvas(work, renders=settings.growth_renders).apply_async()
+    return plan.epoch_id
+
+
+@celery_app.task(name="srg.schedule_growth")
+def schedule_growth() -> list[int]:
+    """Beat's tick: one ``grow_epoch`` per graph with ``growing = true``."""
+    from app.models import Graph
+
+    with task_session() as session:
+        ids = list(session.scalars(select(Graph.id).where(Graph.growing.is_(True))))
+    for graph_id in ids:
+        grow_epoch.delay(graph_id)
+    return ids
+
+
+def clip_pipelines(epoch_id: int, clips: list[tuple[int, int]], *, renders: bool) -> Signature:
+    """``simulate | sdf | render`` for each (position, control), as one group."""
+    from celery import group
+
+    return group(clip_pipeline(epoch_id, p, c, renders=renders) for p, c in clips)
+
+
+def clip_pipeline(epoch_id: int, position: int, control: int, *, renders: bool) -> Signature:
+    steps = [simulate.si(epoch_id, position, control), sdf.s(epoch_id, position, control)]
+    if renders:
+        steps.append(render.s(epoch_id, position, control))
+    return chain(*steps)
+
+
+def epoch_canvas(work: growth.EpochWork, *, renders: bool) -> Signature:
+    """The flat canvas of what is left of an epoch (see the module docstring)."""
+    integrations = [integrate.si(work.epoch_id, p) for p in work.pending]
+    tail = [blend.si(work.epoch_id)] if renders else []
+    body = chain(*integrations, *tail)
+    header = [clip_pipeline(work.epoch_id, p, c, renders=renders) for p, c in work.missing_clips]
+    return chord(header, body) if header else body

@@ -1,0 +1,81 @@
+"""Fixtures of the runtime tests: a fresh PostgreSQL database, a private Redis, workers.
+
+Each distributed test gets its own redis-server on a free port (so restarting it
+disturbs nobody), its own migrated PostgreSQL database and artifact directory, and real
+``celery -A app.tasks worker`` processes started with that environment.
+"""
+
+from __future__ import annotations
+
+import os
+import shutil
+from collections.abc import Callable, Iterator
+from pathlib import Path
+
+import pytest
+from tasks_cluster import (
+    DEFAULT_POSTGRES_URL,
+    ROOT,
+    Cluster,
+    RedisServer,
+    free_port,
+    postgres_database,
+)
+
+from app.config import Settings
+from app.services.graph_cache import graph_cache
+
+
+@pytest.fixture
+def redis_server(tmp_path: Path) -> Iterator[RedisServer]:
+    if shutil.which("redis-server") is None:
+        pytest.fail("redis-server is not installed: run infra/services.sh")
+    server = RedisServer(free_port(), tmp_path)
+    server.start()
+    yield server
+    server.stop()
+
+
+@pytest.fixture
+def postgres_url() -> Iterator[str]:
+    base = os.environ.get("SRG_TEST_POSTGRES_URL", DEFAULT_POSTGRES_URL)
+    yield from postgres_database(base)
+
+
+@pytest.fixture
+def cluster_env(
+    tmp_path: Path, redis_server: RedisServer, postgres_url: str
+) -> Iterator[Callable[..., Cluster]]:
+    """Make a :class:`Cluster`; keyword arguments are extra Settings fields."""
+    made: list[Cluster] = []
+
+    def make(**extra: object) -> Cluster:
+        fields: dict[str, object] = {
+            "broker_url": redis_server.url,
+            "result_backend": redis_server.url,
+            "database_url": postgres_url,
+            "var_dir": tmp_path / "var",
+            "artifact_dir": tmp_path / "artifacts",
+            "growth_renders": False,
+            **extra,
+        }
+        env = {k: v for k, v in os.environ.items() if not k.startswith("SRG_")}
+        env.update({f"SRG_{k.upper()}": str(v) for k, v in fields.items()})
+        env["PYTHONPATH"] = str(ROOT)
+        env["FLOWER_UNAUTHENTICATED_API"] = "true"
+        logs = tmp_path / "logs"
+        logs.mkdir(exist_ok=True)
+        cluster = Cluster(env, Settings(**fields), logs)  # type: ignore[arg-type]
+        made.append(cluster)
+        return cluster
+
+    yield make
+    for cluster in made:
+        cluster.stop_all()
+
+
+@pytest.fixture(autouse=True)
+def _fresh_graph_cache() -> Iterator[None]:
+    graph_cache.clear()
+    yield
+    graph_cache.clear()

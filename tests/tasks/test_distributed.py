@@ -1,0 +1,140 @@
+"""Growth on real workers, Redis and PostgreSQL equals the eager run, faults included."""
+
+from __future__ import annotations
+
+import time
+from collections.abc import Callable
+from pathlib import Path
+
+import pytest
+from sqlalchemy import select
+from tasks_cluster import Cluster, RedisServer, wait_for
+from tasks_helpers import (
+    assert_no_duplicates,
+    client,
+    eager_reference,
+    finished_epochs,
+    run_epoch,
+    seed_graph,
+    snapshot,
+)
+
+from app.models import GrowthEpoch
+
+pytestmark = [pytest.mark.slow, pytest.mark.postgres, pytest.mark.redis]
+EPOCHS = 3
+
+
+def _final(cluster: Cluster, graph_id: int) -> dict[str, list[object]]:
+    assert_no_duplicates(cluster, graph_id)
+    with cluster.session() as session:
+        return snapshot(session, cluster.settings, graph_id)
+
+
+def test_workers_grow_the_same_graph_as_the_eager_run(
+    cluster_env: Callable[..., Cluster], tmp_path: Path
+) -> None:
+    cluster = cluster_env(batch_size=4)
+    graph_id = seed_graph(cluster.settings)
+    cluster.start_worker("w1")
+    cluster.start_worker("w2")
+    app = client(cluster)
+    for _ in range(EPOCHS):
+        run_epoch(cluster, app, graph_id)
+    final = _final(cluster, graph_id)
+    assert len(final["vertex_control"]) == 1 + 3 + EPOCHS * 4
+    assert final == eager_reference(tmp_path, EPOCHS)
+
+
+def test_worker_killed_mid_simulate_loses_no_expansion(
+    cluster_env: Callable[..., Cluster], tmp_path: Path
+) -> None:
+    # test_simulate_delay is the test-only setting that keeps `simulate` busy long enough
+    cluster = cluster_env(batch_size=2, test_simulate_delay=0.5, epoch_resend_after=3)
+    graph_id = seed_graph(cluster.settings)
+    doomed = cluster.start_worker("doomed")
+    app = client(cluster)
+    app.send_task("srg.grow_epoch", args=[graph_id])
+
+    def simulating() -> bool:
+        return "srg.simulate" in (cluster.logs / "doomed.log").read_text(errors="replace")
+
+    wait_for(simulating, 30, "a simulate task to start")
+    time.sleep(0.3)
+    cluster.kill(doomed)  # SIGKILL to the worker and its pool: mid-simulate
+    cluster.start_worker("survivor")
+    # beat's next ticks: the stalled epoch is re-sent once it has made no progress for 3 s
+    deadline = time.monotonic() + 90
+    while finished_epochs(cluster, graph_id) < 1 and time.monotonic() < deadline:
+        app.send_task("srg.grow_epoch", args=[graph_id])
+        time.sleep(2)
+    assert finished_epochs(cluster, graph_id) == 1, cluster.log_text()
+    run_epoch(cluster, app, graph_id, timeout=90)
+    assert _final(cluster, graph_id) == eager_reference(tmp_path, 2, batch=2)
+
+
+def test_redis_restarted_between_epochs(
+    cluster_env: Callable[..., Cluster], redis_server: RedisServer, tmp_path: Path
+) -> None:
+    cluster = cluster_env(batch_size=4)
+    graph_id = seed_graph(cluster.settings)
+    cluster.start_worker("w1")
+    app = client(cluster)
+    run_epoch(cluster, app, graph_id)
+    redis_server.stop()
+    redis_server.start()  # same port, empty: nothing queued survives
+    app = client(cluster)
+    run_epoch(cluster, app, graph_id, timeout=90)
+    run_epoch(cluster, app, graph_id)
+    assert _final(cluster, graph_id) == eager_reference(tmp_path, 3)
+
+
+def test_integrating_task_delivered_twice(
+    cluster_env: Callable[..., Cluster], tmp_path: Path
+) -> None:
+    cluster = cluster_env(batch_size=4)
+    graph_id = seed_graph(cluster.settings)
+    cluster.start_worker("w1")
+    cluster.start_worker("w2")
+    app = client(cluster)
+    app.send_task("srg.grow_epoch", args=[graph_id])
+
+    def epoch_id() -> int | None:
+        with cluster.session() as session:
+            return session.scalar(select(GrowthEpoch.id).where(GrowthEpoch.graph_id == graph_id))
+
+    wait_for(lambda: epoch_id() is not None, 30, "the epoch to be planned")
+    for position in range(4):  # duplicates of every integrating step, racing the chain
+        for _ in range(2):
+            app.send_task("srg.integrate", args=[epoch_id(), position])
+    wait_for(lambda: finished_epochs(cluster, graph_id) == 1, 60, "the epoch")
+    duplicates = [app.send_task("srg.integrate", args=[epoch_id(), p]) for p in range(4)]
+    vertices = [d.get(timeout=30) for d in duplicates]  # redelivered after the fact
+    assert all(v is not None for v in vertices)
+    assert _final(cluster, graph_id) == eager_reference(tmp_path, 1)
+
+
+def test_two_beat_ticks_at_once_open_one_epoch(
+    cluster_env: Callable[..., Cluster], tmp_path: Path
+) -> None:
+    cluster = cluster_env(batch_size=4)
+    graph_id = seed_graph(cluster.settings)
+    cluster.start_worker("w1", concurrency=2)
+    cluster.start_worker("w2", concurrency=1)
+    app = client(cluster)
+    with cluster.session() as session:
+        from app.services.growth import set_growing
+
+        set_growing(session, graph_id, True)
+        session.commit()
+    ticks = [app.send_task("srg.schedule_growth") for _ in range(2)]
+    for tick in ticks:
+        tick.get(timeout=30)
+    wait_for(lambda: finished_epochs(cluster, graph_id) >= 1, 60, "the epoch")
+    time.sleep(2)  # a second epoch, had one been opened, would show by now
+    with cluster.session() as session:
+        numbers = list(
+            session.scalars(select(GrowthEpoch.number).where(GrowthEpoch.graph_id == graph_id))
+        )
+    assert numbers == [1]
+    assert _final(cluster, graph_id) == eager_reference(tmp_path, 1)

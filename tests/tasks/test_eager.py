@@ -1,0 +1,164 @@
+"""The tasks run eagerly (no broker): the embedded default, and the steps' guarantees."""
+
+from __future__ import annotations
+
+from collections.abc import Iterator
+from pathlib import Path
+
+import numpy as np
+import pytest
+from sqlalchemy import select
+from tasks_cluster import RedisServer, migrate
+from tasks_helpers import eager_reference, seed_graph, snapshot
+
+from app.config import Settings, get_settings
+from app.core.clipbank import MemoryClipBank
+from app.core.growth import expand_blend_edge, initial_tree
+from app.core.toy import ToyDynamics
+from app.db import get_engine, session_factory
+from app.models import Graph, GrowthEpoch
+from app.services import growth
+from app.store.artifacts import ArtifactStore
+from app.store.graphs import create_graph, load_graph, save_graph
+from app.store.occupancy_cache import RedisShapeCache
+from app.tasks import celery_app
+from app.tasks.celery_app import celery_config
+from app.tasks.growth import grow_epoch, integrate
+
+
+@pytest.fixture
+def settings(tmp_path: Path, monkeypatch: pytest.MonkeyPatch) -> Iterator[Settings]:
+    """Settings (and the app's engine) of a fresh SQLite database, no broker."""
+    url = f"sqlite:///{tmp_path / 'srg.sqlite3'}"
+    migrate(url)
+    for name, value in {
+        "SRG_DATABASE_URL": url,
+        "SRG_VAR_DIR": str(tmp_path / "var"),
+        "SRG_ARTIFACT_DIR": str(tmp_path / "artifacts"),
+        "SRG_GROWTH_RENDERS": "false",
+        "SRG_BATCH_SIZE": "4",
+        "SRG_BROKER_URL": "",
+    }.items():
+        monkeypatch.setenv(name, value)
+    get_settings.cache_clear()
+    get_engine.cache_clear()
+    yield get_settings()
+    get_engine().dispose()
+    get_settings.cache_clear()
+    get_engine.cache_clear()
+
+
+def test_without_a_broker_tasks_run_eagerly() -> None:
+    assert celery_app.conf.task_always_eager
+
+
+def test_celery_is_configured_for_at_least_once_delivery() -> None:
+    settings = Settings(broker_url="redis://127.0.0.1:6379/0", task_time_limit=900)
+    conf = celery_config(settings)
+    assert conf["task_acks_late"] and conf["task_reject_on_worker_lost"]
+    assert conf["worker_prefetch_multiplier"] == 1
+    assert not conf["task_always_eager"]
+    assert conf["task_soft_time_limit"] < conf["task_time_limit"]
+    assert conf["broker_transport_options"]["visibility_timeout"] >= 2 * conf["task_time_limit"]
+
+
+def test_grow_epoch_task_grows_what_grow_graph_grows(settings: Settings, tmp_path: Path) -> None:
+    graph_id = seed_graph(settings)
+    for _ in range(2):
+        assert grow_epoch.delay(graph_id).get() is not None
+    with session_factory()() as session:
+        grown = snapshot(session, settings, graph_id)
+    assert len(grown["vertex_control"]) == 4 + 8
+    assert grown == eager_reference(tmp_path / "ref", 2)
+
+
+def test_integrating_twice_changes_nothing(settings: Settings) -> None:
+    graph_id = seed_graph(settings)
+    epoch_id = grow_epoch.delay(graph_id).get()
+    with session_factory()() as session:
+        revision = session.get_one(Graph, graph_id).revision
+        before = snapshot(session, settings, graph_id)
+    vertices = [integrate.delay(epoch_id, p).get() for p in range(4)]
+    assert vertices == [4, 5, 6, 7]
+    with session_factory()() as session:
+        assert session.get_one(Graph, graph_id).revision == revision
+        assert snapshot(session, settings, graph_id) == before
+
+
+def test_integration_waits_for_clips_and_for_plan_order(settings: Settings) -> None:
+    graph_id = seed_graph(settings)
+    with session_factory()() as session:
+        plan = growth.plan_epoch(session, settings, graph_id)
+        session.commit()
+    assert plan is not None and len(plan.expansions) == 4
+    with session_factory()() as session, pytest.raises(growth.ExpansionNotReady) as missing:
+        growth.integrate_step(session, settings, plan.epoch_id, 0)
+    assert missing.value.missing == [0, 1, 2]
+    with session_factory()() as session:
+        for control in range(3):
+            stage = growth.simulate_step(session, settings, plan.epoch_id, 1, control)
+            growth.sdf_step(session, settings, stage, plan.epoch_id, 1, control)
+        session.commit()
+    with session_factory()() as session, pytest.raises(growth.ExpansionNotReady) as early:
+        growth.integrate_step(session, settings, plan.epoch_id, 1)
+    assert early.value.waiting_for == 0
+
+
+def test_a_running_epoch_blocks_a_second_until_it_stalls(settings: Settings) -> None:
+    graph_id = seed_graph(settings)
+    with session_factory()() as session:
+        first = growth.plan_epoch(session, settings, graph_id)
+        session.commit()
+    assert first is not None
+    with session_factory()() as session:
+        assert growth.plan_epoch(session, settings, graph_id) is None
+    stalled = settings.model_copy(update={"epoch_resend_after": 0.0})
+    with session_factory()() as session:
+        again = growth.plan_epoch(session, stalled, graph_id)
+        session.commit()
+        assert again is not None and again.resent and again.epoch_id == first.epoch_id
+        work = growth.epoch_work(session, first.epoch_id)
+    assert work.pending == [0, 1, 2, 3] and len(work.missing_clips) == 12
+    with session_factory()() as session:
+        numbers = session.scalars(select(GrowthEpoch.number)).all()
+    assert numbers == [1]
+
+
+def test_a_loaded_graph_orders_equal_energies_like_the_grown_one(
+    tmp_path: Path, settings: Settings
+) -> None:
+    dynamics, bank = ToyDynamics(), MemoryClipBank()
+    graph = initial_tree(dynamics, bank)
+    for _ in range(12):
+        expand_blend_edge(graph, bank, dynamics, int(graph.blend_edges()[-1]))
+    artifacts = ArtifactStore(tmp_path / "a")
+    with session_factory()() as session:
+        graph_id = create_graph(
+            session, name="ties", dynamics="toy", n_controls=3, frames_per_clip=10
+        )
+        save_graph(session, graph_id, graph, bank, artifacts)
+        loaded, _ = load_graph(session, graph_id, artifacts)
+    assert loaded._sim_edges == graph._sim_edges
+
+
+def test_occupancy_reads_go_through_redis(tmp_path: Path, redis_server_url: str) -> None:
+    cache = RedisShapeCache.from_url(redis_server_url, ttl=60)
+    occupancy, descriptor = np.arange(6, dtype=np.uint8), np.ones(3)
+    assert cache.get("abc") is None
+    cache.put("abc", occupancy, descriptor)
+    hit = cache.get("abc")
+    assert hit is not None
+    np.testing.assert_array_equal(hit[0], occupancy)
+    np.testing.assert_array_equal(hit[1], descriptor)
+    assert (cache.hits, cache.misses) == (1, 1)
+
+
+def test_redis_down_is_a_cache_miss() -> None:
+    cache = RedisShapeCache.from_url("redis://127.0.0.1:1/0", ttl=60)
+    cache.put("abc", np.zeros(2), np.zeros(2))
+    assert cache.get("abc") is None
+
+
+@pytest.fixture
+def redis_server_url(redis_server: RedisServer) -> str:
+    return redis_server.url
