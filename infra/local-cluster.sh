@@ -17,16 +17,16 @@ export SRG_BROKER_URL=${SRG_BROKER_URL:-redis://127.0.0.1:6379/0}
 export SRG_RESULT_BACKEND=${SRG_RESULT_BACKEND:-$SRG_BROKER_URL}
 export SRG_DATABASE_URL=${SRG_DATABASE_URL:-postgresql+psycopg://postgres@127.0.0.1:5432/srg}
 export FLOWER_UNAUTHENTICATED_API=${FLOWER_UNAUTHENTICATED_API:-true}
-celery=${SRG_CELERY:-$(dirname "$(command -v python)")/celery}
+srg=${SRG_COMMAND:-$(dirname "$(command -v python)")/srg}
 
 say() { echo "local-cluster: $*"; }
 
 running() { [ -f "$1" ] && kill -0 "$(cat "$1")" 2>/dev/null; }
 
-start_one() {  # name, then the celery arguments
+start_one() {  # name, then the srg command and its arguments
   local name=$1; shift
   if running "$dir/$name.pid"; then say "$name already running (pid $(cat "$dir/$name.pid"))"; return; fi
-  setsid "$celery" -A app.tasks "$@" >>"$dir/$name.log" 2>&1 &
+  setsid "$srg" "$@" >>"$dir/$name.log" 2>&1 &
   echo $! >"$dir/$name.pid"
   say "$name started (pid $!, log $dir/$name.log)"
 }
@@ -46,10 +46,10 @@ case "${1:-start}" in
   start)
     mkdir -p "$dir"
     for i in $(seq 1 "$workers"); do
-      start_one "worker$i" worker --loglevel=INFO --concurrency=1 "--hostname=worker$i@%h"
+      start_one "worker$i" worker --concurrency 1 --hostname "worker$i@%h"
     done
-    start_one beat beat --loglevel=INFO "--schedule=$dir/celerybeat-schedule"
-    start_one flower flower "--port=${SRG_FLOWER_PORT:-5555}" --address=127.0.0.1
+    start_one beat beat --schedule "$dir/celerybeat-schedule"
+    start_one flower flower --port "${SRG_FLOWER_PORT:-5555}" --address 127.0.0.1
     ;;
   stop)
     for pidfile in "$dir"/*.pid; do [ -e "$pidfile" ] && stop_one "$pidfile"; done
