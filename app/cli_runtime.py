@@ -85,12 +85,20 @@ def bench_grow(
     batch: int = typer.Option(8, help="expansions per epoch"),
     workers: str = typer.Option("1,2", help="comma-separated worker-process counts"),
     sizes: str = typer.Option("1000,10000,100000", help="graph sizes (edges) to integrate at"),
+    dynamics: str = typer.Option("toy", help="dynamics of the throughput runs: toy or liquid"),
+    preset: str | None = typer.Option(None, help="liquid preset (default tiny)"),
     json_output: bool = typer.Option(True, "--json/--no-json", help="print JSON (default)"),
 ) -> None:
     """Expansions per minute on 1 and 2 worker processes; integration time vs graph size."""
     from app.services.bench_grow import bench_grow as run
+    from app.services.dynamics import make_dynamics
 
+    if dynamics == "liquid":
+        preset = preset or "tiny"
+    make_dynamics(dynamics, preset)  # bad names fail here, before any service starts
     result = run(
+        dynamics=dynamics,
+        preset=preset,
         epochs=epochs,
         batch=batch,
         worker_counts=[int(w) for w in workers.split(",")],

@@ -1,7 +1,8 @@
 """``srg bench grow``: distributed growth throughput and the integrating step's cost.
 
 Throughput: a private redis-server, a fresh PostgreSQL database and one
-``celery worker --concurrency=W`` (W worker processes) grow a toy graph for a few
+``celery worker --concurrency=W`` (W worker processes) grow a graph (toy, or the liquid
+``tiny`` preset with ``--dynamics liquid``) for a few
 epochs; expansions per minute of wall time, end to end (plan, simulate, sdf, render,
 integrate in order, blend). Integration: a toy graph of E edges is grown in memory
 (prefilter 8 to build it fast), saved, and expansions are integrated one transaction
@@ -92,7 +93,9 @@ def _redis(directory: Path) -> Iterator[str]:
         process.wait()
 
 
-def _throughput(workers: int, epochs: int, batch: int) -> dict[str, Any]:
+def _throughput(
+    workers: int, epochs: int, batch: int, dynamics: str, preset: str | None
+) -> dict[str, Any]:
     from app.services.graphs import init_graph
     from app.tasks.celery_app import make_celery
 
@@ -108,7 +111,14 @@ def _throughput(workers: int, epochs: int, batch: int) -> dict[str, Any]:
         sessions = session_factory(make_engine(url))
         with sessions() as session:
             graph_id = int(
-                init_graph(session, settings, name="bench", strategy="sr-heuristic")["id"]
+                init_graph(
+                    session,
+                    settings,
+                    name="bench",
+                    dynamics=dynamics,
+                    preset=preset,
+                    strategy="sr-heuristic",
+                )["id"]
             )  # type: ignore[call-overload]
             session.commit()
         env = {k: v for k, v in os.environ.items() if not k.startswith("SRG_")}
@@ -228,11 +238,19 @@ def _integration(edges: int, expansions: int = 8) -> dict[str, Any]:
 
 
 def bench_grow(
-    *, epochs: int, batch: int, worker_counts: list[int], sizes: list[int]
+    *,
+    epochs: int,
+    batch: int,
+    worker_counts: list[int],
+    sizes: list[int],
+    dynamics: str = "toy",
+    preset: str | None = None,
 ) -> dict[str, Any]:
+    """Throughput on ``dynamics`` (and ``preset``); integration cost on the toy."""
     return {
-        "dynamics": "toy",
+        "dynamics": dynamics,
+        "preset": preset,
         "cpus": os.cpu_count(),
-        "throughput": [_throughput(w, epochs, batch) for w in worker_counts],
+        "throughput": [_throughput(w, epochs, batch, dynamics, preset) for w in worker_counts],
         "integration": [_integration(e) for e in sizes],
     }
