@@ -74,7 +74,7 @@ def publication_out(session: Session, graph: Graph, publication_id: int) -> Publ
         .where(PublicationEdge.publication_id == publication_id)
         .order_by(PublicationEdge.vertex, PublicationEdge.control)
     ).all()
-    n = graph.n_controls
+    n, k = graph.n_controls, graph.frames_per_clip
     out = [
         EdgeOut(
             dst=dst,
@@ -82,6 +82,7 @@ def publication_out(session: Session, graph: Graph, publication_id: int) -> Publ
             err=err,
             score=score,
             animation=None if animation is None else f"/api/animations/{animation}",
+            poster=None if animation is None else f"/api/animations/{animation}/poster?frames={k}",
         )
         for dst, kind, err, score, animation in edges
     ]

@@ -65,6 +65,8 @@ class EdgeOut(BaseModel):
     score: float
     #: URL of the animation strip, or null where the edge has none (draw a placeholder)
     animation: str | None
+    #: URL of the strip's first frame as a still image (null with the animation)
+    poster: str | None
 
 
 class PublicationOut(BaseModel):

@@ -2,9 +2,14 @@
 
 from __future__ import annotations
 
+import io
+
 import numpy as np
 from api_helpers import ADMIN_TOKEN, Published
 from fastapi.testclient import TestClient
+from PIL import Image
+
+from app.render.animation import decode_strip
 
 
 def test_graphs_list_the_latest_publication(client: TestClient, published: Published) -> None:
@@ -99,3 +104,29 @@ def test_admin_grow_then_publish_serves_a_bigger_playable_publication(
     assert all(edge["animation"] for edge in edges)  # publish renders what was missing
     assert client.post(f"{base}/grow", json={"expansions": 0}, headers=admin).status_code == 422
     assert client.post("/api/graphs/nope/grow", headers=admin).status_code == 404
+
+
+def test_posters_are_the_first_frame_of_real_strips(
+    client: TestClient, published: Published
+) -> None:
+    admin = {"Authorization": f"Bearer {ADMIN_TOKEN}"}
+    assert client.post(f"/api/graphs/{published.name}/publish", headers=admin).status_code == 200
+    data = client.get(f"/api/graphs/{published.name}/publication").json()
+    edge = data["vertices"][data["start"]][1]
+    k = data["frames_per_clip"]
+    assert edge["poster"] == f"{edge['animation']}/poster?frames={k}"
+    strip = decode_strip(client.get(edge["animation"]).content, k)
+    reply = client.get(edge["poster"])
+    assert reply.status_code == 200 and reply.headers["content-type"] == "image/webp"
+    assert "immutable" in reply.headers["cache-control"]
+    poster = np.asarray(Image.open(io.BytesIO(reply.content)).convert("RGB"))
+    assert poster.shape == strip[0].shape
+    assert np.abs(poster.astype(int) - strip[0].astype(int)).mean() < 8  # lossy WebP twice
+    again = client.get(edge["poster"], headers={"If-None-Match": reply.headers["etag"]})
+    assert again.status_code == 304
+    bad = client.get(f"{edge['animation']}/poster", params={"frames": 7})
+    assert bad.status_code == 422 and "not a strip of 7 frames" in bad.json()["error"]
+    assert client.get(f"{edge['animation']}/poster").status_code == 422
+    assert client.get(f"/api/animations/{'0' * 64}/poster?frames={k}").status_code == 404
+    fake = client.get(f"/api/animations/{published.animation}/poster?frames={k}")
+    assert fake.status_code == 422

@@ -1,21 +1,26 @@
-"""Animation strips, served by content hash with caching headers to match.
+"""Animation strips and their posters, served by content hash with caching headers to match.
 
 The URL names the bytes (sha256), so a response can be cached forever: ``immutable``
 and a year's ``max-age``; the hash is also the strong ``ETag``. Only image artifacts
-are served: clip bundles are internal data.
+are served: clip bundles are internal data. A poster (the strip's first frame, for a
+first paint before strips are decoded) is cut from the strip on request rather than
+stored: it is derived data, small, and as cacheable as the strip it comes from.
 """
 
 from __future__ import annotations
 
 import re
+from pathlib import Path
+from typing import Annotated
 
-from fastapi import APIRouter, Depends, Request, Response
+from fastapi import APIRouter, Depends, Query, Request, Response
 from fastapi.responses import FileResponse
 from sqlalchemy.orm import Session
 
 from app.api.deps import get_session
 from app.api.errors import ApiError
 from app.api.queries import animation_media_type
+from app.render.animation import POSTER_MEDIA_TYPE, decode_strip, encode_poster
 from app.store.artifacts import ArtifactStore
 
 router = APIRouter(prefix="/api/animations", tags=["animations"])
@@ -24,14 +29,51 @@ SHA256_HEX = re.compile(r"[0-9a-f]{64}")
 IMMUTABLE = "public, max-age=31536000, immutable"
 
 
-@router.get("/{digest}", response_class=FileResponse)
-def animation(digest: str, request: Request, session: Session = Depends(get_session)) -> Response:
+def _stored(session: Session, request: Request, digest: str) -> tuple[Path, str]:
+    """The file and media type of an animation artifact, or a 404."""
     media_type = animation_media_type(session, digest) if SHA256_HEX.fullmatch(digest) else None
     store: ArtifactStore = request.app.state.artifacts
     path = store.path_for(digest) if media_type else None
-    if path is None or not path.is_file():
+    if media_type is None or path is None or not path.is_file():
         raise ApiError(404, f"no animation {digest}")
-    headers = {"ETag": f'"{digest}"', "Cache-Control": IMMUTABLE}
-    if f'"{digest}"' in request.headers.get("if-none-match", ""):
+    return path, media_type
+
+
+def _not_modified(request: Request, etag: str) -> Response | None:
+    headers = {"ETag": etag, "Cache-Control": IMMUTABLE}
+    if etag in request.headers.get("if-none-match", ""):
         return Response(status_code=304, headers=headers)
-    return FileResponse(path, media_type=media_type, headers=headers)
+    return None
+
+
+@router.get("/{digest}", response_class=FileResponse)
+def animation(digest: str, request: Request, session: Session = Depends(get_session)) -> Response:
+    path, media_type = _stored(session, request, digest)
+    etag = f'"{digest}"'
+    headers = {"ETag": etag, "Cache-Control": IMMUTABLE}
+    return _not_modified(request, etag) or FileResponse(
+        path, media_type=media_type, headers=headers
+    )
+
+
+@router.get("/{digest}/poster")
+def poster(
+    digest: str,
+    frames: Annotated[int, Query(ge=1, le=1000, description="frames in the strip (k)")],
+    request: Request,
+    session: Session = Depends(get_session),
+) -> Response:
+    """The first frame of a strip of ``frames`` frames, as a still image."""
+    path, _ = _stored(session, request, digest)
+    etag = f'"{digest}-poster-{frames}"'
+    cached = _not_modified(request, etag)
+    if cached is not None:
+        return cached
+    try:
+        images = decode_strip(path.read_bytes(), frames)
+    except (ValueError, OSError) as exc:  # not a strip of that many frames, or no image
+        raise ApiError(
+            422, f"animation {digest} is not a strip of {frames} frames: {exc}"
+        ) from None
+    headers = {"ETag": etag, "Cache-Control": IMMUTABLE}
+    return Response(encode_poster(images), media_type=POSTER_MEDIA_TYPE, headers=headers)

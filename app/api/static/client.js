@@ -286,6 +286,7 @@ async function main() {
     game.trace = newTrace();
     stats.publicationId = game.pub.publication_id;
     $("publication").textContent = `publication ${game.pub.number}: ${game.pub.n_vertices} vertices`;
+    paintPoster(game.pub.vertices[game.vertex][CONTROLS.LEVEL].poster);
     const firstStrips = Promise.all(preloadFrom(game.vertex));
     await Promise.race([firstStrips, new Promise((resolve) => setTimeout(resolve, START_WAIT_MS))]);
     document.addEventListener("visibilitychange", () => (document.hidden ? pause() : play()));
@@ -295,6 +296,14 @@ async function main() {
   } catch (error) {
     status.textContent = `cannot play: ${error.message}`;
   }
+}
+
+// A still of the start state while the first strips load (replaced by the first clip).
+function paintPoster(url) {
+  if (!url) return;
+  const image = new Image();
+  image.onload = () => { if (stats.clips === 0) ctx.drawImage(image, 0, 0, canvas.width, canvas.height); };
+  image.src = url;
 }
 
 window.srg = { endTrace, restart, stats };
