@@ -7,31 +7,17 @@ returns and rolls back (writing nothing) when it raises.
 from __future__ import annotations
 
 import json
-from collections.abc import Callable, Iterator
-from contextlib import contextmanager
+from collections.abc import Callable
 from dataclasses import asdict, is_dataclass
 from pathlib import Path
 from typing import Any
 
 import typer
-from sqlalchemy.orm import Session
+
+from app.db import transaction
 
 db_app = typer.Typer(help="The database schema (Alembic migrations).", no_args_is_help=True)
 ROOT = Path(__file__).resolve().parents[1]
-
-
-@contextmanager
-def transaction() -> Iterator[Session]:
-    """One session whose work is committed at the end, or rolled back on any error."""
-    from app.db import session_factory
-
-    with session_factory()() as session:
-        try:
-            yield session
-            session.commit()
-        except BaseException:
-            session.rollback()
-            raise
 
 
 def emit(result: Any, as_json: bool) -> None:

@@ -55,7 +55,8 @@ def set_growing(
     on: bool = typer.Option(..., "--on/--off", help="grow it on every beat tick, or stop"),
 ) -> None:
     """Mark a graph for beat's periodic growth (or take it off)."""
-    from app.cli_graph import emit, transaction
+    from app.cli_graph import emit
+    from app.db import transaction
     from app.services.growth import set_growing as mark
 
     with transaction() as session:
@@ -64,7 +65,7 @@ def set_growing(
 
 def grow_epoch(name: str = typer.Argument(..., help="graph name or id")) -> None:
     """Send one grow_epoch task now (what beat sends); prints its task id."""
-    from app.cli_graph import transaction
+    from app.db import transaction
     from app.store.graphs import get_graph_row
     from app.tasks.growth import grow_epoch as task
 

@@ -8,6 +8,8 @@ SQLAlchemy (not the pysqlite driver) begins, so SAVEPOINTs work.
 
 from __future__ import annotations
 
+from collections.abc import Iterator
+from contextlib import contextmanager
 from functools import lru_cache
 from pathlib import Path
 from typing import Any
@@ -72,3 +74,18 @@ def get_engine() -> Engine:
 def session_factory(engine: Engine | None = None) -> sessionmaker[Session]:
     """Sessions that keep loaded objects usable after commit (callers own transactions)."""
     return sessionmaker(bind=engine or get_engine(), expire_on_commit=False)
+
+
+@contextmanager
+def transaction() -> Iterator[Session]:
+    """One session whose work is committed at the end, or rolled back on any error.
+
+    The unit of work of a CLI command and of a Celery task alike.
+    """
+    with session_factory()() as session:
+        try:
+            yield session
+            session.commit()
+        except BaseException:
+            session.rollback()
+            raise

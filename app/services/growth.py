@@ -33,7 +33,8 @@ from app.config import Settings
 from app.core.dynamics import ClipFeatures, Dynamics, SimClip
 from app.core.graph import EdgeKind
 from app.core.growth import integrate_expansion, relink_all, select_for_expansion
-from app.core.strategies import Strategy, edge_weights
+from app.core.refinement import Refiner
+from app.core.strategies import EdgeWeights, Strategy, edge_weights
 from app.db import begin_immediate
 from app.models import Clip, Edge, ExpansionClip, Graph, GrowthEpoch
 from app.render.animation import STRIP_MEDIA_TYPE, encode_strip
@@ -163,6 +164,17 @@ def _warm_start(session: Session, loaded: LoadedGraph) -> np.ndarray | None:
     return pi if pi.size <= loaded.graph.n_vertices else None
 
 
+def _rank(session: Session, loaded: LoadedGraph, refiner: Refiner) -> EdgeWeights:
+    """Edge weights under the refiner's strategy, STATERANK warm-started from the last pi."""
+    return edge_weights(
+        refiner.strategy,
+        loaded.graph,
+        refiner.player_model(),
+        restart=refiner.restart,
+        warm_start=_warm_start(session, loaded),
+    )
+
+
 def plan_epoch(
     session: Session,
     settings: Settings,
@@ -190,13 +202,7 @@ def plan_epoch(
         return EpochPlan(running.id, graph_id, plan, running.relinks, resent=True)
     loaded = loaded_graph(session, settings, row)
     refiner = refiner_for(session, settings, loaded, strategy)
-    ranked = edge_weights(
-        refiner.strategy,
-        loaded.graph,
-        refiner.player_model(),
-        restart=refiner.restart,
-        warm_start=_warm_start(session, loaded),
-    )
+    ranked = _rank(session, loaded, refiner)
     outcome = select_for_expansion(
         loaded.graph, ranked.weights, count or refiner.config.batch_size, refiner.relink
     )
@@ -575,14 +581,7 @@ def rank_graph(session: Session, settings: Settings, graph_id: int) -> str | Non
     if row is None:
         raise GraphNotFound(f"no graph {graph_id!r}")
     loaded = loaded_graph(session, settings, row)
-    refiner = refiner_for(session, settings, loaded)
-    ranked = edge_weights(
-        refiner.strategy,
-        loaded.graph,
-        refiner.player_model(),
-        restart=refiner.restart,
-        warm_start=_warm_start(session, loaded),
-    )
+    ranked = _rank(session, loaded, refiner_for(session, settings, loaded))
     keep_graph(session, loaded)
     if ranked.rank is None:
         return None

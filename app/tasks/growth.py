@@ -16,17 +16,15 @@ on the way (a killed worker, a restarted Redis) is found and re-sent by the next
 
 from __future__ import annotations
 
-from collections.abc import Iterator
-from contextlib import contextmanager
 from typing import Any
 
 from celery import chain, chord
 from celery.canvas import Signature
 from sqlalchemy import select
 from sqlalchemy.exc import IntegrityError, OperationalError
-from sqlalchemy.orm import Session
 
 from app.config import get_settings
+from app.db import transaction
 from app.services import growth
 from app.store.graphs import StaleGraph
 from app.tasks.celery_app import celery_app
@@ -35,27 +33,13 @@ from app.tasks.celery_app import celery_app
 NOT_READY_DELAY = 2.0
 
 
-@contextmanager
-def task_session() -> Iterator[Session]:
-    """One transaction per task: committed when the step returns, else rolled back."""
-    from app.db import session_factory
-
-    with session_factory()() as session:
-        try:
-            yield session
-            session.commit()
-        except BaseException:
-            session.rollback()
-            raise
-
-
 @celery_app.task(name="srg.simulate")
 def simulate(epoch_id: int, position: int, control: int) -> str:
     """Simulate one clip of a planned expansion; the stage artifact's digest.
 
     Toy: the whole clip. Liquid: PCISPH only (particle positions and end state).
     """
-    with task_session() as session:
+    with transaction() as session:
         return growth.simulate_step(session, get_settings(), epoch_id, position, control)
 
 
@@ -65,14 +49,14 @@ def sdf(stage: str, epoch_id: int, position: int, control: int) -> str:
 
     Records the clip on ``expansion_clips``; returns the clip artifact's digest.
     """
-    with task_session() as session:
+    with transaction() as session:
         return growth.sdf_step(session, get_settings(), stage, epoch_id, position, control)
 
 
 @celery_app.task(name="srg.render")
 def render(clip: str, epoch_id: int, position: int, control: int) -> str:
     """Render the clip's animation strip (stored, attached at integration)."""
-    with task_session() as session:
+    with transaction() as session:
         return growth.render_step(session, get_settings(), clip, epoch_id, position, control)
 
 
@@ -81,7 +65,7 @@ def integrate(self: Any, epoch_id: int, position: int) -> int | None:
     """Swap one planned expansion into the graph (once); the new vertex's index."""
     settings = get_settings()
     try:
-        with task_session() as session:
+        with transaction() as session:
             outcome = growth.integrate_step(session, settings, epoch_id, position)
     except growth.ExpansionNotReady as exc:
         if exc.missing:
@@ -98,14 +82,14 @@ def integrate(self: Any, epoch_id: int, position: int) -> int | None:
 @celery_app.task(name="srg.blend")
 def blend(epoch_id: int) -> int:
     """Render eq. 8's blend of the epoch's new BLEND edges; how many were rendered."""
-    with task_session() as session:
+    with transaction() as session:
         return growth.blend_step(session, get_settings(), epoch_id)
 
 
 @celery_app.task(name="srg.rank")
 def rank(graph_id: int) -> str | None:
     """STATERANK of the graph now (warm-started), stored: the ``pi`` artifact's digest."""
-    with task_session() as session:
+    with transaction() as session:
         return growth.rank_graph(session, get_settings(), graph_id)
 
 
@@ -114,7 +98,7 @@ def relink(self: Any, graph_id: int) -> int:
     """Relink every BLEND edge to its best target now (between epochs); how many moved."""
     settings = get_settings()
     try:
-        with task_session() as session:
+        with transaction() as session:
             return growth.relink_graph(session, settings, graph_id)
     except growth.EpochRunning as exc:
         raise self.retry(exc=exc, countdown=settings.beat_interval) from exc
@@ -125,7 +109,7 @@ def publish(self: Any, graph_id: int) -> int:
     """Pre-publish relinking, missing animations, a frozen publication; its id."""
     settings = get_settings()
     try:
-        with task_session() as session:
+        with transaction() as session:
             return growth.publish_between_epochs(session, settings, graph_id)
     except growth.EpochRunning as exc:
         raise self.retry(exc=exc, countdown=settings.beat_interval) from exc
@@ -139,14 +123,14 @@ def grow_epoch(graph_id: int) -> int | None:
     """
     settings = get_settings()
     try:
-        with task_session() as session:
+        with transaction() as session:
             plan = growth.plan_epoch(session, settings, graph_id)
     except IntegrityError:  # another tick opened the same epoch number first
         return None
     if plan is None:
         return None
     if plan.expansions:
-        with task_session() as session:
+        with transaction() as session:
             work = growth.epoch_work(session, plan.epoch_id)
         epoch_canvas(work, renders=settings.growth_renders).apply_async()
     return plan.epoch_id
@@ -157,7 +141,7 @@ def schedule_growth() -> list[int]:
     """Beat's tick: one ``grow_epoch`` per graph with ``growing = true``."""
     from app.models import Graph
 
-    with task_session() as session:
+    with transaction() as session:
         ids = list(session.scalars(select(Graph.id).where(Graph.growing.is_(True))))
     for graph_id in ids:
         grow_epoch.delay(graph_id)
