@@ -10,7 +10,7 @@ from __future__ import annotations
 from functools import lru_cache
 from pathlib import Path
 
-from pydantic import Field
+from pydantic import AliasChoices, Field
 from pydantic_settings import BaseSettings, SettingsConfigDict
 
 
@@ -32,6 +32,16 @@ class Settings(BaseSettings):
     crowd_radius: float = Field(0.0, description="crowd model kernel radius r (0: per dynamics)")
     crowd_eps: float = Field(1e-3, description="crowd model prior weight epsilon")
     high_error_threshold: float = Field(0.0, description="0: per dynamics default")
+
+    # Rendering
+    render_variant: str = Field(
+        "auto", description="Mitsuba variant: auto (LLVM when a working libLLVM is found)"
+    )
+    llvm_path: str = Field(
+        "",
+        validation_alias=AliasChoices("SRG_LLVM_PATH", "DRJIT_LIBLLVM_PATH"),
+        description="libLLVM for Mitsuba's LLVM variant ('': look in the system's lib dirs)",
+    )
 
     # OpenCL
     opencl_device: str = Field("", description="substring of the OpenCL device name; '' = PoCL CPU")

@@ -6,16 +6,22 @@ process and kept as loaded Mitsuba objects; each frame only makes a new mesh and
 re-assembles the scene around it (about 10 ms), so the PLY/XML parsing and plugin
 construction are not repeated.
 
-Variant: ``scalar_rgb`` works everywhere. Mitsuba's LLVM variant is opt-in
-(:func:`llvm_variant_usable`) because the LLVM 14/15 on the build machines crash inside
-Dr.Jit; it needs ``DRJIT_LIBLLVM_PATH`` pointing at a newer libLLVM.
+Variant: ``scalar_rgb`` works everywhere. Mitsuba's LLVM variant is about three times
+faster here, but the LLVM 14/15 that Debian installs by default crash inside Dr.Jit, so
+:func:`pick_variant` uses it only when a newer libLLVM is given (``DRJIT_LIBLLVM_PATH``)
+or found (Debian's ``libllvm19``, ``libllvm18``...) *and* a probe render in a child
+process succeeds; otherwise it falls back to ``scalar_rgb``.
 """
 
 from __future__ import annotations
 
+import logging
+import os
 import subprocess
 import sys
 from dataclasses import dataclass
+from functools import cache
+from pathlib import Path
 from typing import Any
 
 import drjit as dr
@@ -27,6 +33,14 @@ from app.core.surface import SurfaceGrid
 from app.render.meshing import surface_mesh
 
 DEFAULT_VARIANT = "scalar_rgb"
+LLVM_VARIANT = "llvm_ad_rgb"
+#: libLLVM builds Dr.Jit's LLVM backend runs with, newest first (14 and 15 crash in it)
+LLVM_LIBRARIES = tuple(
+    f"{directory}/{name}"
+    for name in ("libLLVM.so.19.1", "libLLVM-19.so", "libLLVM-18.so", "libLLVM-17.so")
+    for directory in ("/usr/lib/x86_64-linux-gnu", "/usr/lib/aarch64-linux-gnu", "/usr/lib")
+)
+log = logging.getLogger(__name__)
 #: water: refractive index 1.33 with a faint blue tint so thin sheets still read as water
 WATER_IOR = 1.33
 WATER_TINT = (0.75, 0.88, 1.0)
@@ -60,6 +74,27 @@ def llvm_variant_usable() -> bool:
     except subprocess.TimeoutExpired:
         return False
     return done.returncode == 0
+
+
+@cache
+def pick_variant(preference: str = "auto", llvm_path: str = "") -> str:
+    """The Mitsuba variant to render with, decided once per process.
+
+    ``preference`` ``"auto"`` means the LLVM variant when a working libLLVM exists:
+    ``llvm_path``, else the first of :data:`LLVM_LIBRARIES` on disk. Dr.Jit reads the
+    library's path from ``DRJIT_LIBLLVM_PATH`` when its LLVM backend starts, so it is set
+    for this process and the probe child (and workers forked later) before the probe.
+    """
+    if preference != "auto":
+        return preference
+    path = llvm_path or next((p for p in LLVM_LIBRARIES if Path(p).is_file()), "")
+    if not path:
+        log.info("rendering with %s: no libLLVM >= 17 found", DEFAULT_VARIANT)
+        return DEFAULT_VARIANT
+    os.environ["DRJIT_LIBLLVM_PATH"] = path
+    variant = LLVM_VARIANT if llvm_variant_usable() else DEFAULT_VARIANT
+    log.info("rendering with %s (libLLVM %s)", variant, path)
+    return variant
 
 
 def _box(box: Box, bsdf: Any) -> Any:

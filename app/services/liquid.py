@@ -19,6 +19,7 @@ from pathlib import Path
 
 import numpy as np
 
+from app.config import get_settings
 from app.core.dynamics import ClipFeatures, SimClip
 from app.core.liquid_metrics import (
     LiquidMetricParams,
@@ -39,7 +40,7 @@ from app.core.surface import (
 )
 from app.kernels.sdf import SdfKernel
 from app.kernels.sph import SphSimulator
-from app.render.mitsuba_scene import LiquidRenderer, RenderSettings
+from app.render.mitsuba_scene import LiquidRenderer, RenderSettings, pick_variant
 
 CALIBRATION_DIR = Path(__file__).resolve().parents[1] / "data" / "calibration"
 
@@ -146,7 +147,9 @@ class LiquidDynamics:
     @property
     def renderer(self) -> LiquidRenderer:
         if self._renderer is None:
-            self._renderer = LiquidRenderer(self.scene, self.grid, self.render_settings)
+            settings = get_settings()
+            variant = pick_variant(settings.render_variant, settings.llvm_path)
+            self._renderer = LiquidRenderer(self.scene, self.grid, self.render_settings, variant)
         return self._renderer
 
     # ---- Dynamics operations ---------------------------------------------------------

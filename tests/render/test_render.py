@@ -3,6 +3,8 @@
 from __future__ import annotations
 
 import dataclasses
+import os
+from pathlib import Path
 
 import numpy as np
 import pytest
@@ -11,7 +13,7 @@ from app.core.scene import initial_particles, tilt_tank
 from app.core.surface import surface_grid, zhu_bridson_sdf
 from app.render.animation import STRIP_MEDIA_TYPE, decode_strip, encode_poster, encode_strip
 from app.render.meshing import surface_mesh
-from app.render.mitsuba_scene import LiquidRenderer, RenderSettings
+from app.render.mitsuba_scene import LiquidRenderer, RenderSettings, pick_variant
 
 SCENE = tilt_tank("tiny")
 GRID = surface_grid(SCENE)
@@ -70,3 +72,15 @@ def test_strip_round_trips_frames_side_by_side() -> None:
     assert encode_poster(frames)[8:12] == b"WEBP"
     with pytest.raises(ValueError):
         decode_strip(data, 7)
+
+
+def test_the_variant_choice_falls_back_to_scalar_without_a_working_libllvm(
+    monkeypatch: pytest.MonkeyPatch, tmp_path: Path
+) -> None:
+    monkeypatch.setenv("DRJIT_LIBLLVM_PATH", "")  # restored after the test
+    choose = pick_variant.__wrapped__  # uncached: each call decides afresh
+    assert choose("scalar_rgb") == "scalar_rgb"
+    broken = tmp_path / "libLLVM.so.19.1"
+    broken.write_bytes(b"not a shared library")
+    assert choose("auto", str(broken)) == "scalar_rgb"
+    assert os.environ["DRJIT_LIBLLVM_PATH"] == str(broken)
