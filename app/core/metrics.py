@@ -15,8 +15,14 @@ from dataclasses import asdict, dataclass
 
 import numpy as np
 
-from app.core.player_models import Trace, trace_edges
-from app.core.staterank import expected_error
+from app.core.player_models import (
+    Trace,
+    mean_session_length,
+    observed_control_counts,
+    observed_player_model,
+    trace_edges,
+)
+from app.core.staterank import edge_probabilities, expected_error, staterank
 
 #: Default histogram resolution: bins of equal width over [0, upper].
 HISTOGRAM_BINS = 20
@@ -111,6 +117,57 @@ def density_agreement(predicted: np.ndarray, observed: np.ndarray) -> tuple[floa
     return float(np.corrcoef(p, q)[0, 1]), tv_distance
 
 
+def predicted_edge_probabilities(
+    edge_dst: np.ndarray, model: np.ndarray, start: int, restart: float
+) -> np.ndarray:
+    """STATERANK's P(e) = pi(v) P(c|v) on a published graph under the player model ``model``.
+
+    Taken on the publication players get, after pre-publish relinking: relinking moves
+    blend targets, and so where play goes, as well as the errors.
+
+    Parameters
+    ----------
+    edge_dst : ndarray of int, shape (V * N,)
+        Destination of edge ``e = v * N + c``.
+    model : ndarray, shape (V, N)
+        P(c|v).
+    start : int
+        Where every session starts.
+    restart : float
+        rho = 1 / L, L the mean session length in steps.
+    """
+    model = np.asarray(model, dtype=np.float64)
+    edge_dst = np.asarray(edge_dst, dtype=np.int64)
+    if model.ndim != 2 or edge_dst.shape != (model.size,):
+        raise ValueError(f"edge_dst {edge_dst.shape} must hold one entry per cell of {model.shape}")
+    n_vertices, n_controls = model.shape
+    src = np.arange(edge_dst.size) // n_controls
+    prob = model.reshape(-1)
+    rank = staterank(src, edge_dst, prob, n_vertices, start, restart)
+    return edge_probabilities(rank.pi, src, prob)
+
+
+def per_vertex_bound_edge_probabilities(
+    traces: Sequence[Trace], edge_dst: np.ndarray, start: int, fallback: np.ndarray
+) -> np.ndarray:
+    """P(e) under :func:`~app.core.player_models.observed_player_model` of these traces.
+
+    The restart is 1 / L with L these traces' own mean session length, so neither the
+    per-vertex controls nor the session length are predicted: what still separates this
+    expected error from the observed one is what no per-vertex Markov model can hold
+    (controls that depend on more than the vertex) and sampling noise. ``fallback`` is the
+    model for vertices no trace visited.
+
+    Raises ValueError when the traces have no step.
+    """
+    fallback = np.asarray(fallback, dtype=np.float64)
+    counts = observed_control_counts(traces, fallback.shape[0], fallback.shape[1])
+    model = observed_player_model(counts, fallback=fallback)
+    return predicted_edge_probabilities(
+        edge_dst, model, start, 1.0 / max(mean_session_length(traces), 1.0)
+    )
+
+
 @dataclass(frozen=True)
 class CheckpointReport:
     """The evaluation numbers of one graph at one checkpoint (DESIGN section 7)."""
@@ -127,6 +184,10 @@ class CheckpointReport:
     predicted_expected_error: float
     #: (predicted - observed) / observed: -0.5 means the prediction is half the observation
     expected_error_relative_difference: float
+    #: expected error under the per-vertex bound (NaN when not given) and its relative
+    #: difference to the observed error
+    per_vertex_bound_expected_error: float
+    per_vertex_bound_relative_difference: float
 
     def to_dict(self) -> dict[str, object]:
         """Plain JSON-able dict; NaN (undefined correlation or ratio) becomes None."""
@@ -144,6 +205,7 @@ def evaluate_checkpoint(
     high_error_threshold: float,
     *,
     bins: int = HISTOGRAM_BINS,
+    bound_edge_prob: np.ndarray | None = None,
 ) -> CheckpointReport:
     """Compare what players saw on a graph with what STATERANK predicted for it.
 
@@ -161,6 +223,9 @@ def evaluate_checkpoint(
         Error above which a step counts as high-error.
     bins : int
         Histogram bins over ``[0, HISTOGRAM_RANGE * high_error_threshold]``.
+    bound_edge_prob : ndarray, shape (V * N,), optional
+        P(e) of :func:`per_vertex_bound_edge_probabilities` for the same traces, reported
+        next to the prediction as the best any per-vertex model could have predicted.
 
     Raises ValueError when the traces have no step.
     """
@@ -180,7 +245,7 @@ def evaluate_checkpoint(
         predicted_edge_prob, observed_edge_density(traces, err.size, n_controls)
     )
     predicted = expected_error(predicted_edge_prob, err)
-    relative = (predicted - observed_mean) / observed_mean if observed_mean > 0.0 else math.nan
+    bound = math.nan if bound_edge_prob is None else expected_error(bound_edge_prob, err)
     return CheckpointReport(
         n_traces=len(traces),
         n_steps=int(counts.sum()),
@@ -192,8 +257,15 @@ def evaluate_checkpoint(
         density_correlation=correlation,
         density_tv_distance=tv_distance,
         predicted_expected_error=predicted,
-        expected_error_relative_difference=relative,
+        expected_error_relative_difference=relative_difference(predicted, observed_mean),
+        per_vertex_bound_expected_error=bound,
+        per_vertex_bound_relative_difference=relative_difference(bound, observed_mean),
     )
+
+
+def relative_difference(predicted: float, observed: float) -> float:
+    """(predicted - observed) / observed; NaN when ``observed`` is not positive."""
+    return (predicted - observed) / observed if observed > 0.0 else math.nan
 
 
 def _validated_err(err: np.ndarray, n_controls: int) -> np.ndarray:

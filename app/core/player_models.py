@@ -150,6 +150,73 @@ def crowd_player_model(
     return model
 
 
+def observed_player_model(control_counts: np.ndarray, *, fallback: np.ndarray) -> np.ndarray:
+    r""":math:`P_{obs}(c|v)` at every visited vertex, ``fallback[v]`` elsewhere.
+
+    Fitted to the very traces it is judged on, this is the best a model that gives each
+    vertex one control distribution can do on them: it already holds whatever players
+    do at each vertex, including what a per-vertex model cannot explain (a reaction delay
+    makes the control at a vertex depend on the vertex before it). Its STATERANK
+    prediction bounds how close the learned model's can get (DESIGN section 7).
+
+    Parameters
+    ----------
+    control_counts : ndarray, shape (V, N)
+        :func:`observed_control_counts` of the traces.
+    fallback : ndarray, shape (V, N)
+        Model for vertices no trace visited (a trace's last destination, typically).
+    """
+    counts = np.asarray(control_counts, dtype=np.float64)
+    fallback = np.asarray(fallback, dtype=np.float64)
+    if counts.ndim != 2 or fallback.shape != counts.shape:
+        raise ValueError(
+            f"control_counts {counts.shape} and fallback {fallback.shape} must be one (V, N)"
+        )
+    if not np.all(np.isfinite(counts)) or np.any(counts < 0.0):
+        raise ValueError("control_counts must be finite and non-negative")
+    visits = counts.sum(axis=1)
+    visited = visits > 0.0
+    model = fallback.copy()
+    model[visited] = counts[visited] / visits[visited, None]
+    return model
+
+
+def kernel_support(
+    descriptors: np.ndarray, vertex_control: np.ndarray, visited: np.ndarray, radius: float
+) -> np.ndarray:
+    """Whether eq. 2's kernel reaches each vertex: a visited u with c_u = c_v nearer than r.
+
+    A vertex without support gets the control frequencies of its whole control group
+    (the eps prior of :func:`crowd_player_model`) whatever its state, so the share of
+    predicted play on such vertices says how much of a prediction is the prior's guess.
+
+    Returns
+    -------
+    ndarray of bool, shape (V,)
+    """
+    descriptors = np.asarray(descriptors, dtype=np.float64)
+    visited = np.asarray(visited, dtype=bool)
+    if descriptors.ndim != 2 or visited.shape != (descriptors.shape[0],):
+        raise ValueError(
+            f"descriptors {descriptors.shape} must be (V, D) and visited {visited.shape} (V,)"
+        )
+    if radius <= 0.0:
+        raise ValueError(f"radius must be positive, got {radius}")
+    vertex_control = np.asarray(vertex_control)
+    if vertex_control.shape != visited.shape:
+        raise ValueError(f"vertex_control {vertex_control.shape} and visited differ in shape")
+    supported = np.zeros(visited.size, dtype=bool)
+    for group in np.unique(vertex_control):
+        members = np.flatnonzero(vertex_control == group)
+        sources = np.flatnonzero((vertex_control == group) & visited)
+        if sources.size == 0:
+            continue
+        # the kernel max(0, 1 - x/r) is 0 at x = r: support needs x strictly below r
+        distance, _ = cKDTree(descriptors[sources]).query(descriptors[members], k=1)
+        supported[members] = distance < radius
+    return supported
+
+
 def trace_edges(traces: Iterable[Trace], n_vertices: int, n_controls: int) -> np.ndarray:
     """Edge id ``v * N + c`` of every step of every trace, in order, as one int64 array.
 

@@ -89,6 +89,7 @@ def markdown(result: dict[str, Any], images: list[Path]) -> str:
                 f"| {mean('density_correlation')} | {mean('density_tv_distance')} "
                 f"| {mean('mean_score_per_step')} |"
             )
+    lines += _prediction_section(result)
     versus = result["summary"].get("sr_crowd_vs_baseline")
     if versus:
         lines += ["", "## sr-crowd against baseline at the last checkpoint", ""]
@@ -105,6 +106,57 @@ def markdown(result: dict[str, Any], images: list[Path]) -> str:
         ]
     lines += [""] + [f"![{p.stem}]({p.name})" for p in images]
     return "\n".join(lines) + "\n"
+
+
+def _prediction_section(result: dict[str, Any]) -> list[str]:
+    """Predicted against observed expected error per step (paper section 7.1), seed means.
+
+    The relative differences are of the seed means. The per-vertex bound is STATERANK under
+    the control frequencies of the very traces it is compared with: the closest any
+    per-vertex player model could come. Baseline and sr-heuristic predict with the
+    heuristic model, so their predictions are not expected to hold (as in the paper).
+    """
+    lines = [
+        "",
+        "## Predicted against observed expected error per step (section 7.1)",
+        "",
+        "Predicted on each publication by STATERANK from the strategy's player model "
+        "(sr-crowd: learned from earlier publications' traces only) before the bots play it; "
+        "the per-vertex bound uses the same traces' own control frequencies and session "
+        "length. Prior-only mass: share of predicted play on vertices the crowd kernel does "
+        "not reach.",
+        "",
+        "| strategy | frames | predicted | observed | rel. diff. | per-vertex bound "
+        "| bound rel. diff. | L predicted / observed | prior-only mass |",
+        "|---|---|---|---|---|---|---|---|---|",
+    ]
+    for strategy, by_seed in result["results"].items():
+        for rows in zip(*by_seed.values(), strict=True):
+
+            def mean(key: str, rows: tuple[dict[str, Any], ...] = rows) -> float:
+                values = [r[key] for r in rows if r.get(key) is not None]
+                return float(np.mean(values)) if values else float("nan")
+
+            observed = mean("observed_mean_error")
+            predicted = mean("predicted_expected_error")
+            bound = mean("per_vertex_bound_expected_error")
+            lines.append(
+                f"| {strategy} | {rows[0]['checkpoint_frames']} | {predicted:.4g} "
+                f"| {observed:.4g} | {_relative(predicted, observed)} | {bound:.4g} "
+                f"| {_relative(bound, observed)} | {mean('predicted_session_steps'):.0f} / "
+                f"{mean('observed_session_steps'):.0f} | {_number(mean('predicted_mass_prior_only'))} |"
+            )
+    return lines
+
+
+def _relative(value: float, observed: float) -> str:
+    if not observed > 0.0 or np.isnan(value):
+        return "n/a"
+    return f"{(value - observed) / observed:+.0%}"
+
+
+def _number(value: float) -> str:
+    return "n/a" if np.isnan(value) else f"{value:.2f}"
 
 
 def write_report(result: dict[str, Any], out_dir: Path) -> Path:

@@ -1,9 +1,12 @@
 """The paper's evaluation (section 7; DESIGN section 7) run on any dynamics.
 
 For each strategy and seed a graph grows from the same initial tree through the
-checkpoints; at each checkpoint it is published (pre-publish relinking), goal-directed
-bots play it, the numbers of Figs. 5-9 are taken, and sr-crowd learns from the traces
-before growing on. Graphs live in memory here: the experiment measures the algorithm,
+checkpoints; at each checkpoint it is published (pre-publish relinking), STATERANK
+predicts play on that publication from the strategy's player model (for sr-crowd,
+learned from the traces of earlier publications only), goal-directed bots play it, the
+numbers of Figs. 5-9 and section 7.1 are taken, and sr-crowd learns from the traces
+before growing on. Next to the prediction stands the per-vertex bound: the same STATERANK
+under the control frequencies of the very traces it is compared with. Graphs live in memory here: the experiment measures the algorithm,
 and the same :class:`~app.core.refinement.Refiner` drives the persisted graphs.
 """
 
@@ -18,7 +21,14 @@ import numpy as np
 from app.core.bots import BotKind, play_sessions
 from app.core.clipbank import MemoryClipBank
 from app.core.growth import initial_tree
-from app.core.metrics import evaluate_checkpoint
+from app.core.metrics import (
+    evaluate_checkpoint,
+    per_vertex_bound_edge_probabilities,
+    predicted_edge_probabilities,
+    relative_difference,
+)
+from app.core.player_models import kernel_support, mean_session_length, observed_control_counts
+from app.core.publication import Publication
 from app.core.refinement import Refiner, RefinerConfig
 from app.core.strategies import Strategy
 from app.services.dynamics import make_dynamics
@@ -65,8 +75,13 @@ def run_one(
             on_expansion=lambda _: progress(graph.n_controls * graph.frames_per_clip),
         )
         grow_seconds = time.perf_counter() - started
-        predicted = refiner.predicted_edge_probabilities()
         publication, relinked = refiner.publish()
+        # predict, then observe: the model and rho come from earlier publications' traces
+        model = refiner.player_model()
+        predicted = predicted_edge_probabilities(
+            publication.edge_dst, model, publication.start, refiner.restart
+        )
+        prediction_context = _prediction_context(refiner, publication, predicted)
         traces = play_sessions(
             publication,
             BotKind.GOAL_DIRECTED,
@@ -80,6 +95,9 @@ def run_one(
             graph.n_controls,
             predicted,
             dynamics.high_error_threshold,
+            bound_edge_prob=per_vertex_bound_edge_probabilities(
+                traces, publication.edge_dst, publication.start, fallback=model
+            ),
         )
         steps = np.concatenate(traces)
         score = publication.edge_score[steps[:, 0] * graph.n_controls + steps[:, 1]]
@@ -92,12 +110,41 @@ def run_one(
                 "relinked_before_publish": len(relinked),
                 "grow_seconds": round(grow_seconds, 3),
                 "mean_score_per_step": float(score.mean()),
+                "observed_session_steps": mean_session_length(traces),
+                **prediction_context,
                 **report.to_dict(),
             }
         )
         if strategy.learns_from_traces:
             refiner.learn(traces)
     return rows
+
+
+def _prediction_context(
+    refiner: Refiner, publication: Publication, predicted: np.ndarray
+) -> dict[str, float | None]:
+    """What the prediction rests on: its session length and, for the crowd model, how
+    much predicted play falls on vertices no earlier trace visited and on vertices that
+    eq. 2's kernel does not reach (their controls are the eps prior's group average)."""
+    context: dict[str, float | None] = {
+        "predicted_session_steps": 1.0 / refiner.restart,
+        "predicted_mass_unvisited": None,
+        "predicted_mass_prior_only": None,
+    }
+    if not (refiner.strategy.learns_from_traces and refiner.traces):
+        return context
+    graph, n = refiner.graph, publication.n_controls
+    visited = observed_control_counts(refiner.traces, publication.n_vertices, n).sum(axis=1) > 0
+    supported = kernel_support(
+        graph.vertex_descriptors(),
+        np.asarray(graph.vertex_control),
+        visited,
+        refiner.config.crowd_radius,
+    )
+    vertex_mass = predicted.reshape(-1, n).sum(axis=1)
+    context["predicted_mass_unvisited"] = float(vertex_mass[~visited].sum())
+    context["predicted_mass_prior_only"] = float(vertex_mass[~supported].sum())
+    return context
 
 
 def summarise(results: dict[str, dict[str, list[dict[str, object]]]]) -> dict[str, object]:
@@ -107,8 +154,21 @@ def summarise(results: dict[str, dict[str, list[dict[str, object]]]]) -> dict[st
         finals = [rows[-1] for rows in by_seed.values()]
         last[strategy] = {
             key: float(np.mean([float(row[key]) for row in finals]))  # type: ignore[arg-type]
-            for key in ("observed_mean_error", "high_error_fraction", "mean_score_per_step")
+            for key in (
+                "observed_mean_error",
+                "high_error_fraction",
+                "mean_score_per_step",
+                "predicted_expected_error",
+                "per_vertex_bound_expected_error",
+            )
         }
+        observed = last[strategy]["observed_mean_error"]
+        for key, source in (
+            ("expected_error_relative_difference", "predicted_expected_error"),
+            ("per_vertex_bound_relative_difference", "per_vertex_bound_expected_error"),
+        ):
+            # of the seed means, so that one seed's tiny observed error does not dominate
+            last[strategy][key] = relative_difference(last[strategy][source], observed)
     summary: dict[str, object] = {"last_checkpoint_mean_over_seeds": last}
     if "baseline" in results and "sr-crowd" in results:
         per_seed: list[dict[str, float | str]] = []

@@ -3,12 +3,18 @@
 from __future__ import annotations
 
 from pathlib import Path
+from typing import Any
 
+import numpy as np
 import pytest
 
+from app.core.bots import play_sessions
+from app.core.metrics import evaluate_checkpoint
+from app.core.publication import Publication
 from app.core.strategies import Strategy
 from app.reports.experiment import write_report
-from app.services.experiment import ExperimentPlan, parse_checkpoints, run_experiment
+from app.services import experiment
+from app.services.experiment import ExperimentPlan, parse_checkpoints, run_experiment, run_one
 
 
 def test_small_experiment_shows_sr_crowd_ahead_of_baseline(tmp_path: Path) -> None:
@@ -36,3 +42,42 @@ def test_small_experiment_shows_sr_crowd_ahead_of_baseline(tmp_path: Path) -> No
 def test_bad_checkpoints_are_refused(text: str) -> None:
     with pytest.raises(ValueError, match="checkpoints"):
         parse_checkpoints(text)
+
+
+def test_prediction_is_for_the_publication_played_from_earlier_traces(
+    monkeypatch: pytest.MonkeyPatch,
+) -> None:
+    """Predict, then observe: STATERANK runs on the relinked publication the bots get,
+    with rho (and the crowd model) from the traces of earlier publications only."""
+    played: list[Publication] = []
+    predictions: list[np.ndarray] = []
+
+    def recording_play(publication: Publication, *args: object, **kwargs: Any) -> list:
+        played.append(publication)
+        return play_sessions(publication, *args, **kwargs)  # type: ignore[arg-type]
+
+    def recording_evaluate(traces: Any, err: Any, n: int, predicted: Any, *a: Any, **k: Any):  # type: ignore[no-untyped-def]
+        predictions.append(np.asarray(predicted))
+        return evaluate_checkpoint(traces, err, n, predicted, *a, **k)
+
+    monkeypatch.setattr(experiment, "play_sessions", recording_play)
+    monkeypatch.setattr(experiment, "evaluate_checkpoint", recording_evaluate)
+    plan = ExperimentPlan(checkpoints=(600, 1_500), sessions=10, mean_steps=30)
+    progress: list[int] = []
+    rows = run_one(plan, Strategy.SR_CROWD, 1, progress.append)
+    assert any(row["relinked_before_publish"] > 0 for row in rows)
+    for row, publication, prob in zip(rows, played, predictions, strict=True):
+        # stationary on the publication's edges: pi = (1 - rho) inflow + rho at the start
+        n = publication.n_controls
+        rho = 1.0 / float(row["predicted_session_steps"])  # type: ignore[arg-type]
+        pi = prob.reshape(-1, n).sum(axis=1)
+        inflow = np.bincount(publication.edge_dst, weights=prob, minlength=pi.size)
+        restart = np.zeros_like(pi)
+        restart[publication.start] = rho
+        np.testing.assert_allclose(pi, (1.0 - rho) * inflow + restart, atol=1e-8)
+        assert row["predicted_expected_error"] == pytest.approx(float(prob @ publication.edge_err))
+    # the second prediction knows the first publication's sessions, not its own
+    assert rows[1]["predicted_session_steps"] == pytest.approx(rows[0]["observed_session_steps"])
+    assert rows[1]["predicted_session_steps"] != pytest.approx(rows[1]["observed_session_steps"])
+    assert rows[0]["predicted_mass_prior_only"] is None
+    assert 0.0 <= float(rows[1]["predicted_mass_prior_only"]) <= 1.0  # type: ignore[arg-type]

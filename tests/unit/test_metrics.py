@@ -16,6 +16,8 @@ from app.core.metrics import (
     observed_edge_density,
     observed_mean_error,
     observed_step_errors,
+    per_vertex_bound_edge_probabilities,
+    predicted_edge_probabilities,
 )
 
 ERR = np.array([0.0, 0.5, 1.0, 0.0])
@@ -106,3 +108,61 @@ def test_checkpoint_report_dict_turns_nan_into_null() -> None:
     assert as_dict["histogram_counts"] == report.histogram_counts
     assert len(report.histogram_counts) == 20
     json.dumps(as_dict, allow_nan=False)
+
+
+EDGE_DST = np.array([0, 1, 0, 1])  # the edges TRACES follow: 0 -> 0, 0 -> 1, 1 -> 1; 1 -> 0
+
+
+def test_predicted_edge_probabilities_solve_the_restarted_chain() -> None:
+    # from 0 either control, from 1 always back to 0; rho = 0.5:
+    # pi1 = 0.5 * 0.5 pi0 and pi0 + pi1 = 1 -> pi = (0.8, 0.2)
+    model = np.array([[0.5, 0.5], [1.0, 0.0]])
+    prob = predicted_edge_probabilities(EDGE_DST, model, start=0, restart=0.5)
+    np.testing.assert_allclose(prob, [0.4, 0.4, 0.2, 0.0], atol=1e-9)
+    with pytest.raises(ValueError, match="one entry per cell"):
+        predicted_edge_probabilities(EDGE_DST[:3], model, start=0, restart=0.5)
+
+
+def test_per_vertex_bound_uses_the_traces_frequencies_and_session_length() -> None:
+    fallback = np.full((2, 2), 0.5)
+    bound = per_vertex_bound_edge_probabilities(TRACES, EDGE_DST, 0, fallback)
+    # controls at 0: 1 x c0, 2 x c1; at 1: 2 x c0, 1 x c1; L = (2 + 4) / 2 = 3
+    model = np.array([[1 / 3, 2 / 3], [2 / 3, 1 / 3]])
+    expected = predicted_edge_probabilities(EDGE_DST, model, start=0, restart=1 / 3)
+    np.testing.assert_allclose(bound, expected, rtol=1e-12)
+    assert not np.allclose(bound, predicted_edge_probabilities(EDGE_DST, fallback, 0, 1 / 3))
+
+
+def test_per_vertex_bound_matches_markov_play() -> None:
+    """Players that choose by vertex alone, with geometric sessions: the bound is exact."""
+    rng = np.random.default_rng(3)
+    n_vertices, n_controls = 25, 3
+    edge_dst = rng.integers(0, n_vertices, size=n_vertices * n_controls)
+    err = rng.random(n_vertices * n_controls)
+    policy = rng.dirichlet(np.ones(n_controls), size=n_vertices)
+    traces = []
+    for length in rng.geometric(1 / 30, size=600):
+        vertex, trace = 0, []
+        for _ in range(length):
+            control = int(rng.choice(n_controls, p=policy[vertex]))
+            trace.append((vertex, control))
+            vertex = int(edge_dst[vertex * n_controls + control])
+        traces.append(trace)
+    fallback = np.full((n_vertices, n_controls), 1 / n_controls)
+    bound = per_vertex_bound_edge_probabilities(traces, edge_dst, 0, fallback)
+    observed = observed_mean_error(traces, err, n_controls)
+    assert abs(bound @ err - observed) < 0.005 * observed
+    # a model that ignores the traces is far off on the same play
+    uniform = predicted_edge_probabilities(edge_dst, fallback, 0, 1 / 30)
+    assert abs(uniform @ err - observed) > 0.02 * observed
+
+
+def test_evaluate_checkpoint_reports_the_bound_next_to_the_prediction() -> None:
+    predicted = np.array([0.1, 0.2, 0.3, 0.4])
+    bound = np.array([0.0, 0.4, 0.5, 0.1])  # expected error 0.2 + 0.5 = 0.7; observed 0.5
+    report = evaluate_checkpoint(TRACES, ERR, 2, predicted, 0.6, bound_edge_prob=bound)
+    assert report.per_vertex_bound_expected_error == pytest.approx(0.7)
+    assert report.per_vertex_bound_relative_difference == pytest.approx(0.4)
+    assert report.expected_error_relative_difference == pytest.approx(-0.2)
+    unbounded = evaluate_checkpoint(TRACES, ERR, 2, predicted, 0.6).to_dict()
+    assert unbounded["per_vertex_bound_expected_error"] is None

@@ -9,8 +9,10 @@ from app.core.player_models import (
     Trace,
     crowd_player_model,
     heuristic_player_model,
+    kernel_support,
     mean_session_length,
     observed_control_counts,
+    observed_player_model,
     trace_edges,
 )
 
@@ -167,3 +169,48 @@ def test_mean_session_length_skips_empty_traces() -> None:
     assert mean_session_length([[(0, 0)] * 3, [], [(1, 1)]]) == 2.0
     with pytest.raises(ValueError, match="no trace has a step"):
         mean_session_length([[], []])
+
+
+def test_observed_model_is_the_visited_rows_frequencies_and_the_fallback_elsewhere() -> None:
+    counts = np.array([[1, 3, 0], [0, 0, 0], [0, 0, 5]])
+    fallback = heuristic_player_model(np.array([0, 1, 2]), 3, 0.8)
+    model = observed_player_model(counts, fallback=fallback)
+    np.testing.assert_allclose(model[0], [0.25, 0.75, 0.0])
+    np.testing.assert_array_equal(model[1], fallback[1])
+    np.testing.assert_array_equal(model[2], [0.0, 0.0, 1.0])
+    with pytest.raises(ValueError, match="one"):
+        observed_player_model(counts, fallback=fallback[:2])
+
+
+@pytest.mark.parametrize("seed", range(3))
+@pytest.mark.parametrize("radius", [0.2, 0.5])
+def test_kernel_support_is_where_eq2_has_a_kernel_term(seed: int, radius: float) -> None:
+    descriptors, vertex_control, counts, fallback = random_crowd_data(seed)
+    visited = counts.sum(axis=1) > 0
+    supported = kernel_support(descriptors, vertex_control, visited, radius)
+    # without the eps prior, eq. 2 falls back exactly where no kernel term reaches
+    model = crowd_player_model(descriptors, vertex_control, counts, radius, 0.0, fallback=fallback)
+    kernel_only = brute_force_crowd(descriptors, vertex_control, counts, radius, 0.0, fallback)
+    np.testing.assert_allclose(model, kernel_only, rtol=1e-12, atol=1e-14)
+    expected = np.array(
+        [
+            any(
+                visited[u]
+                and vertex_control[u] == vertex_control[v]
+                and np.linalg.norm(descriptors[u] - descriptors[v]) < radius
+                for u in range(len(visited))
+            )
+            for v in range(len(visited))
+        ]
+    )
+    np.testing.assert_array_equal(supported, expected)
+    assert 0 < supported.sum() < len(supported)
+
+
+def test_kernel_support_needs_a_visit_strictly_inside_the_radius() -> None:
+    descriptors = np.array([[0.0], [1.0], [0.5], [0.2]])
+    supported = kernel_support(
+        descriptors, np.array([0, 0, 1, 0]), np.array([True, False, False, False]), 1.0
+    )
+    # vertex 1 sits exactly at r (kernel 0); vertex 2 holds another control
+    np.testing.assert_array_equal(supported, [True, False, False, True])
