@@ -144,7 +144,8 @@ def _prediction_section(result: dict[str, Any]) -> list[str]:
                 f"| {strategy} | {rows[0]['checkpoint_frames']} | {predicted:.4g} "
                 f"| {observed:.4g} | {_relative(predicted, observed)} | {bound:.4g} "
                 f"| {_relative(bound, observed)} | {mean('predicted_session_steps'):.0f} / "
-                f"{mean('observed_session_steps'):.0f} | {_number(mean('predicted_mass_prior_only'))} |"
+                f"{mean('observed_session_steps'):.0f} "
+                f"| {_number(mean('predicted_mass_prior_only'))} |"
             )
     return lines
 

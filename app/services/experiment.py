@@ -6,8 +6,9 @@ predicts play on that publication from the strategy's player model (for sr-crowd
 learned from the traces of earlier publications only), goal-directed bots play it, the
 numbers of Figs. 5-9 and section 7.1 are taken, and sr-crowd learns from the traces
 before growing on. Next to the prediction stands the per-vertex bound: the same STATERANK
-under the control frequencies of the very traces it is compared with. Graphs live in memory here: the experiment measures the algorithm,
-and the same :class:`~app.core.refinement.Refiner` drives the persisted graphs.
+under the control frequencies of the very traces it is compared with. Graphs live in
+memory here: the experiment measures the algorithm, and the same
+:class:`~app.core.refinement.Refiner` drives the persisted graphs.
 """
 
 from __future__ import annotations
