@@ -17,10 +17,14 @@ import sys
 from pathlib import Path
 
 import pytest
+from sqlalchemy import func, select
 
+from app.api.app import create_app
+from app.api.local_server import serve_in_thread
 from app.cli import main
-from app.config import get_settings
-from app.db import get_engine
+from app.config import Settings, get_settings
+from app.db import get_engine, make_engine
+from app.models import Trace
 
 SRG = Path(sys.executable).with_name("srg")
 
@@ -123,3 +127,23 @@ def test_the_console_script_reports_an_unreachable_database_in_one_line(tmp_path
 def test_an_unreachable_server_is_one_line(tmp_path: Path) -> None:
     done = srg(tmp_path, "play", "toy1", "--url", "http://127.0.0.1:9")
     one_line_error(done, "cannot reach the server")
+
+
+def test_play_over_http_stores_traces_through_the_api(var: Path) -> None:
+    settings = Settings(var_dir=var)
+    before = _trace_count(settings)
+    with serve_in_thread(create_app(settings)) as url:
+        result = json.loads(ok(var, "play", "toy1", "--url", url, "--sessions", "4", "--json"))
+        missing = srg(var, "play", "nope", "--url", url)
+    assert result["created"] == 4 and result["replayed"] == 0
+    assert _trace_count(settings) == before + 4
+    one_line_error(missing, "404 no graph 'nope'")
+
+
+def _trace_count(settings: Settings) -> int:
+    engine = make_engine(settings.resolved_database_url)
+    try:
+        with engine.connect() as connection:
+            return int(connection.scalar(select(func.count()).select_from(Trace)) or 0)
+    finally:
+        engine.dispose()
