@@ -10,18 +10,15 @@ is rolled back afterwards, so tests see each other's writes never.
 
 from __future__ import annotations
 
-import os
-import uuid
 from collections.abc import Callable, Iterator
 from pathlib import Path
 
 import pytest
 from alembic.config import Config
-from sqlalchemy import Engine, text
-from sqlalchemy.engine import make_url
+from database_helpers import alembic_config, migrate, postgres_base_url, postgres_database
+from sqlalchemy import Engine
 from sqlalchemy.orm import Session
 
-from alembic import command
 from app.core.clipbank import MemoryClipBank
 from app.core.graph import StateGraph
 from app.core.growth import expand_blend_edge, initial_tree
@@ -29,44 +26,7 @@ from app.core.toy import ToyDynamics
 from app.db import make_engine
 from app.store.artifacts import ArtifactStore
 
-ROOT = Path(__file__).resolve().parents[1]
-DEFAULT_POSTGRES_URL = "postgresql+psycopg://postgres@127.0.0.1:5432/srg_test"
 BACKENDS = ["sqlite", pytest.param("postgresql", marks=pytest.mark.postgres)]
-
-
-def alembic_config(connection: object | None = None) -> Config:
-    config = Config(str(ROOT / "alembic.ini"))
-    config.attributes["configure_logger"] = False
-    if connection is not None:
-        config.attributes["connection"] = connection
-    return config
-
-
-def migrate(url: str, revision: str = "head") -> None:
-    engine = make_engine(url)
-    try:
-        with engine.begin() as connection:
-            command.upgrade(alembic_config(connection), revision)
-    finally:
-        engine.dispose()
-
-
-def _postgres_database(base_url: str) -> Iterator[str]:
-    """A new, empty database on the server of ``base_url``; dropped afterwards."""
-    url = make_url(base_url)
-    name = f"{url.database or 'srg_test'}_{uuid.uuid4().hex[:10]}"
-    admin = make_engine(
-        url.set(database="postgres").render_as_string(hide_password=False),
-        isolation_level="AUTOCOMMIT",
-    )
-    try:
-        with admin.connect() as connection:
-            connection.execute(text(f'CREATE DATABASE "{name}"'))
-        yield url.set(database=name).render_as_string(hide_password=False)
-        with admin.connect() as connection:
-            connection.execute(text(f'DROP DATABASE IF EXISTS "{name}" WITH (FORCE)'))
-    finally:
-        admin.dispose()
 
 
 @pytest.fixture
@@ -81,7 +41,7 @@ def empty_db_url(request: pytest.FixtureRequest, tmp_path: Path) -> Iterator[str
     if request.param == "sqlite":
         yield f"sqlite:///{tmp_path / 'empty.sqlite3'}"
     else:
-        yield from _postgres_database(os.environ.get("SRG_TEST_POSTGRES_URL", DEFAULT_POSTGRES_URL))
+        yield from postgres_database(postgres_base_url())
 
 
 @pytest.fixture(scope="session", params=BACKENDS)
@@ -94,10 +54,7 @@ def db_url(
         migrate(url)
         yield url
     else:
-        base = os.environ.get("SRG_TEST_POSTGRES_URL", DEFAULT_POSTGRES_URL)
-        for url in _postgres_database(base):
-            migrate(url)
-            yield url
+        yield from postgres_database(postgres_base_url(), migrated=True)
 
 
 @pytest.fixture(scope="session")

@@ -13,14 +13,8 @@ from collections.abc import Callable, Iterator
 from pathlib import Path
 
 import pytest
-from tasks_cluster import (
-    DEFAULT_POSTGRES_URL,
-    ROOT,
-    Cluster,
-    RedisServer,
-    free_port,
-    postgres_database,
-)
+from database_helpers import postgres_base_url, postgres_database
+from tasks_cluster import ROOT, Cluster, RedisServer, free_port
 
 from app.config import Settings
 from app.services.graph_cache import graph_cache
@@ -38,8 +32,7 @@ def redis_server(tmp_path: Path) -> Iterator[RedisServer]:
 
 @pytest.fixture
 def postgres_url() -> Iterator[str]:
-    base = os.environ.get("SRG_TEST_POSTGRES_URL", DEFAULT_POSTGRES_URL)
-    yield from postgres_database(base)
+    yield from postgres_database(postgres_base_url(), migrated=True)
 
 
 @pytest.fixture

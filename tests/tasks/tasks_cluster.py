@@ -10,7 +10,7 @@ import socket
 import subprocess
 import sys
 import time
-from collections.abc import Callable, Iterator
+from collections.abc import Callable
 from dataclasses import dataclass, field
 from pathlib import Path
 
@@ -81,50 +81,6 @@ class RedisServer:
             self.process.terminate()
             self.process.wait(10)
         self.process = None
-
-
-DEFAULT_POSTGRES_URL = "postgresql+psycopg://postgres@127.0.0.1:5432/srg_test"
-
-
-def migrate(url: str) -> None:
-    from alembic.config import Config
-
-    from alembic import command
-
-    config = Config(str(ROOT / "alembic.ini"))
-    config.attributes["configure_logger"] = False
-    engine = make_engine(url)
-    try:
-        with engine.begin() as connection:
-            config.attributes["connection"] = connection
-            command.upgrade(config, "head")
-    finally:
-        engine.dispose()
-
-
-def postgres_database(base_url: str) -> Iterator[str]:
-    """A new, migrated PostgreSQL database (as tests/conftest.py makes them); dropped after."""
-    import uuid
-
-    from sqlalchemy import text
-    from sqlalchemy.engine import make_url
-
-    url = make_url(base_url)
-    name = f"{url.database or 'srg_test'}_{uuid.uuid4().hex[:10]}"
-    admin = make_engine(
-        url.set(database="postgres").render_as_string(hide_password=False),
-        isolation_level="AUTOCOMMIT",
-    )
-    try:
-        with admin.connect() as connection:
-            connection.execute(text(f'CREATE DATABASE "{name}"'))
-        created = url.set(database=name).render_as_string(hide_password=False)
-        migrate(created)
-        yield created
-        with admin.connect() as connection:
-            connection.execute(text(f'DROP DATABASE IF EXISTS "{name}" WITH (FORCE)'))
-    finally:
-        admin.dispose()
 
 
 @dataclass

@@ -5,9 +5,10 @@ from __future__ import annotations
 from pathlib import Path
 
 from celery import Celery
+from database_helpers import migrate
 from sqlalchemy import func, select
 from sqlalchemy.orm import Session
-from tasks_cluster import Cluster, migrate, wait_for
+from tasks_cluster import Cluster, wait_for
 
 from app.config import Settings
 from app.db import make_engine, session_factory

@@ -7,8 +7,9 @@ from pathlib import Path
 
 import numpy as np
 import pytest
+from database_helpers import migrate
 from sqlalchemy import select
-from tasks_cluster import RedisServer, migrate
+from tasks_cluster import RedisServer
 from tasks_helpers import eager_reference, seed_graph, snapshot
 
 from app.config import Settings, get_settings
