@@ -147,3 +147,24 @@ def _trace_count(settings: Settings) -> int:
             return int(connection.scalar(select(func.count()).select_from(Trace)) or 0)
     finally:
         engine.dispose()
+
+
+def test_the_demo_refines_in_rounds_and_writes_its_report(tmp_path: Path) -> None:
+    out = tmp_path / "report"
+    rounds_json = tmp_path / "rounds.json"
+    ok(tmp_path, "db", "upgrade")
+    args = ["demo", "--dynamics", "toy", "--rounds", "2", "--budget", "2", "--sessions", "4"]
+    printed = ok(tmp_path, *args, "--out", str(out), "--json", str(rounds_json))
+    rounds = json.loads(rounds_json.read_text())
+    assert [r["round"] for r in rounds] == [1, 2, 3]
+    assert [r["publication"] for r in rounds] == [1, 2, 3]
+    assert [r["size_frames"] for r in rounds] == [120, 180, 240]  # 2 expansions of 3 clips
+    assert all(r["steps"] > 0 for r in rounds)
+    report = (out / "report.md").read_text()
+    assert "| 3 | 3 | 240 |" in report and "srg serve" in printed
+    assert (out / "error-per-round.png").stat().st_size > 0
+    assert (out / "contact-sheet.png").stat().st_size > 0
+    again = ok(tmp_path, *args, "--rounds", "1", "--out", str(out), "--json", str(rounds_json))
+    assert "report:" in again  # a second run goes on refining the same graph
+    assert [r["publication"] for r in json.loads(rounds_json.read_text())] == [4, 5]
+    one_line_error(srg(tmp_path, "demo", "--rounds", "0"), "must be positive")
