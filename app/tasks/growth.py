@@ -20,6 +20,7 @@ from typing import Any
 
 from celery import chain, chord
 from celery.canvas import Signature
+from celery.utils.log import get_task_logger
 from sqlalchemy import select
 from sqlalchemy.exc import IntegrityError, OperationalError
 
@@ -28,6 +29,8 @@ from app.db import transaction
 from app.services import growth
 from app.store.graphs import StaleGraph
 from app.tasks.celery_app import celery_app
+
+log = get_task_logger(__name__)
 
 #: seconds an integrating step waits before checking again for clips or an earlier step
 NOT_READY_DELAY = 2.0
@@ -76,6 +79,14 @@ def integrate(self: Any, epoch_id: int, position: int) -> int | None:
         ) from exc
     except (StaleGraph, OperationalError) as exc:  # a racing writer, a dropped connection
         raise self.retry(exc=exc, countdown=0.5, max_retries=settings.task_max_retries) from exc
+    log.info(
+        "epoch %d: expansion %d %s (vertex %s)%s",
+        epoch_id,
+        position + 1,
+        outcome.status,
+        outcome.vertex,
+        ", epoch finished" if outcome.epoch_finished else "",
+    )
     return outcome.vertex
 
 
@@ -128,7 +139,16 @@ def grow_epoch(graph_id: int) -> int | None:
     except IntegrityError:  # another tick opened the same epoch number first
         return None
     if plan is None:
+        log.info("graph %d: an epoch is running; this tick does nothing", graph_id)
         return None
+    log.info(
+        "graph %d epoch %d: %d expansions %s, %d blends relinked lazily",
+        graph_id,
+        plan.epoch_id,
+        len(plan.expansions),
+        "re-sent" if plan.resent else "planned",
+        plan.relinks,
+    )
     if plan.expansions:
         with transaction() as session:
             work = growth.epoch_work(session, plan.epoch_id)
