@@ -147,6 +147,20 @@ def pressure_accel(
     return acc - _sum_rows(pb[:, None] * cubic_kernel_gradient(db, rb, h), nb.wall[:, 0], n)
 
 
+def wall_gradient_sum(
+    pos: np.ndarray, wall_pairs: np.ndarray, walls: np.ndarray, psi: np.ndarray, scene: Scene
+) -> np.ndarray:
+    """sum_b psi_b grad W_ib per fluid particle, (n, 3).
+
+    The wall factor of the pressure acceleration at x(t) (a_p,i gets -p_i / rho0^2 times
+    it, see :func:`pressure_accel`); the kernels compute it once per substep, before the
+    pressure loop (twin of the ``wall_grad`` buffer of ``nonpressure_accel``).
+    """
+    db, rb = _pair_geometry(pos, walls, wall_pairs)
+    terms = psi[wall_pairs[:, 1], None] * cubic_kernel_gradient(db, rb, scene.support)
+    return _sum_rows(terms, wall_pairs[:, 0], len(pos))
+
+
 def predict(
     pos: np.ndarray,
     vel: np.ndarray,

@@ -31,16 +31,20 @@ class ClRuntime:
     device: cl.Device
     context: cl.Context
     queue: cl.CommandQueue
-    programs: dict[str, cl.Program] = field(default_factory=dict)
+    programs: dict[tuple[str, tuple[str, ...]], cl.Program] = field(default_factory=dict)
 
-    def program(self, source_name: str) -> cl.Program:
-        """The program of ``app/kernels/<source_name>``, built on first use."""
-        if source_name not in self.programs:
+    def program(self, source_name: str, options: tuple[str, ...] = ()) -> cl.Program:
+        """The program of ``app/kernels/<source_name>``, built on first use.
+
+        ``options`` are added to :data:`BUILD_OPTIONS` (e.g. a ``-D`` to test a variant).
+        """
+        key = (source_name, options)
+        if key not in self.programs:
             source = resources.files("app.kernels").joinpath(source_name).read_text()
-            self.programs[source_name] = cl.Program(self.context, source).build(
-                options=list(BUILD_OPTIONS)
+            self.programs[key] = cl.Program(self.context, source).build(
+                options=[*BUILD_OPTIONS, *options]
             )
-        return self.programs[source_name]
+        return self.programs[key]
 
 
 _RUNTIMES: dict[int, ClRuntime] = {}

@@ -16,6 +16,7 @@ from __future__ import annotations
 from dataclasses import dataclass, field
 
 import numpy as np
+import pyopencl as cl
 
 from app.core.scene import Scene, initial_particles
 from app.kernels.sph_kernels import SphKernels
@@ -58,6 +59,8 @@ class SphSimulator:
         self.kernels = SphKernels(scene, self.n)
         self.fixed_iterations = fixed_iterations
         self.stats = SolverStats()
+        self._errors = np.zeros(max(scene.max_iterations, 1), dtype=np.float32)
+        self._pending_reads: list[cl.Event] = []
 
     def substep(self, gravity: tuple[float, float, float], damping: float = 0.0) -> int:
         """Advance the loaded state by dt; returns the pressure iterations used."""
@@ -67,18 +70,14 @@ class SphSimulator:
         k.nonpressure_accel(gravity)
         k.pressure_predict(damping)
         k.reset_errors()
-        lo = self.fixed_iterations or s.min_iterations
-        hi = self.fixed_iterations or s.max_iterations
-        err = 0.0
-        it = 0
-        while it < hi:
-            k.density_pressure(it)
-            k.pressure_predict(damping)
-            it += 1
-            if it >= lo:
-                err = k.density_error(it - 1)
-                if self.fixed_iterations is None and err < s.eta:
-                    break
+        if self.fixed_iterations:
+            it = self.fixed_iterations
+            for m in range(it):
+                k.density_pressure(m)
+                k.pressure_predict(damping, m)
+            err = float(k.density_errors(it)[-1])
+        else:
+            it, err = self._converge(damping)
         k.advance()
         st = self.stats
         st.substeps += 1
@@ -87,6 +86,38 @@ class SphSimulator:
         st.max_error = max(st.max_error, err)
         st.unconverged_substeps += int(err >= s.eta)
         return it
+
+    def _converge(self, damping: float) -> tuple[int, float]:
+        """Pressure iterations until the max compression is below eta: (count, error).
+
+        The host tests each iteration's error while the next one is already queued (so
+        the device never waits for the host); an iteration queued after convergence is
+        a no-op on the device, so the result is that of testing after every iteration.
+        """
+        k, s = self.kernels, self.scene
+        # the first test follows the first iteration at the earliest, as in a plain loop
+        lo, hi = max(s.min_iterations, 1), s.max_iterations
+        errors = self._errors
+        reads: dict[int, cl.Event] = {}
+        for m in range(hi):
+            k.density_pressure(m, check_from=lo)
+            k.pressure_predict(damping, m, check_from=lo)
+            if m + 1 >= lo:
+                reads[m] = k.enqueue_density_error(m, errors[m : m + 1])
+            if m >= lo:  # iteration m is queued: test m - 1
+                reads.pop(m - 1).wait()
+                if errors[m - 1] < s.eta:
+                    break
+        else:
+            m = hi
+            last = reads.pop(hi - 1, None)
+            if last is None:  # max_iterations < min_iterations: never tested, as before
+                return hi, 0.0
+            last.wait()
+        # the read of a no-op iteration may still be pending: keep its host array and
+        # event alive without waiting (pyopencl waits when such an event is freed)
+        self._pending_reads = list(reads.values())
+        return m, float(errors[m - 1])
 
     def run(
         self,

@@ -8,6 +8,7 @@ twin in ``app/core``. :class:`app.kernels.sph.SphSimulator` strings the stages t
 
 from __future__ import annotations
 
+import functools
 import math
 from typing import Any
 
@@ -26,10 +27,16 @@ from app.core.sph_grid import (
 )
 from app.kernels.context import runtime
 
-#: neighbour list capacities (a full fluid neighbourhood has about 33 particles, a wall
+#: neighbour list rows (multiples of 8: the kernels load eight slots at a time, aligned);
+#: a row holds 8 neighbours less (room for a whole block of eight candidates), 56 fluid
+#: and 48 wall neighbours (a full fluid neighbourhood has about 33 particles, a wall
 #: corner about 40 wall particles); overflows are counted, never written out of bounds
 MAX_NEIGHBOURS = 64
-MAX_WALL_NEIGHBOURS = 48
+MAX_WALL_NEIGHBOURS = 56
+#: upper bound of the work-group size (see _work_group)
+WORK_GROUP = 64
+#: ``check_from`` of a pressure iteration that must run whatever the errors so far
+ALWAYS = 2**30
 
 _I32, _F32 = np.int32, np.float32
 
@@ -46,15 +53,44 @@ def to_float4(xyz: np.ndarray) -> np.ndarray:
     return out
 
 
+def compaction_table() -> np.ndarray:
+    """(256, 8) int32: for each 8-bit lane mask, its set lanes in order, then zeros.
+
+    ``find_neighbours`` permutes a block of eight candidates by the row of its hit mask
+    to put the hits first (see ``sph.cl``).
+    """
+    table = np.zeros((256, 8), dtype=_I32)
+    for mask in range(256):
+        lanes = [lane for lane in range(8) if mask >> lane & 1]
+        table[mask, : len(lanes)] = lanes
+    return table
+
+
+@functools.cache
+def _work_group(size: int) -> tuple[int] | None:
+    """Local size: the largest divisor of ``size`` up to 64 (None, PoCL's choice, if < 8).
+
+    PoCL picks about size / 2 for two cores, and one late thread then holds up the whole
+    launch; groups of 32-128 work-items let the two threads balance (measured on small:
+    median substep 7.6-8.7 ms against 9.1-9.3 ms).
+    """
+    for d in range(min(size, WORK_GROUP), 7, -1):
+        if size % d == 0:
+            return (d,)
+    return None
+
+
 class SphKernels:
     """Particle buffers and kernel launches for one scene on this process's device."""
 
-    def __init__(self, scene: Scene, n_particles: int) -> None:
+    def __init__(self, scene: Scene, n_particles: int, build_options: tuple[str, ...] = ()) -> None:
         rt = runtime()
         self.scene, self.n = scene, n_particles
         self.queue = rt.queue
-        self.program = rt.program("sph.cl")
+        self.program = rt.program("sph.cl", build_options)
         self.kernels = {k.function_name: k for k in self.program.all_kernels()}
+        self._bound: dict[str, list[Any]] = {}
+        self._scalars: dict[tuple[Any, ...], Any] = {}
         self.grid = make_grid(scene)
         self.delta = pcisph_delta(scene)
 
@@ -85,23 +121,64 @@ class SphKernels:
             flags = mf.READ_WRITE | mf.COPY_HOST_PTR
             return cl.Buffer(ctx, flags, hostbuf=np.ascontiguousarray(a))
 
-        self.walls_buf = const(to_float4(self.walls))
+        # the neighbour scan reads particle rows in blocks of eight, up to seven past the
+        # end: every buffer of positions it scans has eight rows of slack
+        self.walls_buf = const(np.concatenate([to_float4(self.walls), np.zeros((8, 4), _F32)]))
         self.psi_buf = const(self.psi)
         self.wall_start = const(wall_start.astype(_I32))
-        self.pos, self.vel, self.pos_spare, self.vel_spare = (buf(16 * n) for _ in range(4))
-        self.pos_pred, self.vel_pred, self.a_np = (buf(16 * n) for _ in range(3))
+        self.compaction = const(compaction_table())
+        # positions swap roles (sorted, spare, predicted): slack in all three
+        rows = n + 8
+        self.pos, self.vel, self.pos_spare, self.vel_spare = (buf(16 * rows) for _ in range(4))
+        self.pos_pred, self.vel_pred, self.a_np = (buf(16 * rows) for _ in range(3))
         self.p, self.p_spare, self.rho = (buf(4 * n) for _ in range(3))
         self.ids, self.ids_spare, self.cell, self.order = (buf(4 * n) for _ in range(4))
         self.counts = const(np.zeros(nc, dtype=_I32))
         self.start, self.cursor = buf(4 * (nc + 1)), buf(4 * nc)
         self.nb, self.nb_count = buf(4 * n * MAX_NEIGHBOURS), buf(4 * n)
+        # x(t)-geometry of the pressure loop, written by nonpressure_accel (see sph.cl)
+        self.pair_scale, self.wall_grad = buf(4 * n * MAX_NEIGHBOURS), buf(16 * n)
         self.wall_nb, self.wall_nb_count = buf(4 * n * MAX_WALL_NEIGHBOURS), buf(4 * n)
         self.err = buf(4 * max(scene.max_iterations, 1))
         self.overflow = const(np.zeros(1, dtype=_I32))
         self.frame = buf(16 * n)
 
     def _run(self, name: str, size: int, *args: Any) -> None:
-        self.kernels[name](self.queue, (size,), None, *args)
+        """Enqueue kernel ``name`` on ``size`` work-items, setting only changed arguments.
+
+        pyopencl's ``kernel(queue, ...)`` converts and sets every argument on every call,
+        about 170 us of Python for these 20-30 argument kernels, which competes with the
+        device's two threads for the two cores; an argument that is the same object as
+        last time (a buffer, a cached constant) is not set again.
+        """
+        kernel = self.kernels[name]
+        bound = self._bound.get(name)
+        if bound is None:
+            bound = self._bound[name] = [None] * len(args)
+        for index, arg in enumerate(args):
+            if bound[index] is not arg:
+                kernel.set_arg(index, arg)
+                bound[index] = arg
+        cl.enqueue_nd_range_kernel(self.queue, kernel, (size,), _work_group(size))
+
+    def _i32(self, v: int) -> np.int32:
+        """The same argument object for the same value (see :meth:`_run`)."""
+        x = self._scalars.get(("i", v))
+        if x is None:
+            x = self._scalars[("i", v)] = _I32(v)
+        return x
+
+    def _f32(self, v: float) -> np.float32:
+        x = self._scalars.get(("f", v))
+        if x is None:
+            x = self._scalars[("f", v)] = _F32(v)
+        return x
+
+    def _f4(self, v: tuple[float, float, float]) -> np.ndarray:
+        x = self._scalars.get(("f4", *v))
+        if x is None:
+            x = self._scalars[("f4", *v)] = _float4(v)
+        return x
 
     # -- state in and out ----------------------------------------------------------------
     def load(self, state: np.ndarray) -> None:
@@ -133,7 +210,7 @@ class SphKernels:
         g = self.grid_args
         nc = self.grid.n_cells
         self._run("count_cells", self.n, self.pos, self.cell, self.counts, g[0], g[2], g[1])
-        self._run("scan_cells", 1, self.counts, self.start, self.cursor, _I32(nc))
+        self._run("scan_cells", 1, self.counts, self.start, self.cursor, self._i32(nc))
         self._run("scatter_cells", self.n, self.cell, self.cursor, self.order)
         self._run("sort_cells", nc, self.start, self.order)
         self._run(
@@ -163,8 +240,9 @@ class SphKernels:
             self.walls_buf,
             self.wall_start,
             *self.grid_args,
-            _I32(MAX_NEIGHBOURS),
-            _I32(MAX_WALL_NEIGHBOURS),
+            self.compaction,
+            self._i32(MAX_NEIGHBOURS),
+            self._i32(MAX_WALL_NEIGHBOURS),
             self.nb,
             self.nb_count,
             self.wall_nb,
@@ -183,20 +261,29 @@ class SphKernels:
             self.vel,
             self.nb,
             self.nb_count,
-            _I32(MAX_NEIGHBOURS),
+            self._i32(MAX_NEIGHBOURS),
             self.walls_buf,
             self.psi_buf,
             self.wall_nb,
             self.wall_nb_count,
-            _I32(MAX_WALL_NEIGHBOURS),
+            self._i32(MAX_WALL_NEIGHBOURS),
             *self.grid_args,
-            _float4(gravity),
-            _F32(visc),
-            _F32(wall_visc),
+            self._f4(gravity),
+            self._f32(visc),
+            self._f32(wall_visc),
             self.a_np,
+            self.pair_scale,
+            self.wall_grad,
         )
 
-    def pressure_predict(self, damping: float = 0.0) -> None:
+    def pressure_predict(
+        self, damping: float = 0.0, iteration: int = -1, check_from: int = ALWAYS
+    ) -> None:
+        """Predicted x*, v* from the pressures; needs :meth:`nonpressure_accel` first.
+
+        A no-op on the device if ``iteration >= check_from`` and the max compression of
+        ``iteration - 1`` is below eta (the loop has converged; see ``sph.cl``).
+        """
         s = self.scene
         self._run(
             "pressure_predict",
@@ -207,42 +294,49 @@ class SphKernels:
             self.a_np,
             self.nb,
             self.nb_count,
-            _I32(MAX_NEIGHBOURS),
-            self.walls_buf,
-            self.psi_buf,
-            self.wall_nb,
-            self.wall_nb_count,
-            _I32(MAX_WALL_NEIGHBOURS),
-            *self.grid_args,
-            _F32(1.0 / s.rest_density**2),
-            _F32(s.dt),
-            _F32(damping),
+            self._i32(MAX_NEIGHBOURS),
+            self.pair_scale,
+            self.wall_grad,
+            self._f32(s.particle_mass),
+            self._f32(1.0 / s.rest_density**2),
+            self._f32(s.dt),
+            self._f32(damping),
             self.lo,
             self.hi,
             self.pos_pred,
             self.vel_pred,
+            self.err,
+            self._i32(iteration),
+            self._i32(check_from),
+            self._f32(s.eta),
         )
 
-    def density_pressure(self, iteration: int) -> None:
+    def density_pressure(self, iteration: int, check_from: int = ALWAYS) -> None:
+        """Density at x*, pressure update, max compression into ``err[iteration]``.
+
+        Skipped on the device like :meth:`pressure_predict`.
+        """
         self._run(
             "density_pressure",
             self.n,
             self.pos_pred,
             self.nb,
             self.nb_count,
-            _I32(MAX_NEIGHBOURS),
+            self._i32(MAX_NEIGHBOURS),
             self.walls_buf,
             self.psi_buf,
             self.wall_nb,
             self.wall_nb_count,
-            _I32(MAX_WALL_NEIGHBOURS),
+            self._i32(MAX_WALL_NEIGHBOURS),
             *self.grid_args,
-            _F32(self.scene.rest_density),
-            _F32(self.delta),
+            self._f32(self.scene.rest_density),
+            self._f32(self.delta),
             self.p,
             self.rho,
             self.err,
-            _I32(iteration),
+            self._i32(iteration),
+            self._i32(check_from),
+            self._f32(self.scene.eta),
         )
 
     def reset_errors(self) -> None:
@@ -251,9 +345,19 @@ class SphKernels:
 
     def density_error(self, iteration: int) -> float:
         """Max relative compression of ``iteration`` (waits for the queue)."""
-        out = np.empty(1, dtype=np.float32)
-        cl.enqueue_copy(self.queue, out, self.err, src_offset=4 * iteration)
-        return float(out[0])
+        return float(self.density_errors(iteration + 1)[iteration])
+
+    def enqueue_density_error(self, iteration: int, out: np.ndarray) -> cl.Event:
+        """Start copying the max compression of ``iteration`` into ``out`` (one float32)."""
+        return cl.enqueue_copy(
+            self.queue, out, self.err, src_offset=4 * iteration, is_blocking=False
+        )
+
+    def density_errors(self, count: int) -> np.ndarray:
+        """Max relative compressions of iterations 0 .. count - 1 (0 where skipped; waits)."""
+        out = np.empty(count, dtype=np.float32)
+        cl.enqueue_copy(self.queue, out, self.err)
+        return out
 
     def advance(self) -> None:
         """x(t + dt) = x*, v(t + dt) = v*: swap the predicted buffers in."""

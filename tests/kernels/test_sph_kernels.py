@@ -9,7 +9,7 @@ from app.core import sph as twin
 from app.core.scene import initial_particles, kinetic_energy, tilt_tank
 from app.kernels.context import runtime
 from app.kernels.sph import SphSimulator
-from app.kernels.sph_kernels import SphKernels
+from app.kernels.sph_kernels import MAX_NEIGHBOURS, MAX_WALL_NEIGHBOURS, SphKernels
 from app.services import sph_validation as v
 
 
@@ -42,7 +42,7 @@ def test_neighbour_lists_match_twin() -> None:
     k.find_neighbours()
     pos = k.read(k.pos, np.float32, 4)[:, :3]
     count = k.read(k.nb_count, np.int32)
-    lists = k.read(k.nb, np.int32, 64)  # MAX_NEIGHBOURS columns
+    lists = k.read(k.nb, np.int32, MAX_NEIGHBOURS)
     expected = twin.find_neighbours(pos, k.walls, scene.support)
     per_particle = np.bincount(expected.fluid[:, 0], minlength=len(pos))
     # pairs within float32 rounding of h may fall either side; they carry zero weight
@@ -51,6 +51,102 @@ def test_neighbour_lists_match_twin() -> None:
     i = int(np.argmax(count))
     assert set(lists[i, : count[i]]) == set(expected.fluid[expected.fluid[:, 0] == i, 1])
     assert k.overflowed() == 0
+
+
+def test_portable_list_compaction_gives_the_same_lists() -> None:
+    """The AVX2 lane-permutation append and the portable prefix-sum one agree."""
+    scene = tilt_tank("tiny")
+    state = initial_particles(scene)
+    state[:, :3] += np.random.default_rng(4).normal(0, 0.1 * scene.spacing, (len(state), 3))
+    found = []
+    for options in ((), ("-DPORTABLE_COMPACTION",)):
+        k = SphKernels(scene, len(state), build_options=options)
+        k.load(state)
+        k.sort()
+        k.find_neighbours()
+        count = k.read(k.nb_count, np.int32)
+        lists = k.read(k.nb, np.int32, MAX_NEIGHBOURS)
+        wall_count = k.read(k.wall_nb_count, np.int32)
+        walls = k.read(k.wall_nb, np.int32, MAX_WALL_NEIGHBOURS)
+        padded = (count + 7) // 8 * 8
+        found.append(
+            (
+                count,
+                wall_count,
+                [row[:c].tolist() for row, c in zip(lists, padded, strict=True)],
+                [row[:c].tolist() for row, c in zip(walls, wall_count, strict=True)],
+            )
+        )
+        assert k.overflowed() == 0
+    assert np.array_equal(found[0][0], found[1][0])
+    assert np.array_equal(found[0][1], found[1][1])
+    assert found[0][2] == found[1][2] and found[0][3] == found[1][3]
+    assert found[0][1].max() > 0
+
+
+def test_pressure_loop_geometry_matches_twin() -> None:
+    """nonpressure_accel's stored grad W_ij scales per list slot, wall sums, padding."""
+    scene = tilt_tank("tiny")
+    state = initial_particles(scene)
+    state[:, :3] += np.random.default_rng(3).normal(0, 0.1 * scene.spacing, (len(state), 3))
+    n = len(state)
+    k = SphKernels(scene, n)
+    k.load(state)
+    k.sort()
+    k.find_neighbours()
+    k.nonpressure_accel(scene.gravity[0])
+    pos = k.read(k.pos, np.float32, 4)[:, :3].astype(np.float64)
+    count = k.read(k.nb_count, np.int32)[:, None]
+    lists = k.read(k.nb, np.int32, MAX_NEIGHBOURS)
+    scales = k.read(k.pair_scale, np.float32, MAX_NEIGHBOURS)
+    slot = np.arange(MAX_NEIGHBOURS)[None, :]
+    i, used = np.nonzero(slot < count)
+    d = pos[i] - pos[lists[i, used]]
+    expected = twin.cubic_kernel_gradient(d, np.linalg.norm(d, axis=1), scene.support)
+    grads = d * scales[i, used, None]
+    assert np.max(np.abs(grads - expected)) / np.max(np.abs(expected)) < 1e-5
+    # padding up to a multiple of eight: the particle itself, with a zero gradient
+    rows, pad = np.nonzero((slot >= count) & (slot < (count + 7) // 8 * 8))
+    assert len(rows) > 0
+    assert np.array_equal(lists[rows, pad], rows)
+    assert not np.any(scales[rows, pad])
+    nb = twin.find_neighbours(pos, k.walls, scene.support)
+    wall_expected = twin.wall_gradient_sum(pos, nb.wall, k.walls, k.psi, scene)
+    wall = k.read(k.wall_grad, np.float32, 4)[:, :3]
+    assert np.max(np.abs(wall - wall_expected)) / np.max(np.abs(wall_expected)) < 1e-5
+
+
+def test_loop_enqueued_ahead_equals_testing_every_iteration(
+    tiny_rest: tuple[SphSimulator, np.ndarray],
+) -> None:
+    """The iteration queued past convergence is a no-op: same state, same counts."""
+    sim, rest = tiny_rest
+    scene = sim.scene
+    ahead, plain = SphSimulator(scene), SphSimulator(scene)
+    ahead.kernels.load(rest)
+    plain.kernels.load(rest)
+    gravity = scene.gravity[1]
+    k = plain.kernels
+    for _ in range(2 * scene.substeps):
+        used = ahead.substep(gravity)
+        k.sort()
+        k.find_neighbours()
+        k.nonpressure_accel(gravity)
+        k.pressure_predict()
+        k.reset_errors()
+        it = 0
+        while it < scene.max_iterations:
+            k.density_pressure(it)
+            k.pressure_predict(0.0, it)
+            it += 1
+            if it >= scene.min_iterations and k.density_error(it - 1) < scene.eta:
+                break
+        k.advance()
+        assert used == it
+    for name, width in (("pos", 4), ("vel", 4), ("p", 1)):
+        a = ahead.kernels.read(getattr(ahead.kernels, name), np.float32, width)
+        b = k.read(getattr(k, name), np.float32, width)
+        assert np.array_equal(a, b), name
 
 
 def test_clips_are_bit_identical(tiny_rest: tuple[SphSimulator, np.ndarray]) -> None:
