@@ -31,7 +31,7 @@ from app.models import Publication as PublicationRow
 from app.render.animation import STRIP_MEDIA_TYPE, encode_strip
 from app.services.dynamics import make_dynamics
 from app.store.artifacts import ArtifactStore
-from app.store.graphs import create_graph, get_graph_row, load_graph, save_graph, set_animations
+from app.store.graphs import create_graph, get_graph_row, save_graph, set_animations
 from app.store.publications import latest_publication, load_publication, publish
 from app.store.traces import get_or_create_player, load_traces, record_trace
 
@@ -73,11 +73,10 @@ def refiner_config(settings: Settings, dynamics: Dynamics) -> RefinerConfig:
 
 
 def open_graph(session: Session, settings: Settings, name: str | int) -> LoadedGraph:
-    row = get_graph_row(session, name)
-    artifacts = artifact_store(settings)
-    graph, bank = load_graph(session, row.id, artifacts)
-    dynamics = make_dynamics(row.dynamics, row.scene.get("preset"))
-    return LoadedGraph(row, graph, bank, dynamics, artifacts)
+    """The graph by name or id, loaded the one way growth loads it (cache, Redis shapes)."""
+    from app.services.growth import loaded_graph  # growth builds on this module
+
+    return loaded_graph(session, settings, get_graph_row(session, name))
 
 
 def graph_traces(session: Session, graph_id: int) -> list[np.ndarray]:
