@@ -29,6 +29,7 @@ import mitsuba as mi
 import numpy as np
 
 from app.core.scene import Box, Scene
+from app.core.silhouette import tank_camera
 from app.core.surface import SurfaceGrid
 from app.render.meshing import surface_mesh
 
@@ -116,16 +117,17 @@ def _static_objects(scene: Scene, settings: RenderSettings) -> dict[str, Any]:
     t = 0.02 * size[0]  # wall thickness
     wall, frame = _diffuse(WALL_COLOUR), _diffuse(FRAME_COLOUR)
     tg = scene.target
-    centre = (lo + hi) / 2
-    eye = [centre[0], lo[1] + 0.75 * size[1], hi[2] + 1.9 * size[0]]
-    look = [centre[0], lo[1] + 0.42 * size[1], centre[2]]
+    camera = tank_camera(scene.tank, settings.width, settings.height)
     return {
         "integrator": mi.load_dict({"type": "path", "max_depth": settings.max_depth}),
         "sensor": mi.load_dict(
             {
                 "type": "perspective",
-                "fov": 33.0,
-                "to_world": mi.ScalarTransform4f().look_at(origin=eye, target=look, up=[0, 1, 0]),
+                "fov": camera.fov_x,
+                "fov_axis": "x",
+                "to_world": mi.ScalarTransform4f().look_at(
+                    origin=list(camera.eye), target=list(camera.target), up=list(camera.up)
+                ),
                 "film": {
                     "type": "hdrfilm",
                     "width": settings.width,
