@@ -1,0 +1,375 @@
+"""The high-error threshold from what players see (``docs/threshold.md``).
+
+The paper set its threshold "through gameplay testing": blends whose animations looked
+objectionable. Here the looking is measured. Clips of the liquid are simulated from the
+settled tank (a fresh depth-2 tree and random control sequences); every clip in turn is
+a dead end ``d`` blended into other clips ``t`` of its control, from its best target to
+its worst, so that ``dist(d, t, c)`` spans from about zero to far above any blend a graph
+keeps. Each blend's silhouette through the game camera is compared with ``d``'s, the
+simulated continuation the blend stands in for (``app.core.visible_error``); the
+pre-registered :class:`~app.core.visible_error.VisibilityCriterion` labels it visibly
+wrong or not, and the threshold is the dist where the two are equally likely
+(``app.core.error_threshold``).
+
+A few blends spread over the range of dist are also rendered with Mitsuba: their mean
+RGB difference to the rendered simulation is reported next to the silhouette measures,
+and the silhouettes are checked against the renders (the pixels where the render differs
+from the empty tank).
+"""
+
+from __future__ import annotations
+
+from collections.abc import Callable
+from dataclasses import asdict, dataclass, field
+from typing import Any
+
+import numpy as np
+from scipy.stats import spearmanr
+
+from app.core.dynamics import ClipFeatures, SimClip
+from app.core.error_threshold import (
+    DEFAULT_RIDGE,
+    ThresholdFitError,
+    bootstrap_thresholds,
+    log_dist,
+    logistic_threshold,
+    separating_threshold,
+)
+from app.core.silhouette import silhouette_projector, silhouettes, tank_camera
+from app.core.surface import dequantise_sdf, liquid_volumes, occupancy
+from app.core.visible_error import (
+    VisibilityCriterion,
+    image_difference,
+    swelling,
+    visible_artifacts,
+)
+from app.services.liquid import LiquidDynamics
+
+#: clips simulated for the study: a depth-2 tree (N + N^2 = 12) and random sequences
+DEFAULT_CLIPS = 48
+SEQUENCE_LENGTH = 9
+#: probability that a random sequence keeps its control from one clip to the next
+KEEP_CONTROL = 0.6
+#: targets of each dead-end clip: these ranks of dist (0 = best) and these quantiles
+TARGET_RANKS = (0, 1, 2)
+TARGET_QUANTILES = (0.25, 0.5, 0.75, 1.0)
+#: blends rendered with Mitsuba for the RGB comparison
+DEFAULT_RENDERED = 16
+BOOTSTRAP_RESAMPLES = 1000
+#: a pixel whose rendered colour differs from the empty tank's by more than this (0-255,
+#: any channel) counts as showing liquid in the render check; the 16 spp noise is ~20
+RENDER_LIQUID_LEVEL = 40
+
+Progress = Callable[[str], None]
+
+
+@dataclass(frozen=True)
+class BlendRecord:
+    """One measured blend: dead-end clip ``dead_end`` blended into clip ``target``."""
+
+    dead_end: int
+    target: int
+    control: int
+    rank: int
+    dist: float
+    mismatch: float
+    swelling: float
+    jump: float
+    volume_swelling: float
+    violations: tuple[str, ...]
+    image_difference: float | None = None
+
+    @property
+    def wrong(self) -> bool:
+        return bool(self.violations)
+
+
+@dataclass
+class ThresholdStudy:
+    """Everything one measurement produced; ``details`` is what the calibration stores."""
+
+    threshold: float
+    details: dict[str, Any]
+    blends: list[BlendRecord]
+    criterion: VisibilityCriterion
+    #: name -> (simulated images, blend images, simulated masks, blend masks, record)
+    examples: dict[str, tuple[np.ndarray, np.ndarray, np.ndarray, np.ndarray, BlendRecord]] = field(
+        default_factory=dict
+    )
+
+    def records(self) -> list[dict[str, Any]]:
+        """The blends as JSON-able dicts (with the ``wrong`` label)."""
+        return [
+            {**asdict(b), "violations": list(b.violations), "wrong": b.wrong} for b in self.blends
+        ]
+
+
+def _noop(message: str) -> None:
+    pass
+
+
+def study_clips(
+    dyn: LiquidDynamics, clips: int, seed: int, progress: Progress = _noop
+) -> list[SimClip]:
+    """``clips`` clips from the settled tank: the depth-2 tree first, then random sequences.
+
+    The tree's clips are those a fresh graph starts with; the sequences (the control
+    kept with probability :data:`KEEP_CONTROL`, else drawn uniformly) reach the sloshing
+    states that play visits.
+    """
+    rest = dyn.initial_state()
+    n = dyn.n_controls
+    out: list[SimClip] = []
+    firsts = [dyn.simulate(rest, c) for c in range(n)]
+    out += firsts[:clips]
+    for first in firsts:
+        for c in range(n):
+            if len(out) < clips:
+                out.append(dyn.simulate(first.end_state, c))
+    rng = np.random.default_rng(seed)
+    while len(out) < clips:
+        state, control = rest, int(rng.integers(n))
+        for _ in range(min(SEQUENCE_LENGTH, clips - len(out))):
+            if rng.random() >= KEEP_CONTROL:
+                control = int(rng.integers(n))
+            clip = dyn.simulate(state, control)
+            out.append(clip)
+            state = clip.end_state
+        progress(f"simulated {len(out)}/{clips} clips")
+    return out
+
+
+def pick_targets(dists: np.ndarray, controls: list[int]) -> list[tuple[int, int, int]]:
+    """(dead end, target, rank) triples: per clip, targets of its control at several ranks.
+
+    ``dists[i, j]`` is dist(i, j, control of j). A clip is never its own target; ranks
+    :data:`TARGET_RANKS` and the :data:`TARGET_QUANTILES` of each clip's ranking are
+    taken once each.
+    """
+    out = []
+    for i, control in enumerate(controls):
+        others = [j for j, c in enumerate(controls) if c == control and j != i]
+        if not others:
+            continue
+        ranked = sorted(others, key=lambda j: (dists[i, j], j))
+        last = len(ranked) - 1
+        ranks = set(r for r in TARGET_RANKS if r <= last)
+        ranks |= {int(round(q * last)) for q in TARGET_QUANTILES}
+        out += [(i, ranked[r], r) for r in sorted(ranks)]
+    return out
+
+
+def _stratified(values: np.ndarray, count: int) -> list[int]:
+    """Indices of ``count`` entries spread evenly over the sorted ``values``."""
+    if count <= 0 or len(values) == 0:
+        return []
+    order = np.argsort(values, kind="stable")
+    picks = np.unique(np.round(np.linspace(0, len(values) - 1, min(count, len(values)))))
+    return [int(order[int(p)]) for p in picks]
+
+
+def measure_blends(
+    dyn: LiquidDynamics,
+    *,
+    clips: int = DEFAULT_CLIPS,
+    seed: int = 0,
+    criterion: VisibilityCriterion | None = None,
+    rendered: int = DEFAULT_RENDERED,
+    examples: bool = True,
+    n_boot: int = BOOTSTRAP_RESAMPLES,
+    progress: Progress | None = None,
+) -> ThresholdStudy:
+    """Simulate, blend, project and label; fit the threshold (see the module docstring).
+
+    Parameters
+    ----------
+    dyn : LiquidDynamics
+        The preset and fluid to measure, with its calibration's T0 and w_e (the dist the
+        threshold applies to).
+    clips : int
+        Clips simulated; each is a dead end for up to 7 blends.
+    rendered : int
+        Blends rendered (with their simulated clips) for the RGB comparison; 0: none.
+    examples : bool
+        Also render the blends just below and just above the threshold (for the docs).
+
+    Raises
+    ------
+    ThresholdFitError
+        Too few blends on either side of the criterion to place a threshold.
+    """
+    say = progress or _noop
+    criterion = criterion or VisibilityCriterion()
+    sims = study_clips(dyn, clips, seed, say)
+    feats: list[ClipFeatures] = [dyn.features(s) for s in sims]
+    controls = [f.control for f in feats]
+    dists = np.array(
+        [
+            [dyn.dist(a, b, b.control) if a.control == b.control else np.inf for b in feats]
+            for a in feats
+        ]
+    )
+    pairs = pick_targets(dists, controls)
+    say(f"{len(sims)} clips, {len(pairs)} blends")
+
+    grid = dyn.grid
+    settings = dyn.render_settings
+    projector = silhouette_projector(
+        tank_camera(dyn.scene.tank, settings.width, settings.height), grid
+    )
+    sdf = [dequantise_sdf(grid, s.frames) for s in sims]
+    masks = [silhouettes(projector, phi) for phi in sdf]
+    volumes = [liquid_volumes(grid, occupancy(grid, phi)) for phi in sdf]
+
+    blends: list[BlendRecord] = []
+    blend_frames: list[np.ndarray] = []
+    for n, (i, j, rank) in enumerate(pairs):
+        frames = dyn.blend(sims[i].frames, sims[j].frames)
+        phi = dequantise_sdf(grid, frames)
+        artifacts = visible_artifacts(silhouettes(projector, phi), masks[i])
+        blends.append(
+            BlendRecord(
+                dead_end=i,
+                target=j,
+                control=controls[i],
+                rank=rank,
+                dist=float(dists[i, j]),
+                mismatch=artifacts.mismatch,
+                swelling=artifacts.swelling,
+                jump=artifacts.jump,
+                volume_swelling=swelling(liquid_volumes(grid, occupancy(grid, phi)), volumes[i]),
+                violations=criterion.violations(artifacts),
+            )
+        )
+        blend_frames.append(frames)
+        if (n + 1) % 50 == 0:
+            say(f"measured {n + 1}/{len(pairs)} blends")
+
+    dist = np.array([b.dist for b in blends])
+    wrong = np.array([b.wrong for b in blends])
+    groups = np.array([b.dead_end for b in blends])
+    threshold = logistic_threshold(dist, wrong)
+    boot = bootstrap_thresholds(dist, wrong, groups, n_boot=n_boot, seed=seed)
+    low, high = boot.interval()
+    say(f"threshold {threshold:.4g} (95 % {low:.4g}-{high:.4g}) from {len(blends)} blends")
+
+    renders: dict[int, np.ndarray] = {}
+
+    def render_clip(i: int) -> np.ndarray:
+        if i not in renders:
+            renders[i] = dyn.render(sims[i].frames)
+        return renders[i]
+
+    chosen = _stratified(log_dist(dist), rendered)
+    for n, b in enumerate(chosen):
+        images = dyn.render(blend_frames[b])
+        blends[b] = _with_image_difference(
+            blends[b], image_difference(images, render_clip(blends[b].dead_end))
+        )
+        say(f"rendered {n + 1}/{len(chosen)} blends")
+    render_check = _render_check(dyn, blends, renders, masks) if chosen else {}
+
+    found: dict[str, tuple[np.ndarray, np.ndarray, np.ndarray, np.ndarray, BlendRecord]] = {}
+    if examples:
+        x, x_thr = log_dist(dist), np.log10(threshold)
+        for name, side in (("below", x <= x_thr), ("above", x > x_thr)):
+            if side.any():
+                b = int(np.flatnonzero(side)[np.argmin(np.abs(x[side] - x_thr))])
+                record = blends[b]
+                found[name] = (
+                    render_clip(record.dead_end),
+                    dyn.render(blend_frames[b]),
+                    masks[record.dead_end],
+                    silhouettes(projector, dequantise_sdf(grid, blend_frames[b])),
+                    record,
+                )
+
+    details = {
+        "method": "visible error: logistic 50 % point of visibly wrong blends on log10(dist)",
+        "criterion": asdict(criterion),
+        "clips": len(sims),
+        "seed": seed,
+        "blends": len(blends),
+        "dead_ends": len(np.unique(groups)),
+        "visibly_wrong": int(wrong.sum()),
+        "wrong_by": {
+            name: int(sum(name in b.violations for b in blends))
+            for name in ("mismatch", "swelling", "jump")
+        },
+        "threshold": threshold,
+        "ci95": [low, high],
+        "bootstrap_resamples": n_boot,
+        "bootstrap_failed": boot.failed,
+        "separating_threshold": separating_threshold(dist, wrong),
+        "ridge": DEFAULT_RIDGE,
+        "dist_range": [float(dist.min()), float(dist.max())],
+        "best_target_wrong_fraction": float(np.mean([b.wrong for b in blends if b.rank == 0])),
+        "render_check": render_check,
+    }
+    return ThresholdStudy(threshold, details, blends, criterion, found)
+
+
+def _with_image_difference(record: BlendRecord, value: float) -> BlendRecord:
+    return BlendRecord(**{**asdict(record), "image_difference": value})
+
+
+def _render_check(
+    dyn: LiquidDynamics,
+    blends: list[BlendRecord],
+    renders: dict[int, np.ndarray],
+    masks: list[np.ndarray],
+) -> dict[str, Any]:
+    """How the rendered blends and simulated clips agree with the silhouette measures.
+
+    The silhouette of a rendered simulated clip is compared with the pixels where its
+    render differs from the empty tank's: the intersection over union is below 1 mostly
+    from render noise and the liquid's shadows, not from misplaced outlines.
+    """
+    empty = dyn.render(np.full((1, *dyn.grid.shape), 127, dtype=np.int8))[0].astype(np.int16)
+    ious = []
+    for i, images in renders.items():
+        seen = np.abs(images.astype(np.int16) - empty).max(axis=-1) > RENDER_LIQUID_LEVEL
+        union = (seen | masks[i]).sum(axis=(1, 2))
+        ious.append(float(np.median((seen & masks[i]).sum(axis=(1, 2)) / np.maximum(union, 1))))
+    rendered = [b for b in blends if b.image_difference is not None]
+    diff = np.array([b.image_difference for b in rendered], dtype=np.float64)
+    mismatch = np.array([b.mismatch for b in rendered])
+    rho = spearmanr(diff, mismatch).statistic if len(rendered) > 2 else float("nan")
+    return {
+        "blends": len(rendered),
+        "simulated_clips": len(renders),
+        "silhouette_render_iou_median": float(np.median(ious)),
+        "image_difference_range": [float(diff.min()), float(diff.max())],
+        "image_difference_vs_mismatch_spearman": float(rho),
+    }
+
+
+def measure_visible_threshold(
+    dyn: LiquidDynamics,
+    *,
+    clips: int = DEFAULT_CLIPS,
+    seed: int = 0,
+    rendered: int = DEFAULT_RENDERED,
+    progress: Progress | None = None,
+) -> tuple[float, dict[str, Any]]:
+    """The high-error threshold of ``dyn``'s preset and fluid and how it was measured.
+
+    Returns ``(threshold, details)``; ``details`` is JSON-able (the calibration stores
+    it). Raises :class:`~app.core.error_threshold.ThresholdFitError` when the blends do
+    not straddle the criterion. About 3 min on tiny with the defaults (2 CPU cores).
+    """
+    study = measure_blends(
+        dyn, clips=clips, seed=seed, rendered=rendered, examples=False, progress=progress
+    )
+    return study.threshold, study.details
+
+
+__all__ = [
+    "BlendRecord",
+    "ThresholdFitError",
+    "ThresholdStudy",
+    "measure_blends",
+    "measure_visible_threshold",
+    "pick_targets",
+    "study_clips",
+]
