@@ -133,6 +133,42 @@ def cfl_substeps(spacing: float, max_speed: float, fps: int, courant: float = 0.
     return math.ceil(max_speed / (courant * spacing * fps))
 
 
+#: dt <= VISCOUS_STEP dx^2 / nu keeps the explicit viscosity term well inside its
+#: stability region (measured, see :func:`viscous_substeps`)
+VISCOUS_STEP = 0.036
+
+
+def viscous_substeps(spacing: float, viscosity: float, fps: int) -> int:
+    """Substeps per frame so that ``dt <= VISCOUS_STEP * dx^2 / nu``.
+
+    The viscosity of ``app.core.sph`` is an explicit SPH Laplacian. Its largest
+    eigenvalue on the settled lattice is about ``-14 nu / dx^2`` (power iteration on
+    the NumPy twin, tiny and small presets alike), so an explicit step is stable for
+    ``dt < 0.144 dx^2 / nu``; the pressure solve stayed converged up to half of that
+    (dt |lambda| <= 0.5) and lost convergence at 0.7, hence 0.036. In terms of the
+    support h = 2 dx this is ``dt <= 0.009 h^2 / nu``: the usual ``0.125 h^2 / nu`` is
+    stated for the smoothing length (about dx here), not the support.
+    """
+    return math.ceil(viscosity / (VISCOUS_STEP * spacing**2 * fps))
+
+
+@dataclass(frozen=True)
+class FluidProperties:
+    """What differs between the liquids of the tilt tank (kinematic viscosities, m^2/s)."""
+
+    viscosity: float
+    wall_viscosity: float
+
+
+#: the two fluids of the paper's study (section 7): today's liquid and a thick one, ten
+#: times as viscous, with the same wall-to-fluid viscosity ratio (docs/liquid.md,
+#: "Two fluids")
+FLUIDS = {
+    "low": FluidProperties(viscosity=1e-3, wall_viscosity=5e-4),
+    "high": FluidProperties(viscosity=1e-2, wall_viscosity=5e-3),
+}
+
+
 #: particle spacing of the tilt-tank presets (particle counts 1920, 8064, 43824)
 TILT_TANK_SPACINGS = {"tiny": 0.02, "small": 0.0125, "paper": 0.0072}
 #: height of the fluid block of the tilt tank (m)
@@ -142,26 +178,39 @@ FILL_HEIGHT = 0.175
 TILT_TANK_REST_KINETIC = {"tiny": 0.0, "small": 0.0, "paper": 0.0}
 
 
-def tilt_tank(preset: str = "small") -> Scene:
+def tilt_tank(preset: str = "small", fluid: str = "low") -> Scene:
     """The game's scene: a 0.6 x 0.4 x 0.16 m tank filled to 0.175 m, tilted by +/- 30 degrees.
 
     The fastest plausible flow is a free fall over the tank height, ``sqrt(2 g H)``,
-    which fixes the substeps through the CFL condition.
+    which fixes the substeps through the CFL condition, unless the fluid's viscosity
+    needs more (:func:`viscous_substeps`; only ``high`` on ``small`` and ``paper``).
+    ``fluid`` picks a row of :data:`FLUIDS`; the scene of ``low`` is named
+    ``tilt-tank/<preset>``, any other ``tilt-tank/<preset>-<fluid>``.
     """
     if preset not in TILT_TANK_SPACINGS:
         raise ValueError(f"unknown preset {preset!r}; one of {sorted(TILT_TANK_SPACINGS)}")
+    if fluid not in FLUIDS:
+        raise ValueError(f"unknown fluid {fluid!r}; one of {list(FLUIDS)}")
+    liquid = FLUIDS[fluid]
     dx = TILT_TANK_SPACINGS[preset]
     size = (0.6, 0.4, 0.16)
     counts = [math.floor(x / dx + 1e-6) for x in (size[0], FILL_HEIGHT, size[2])]
     fluid_hi = (counts[0] * dx, counts[1] * dx, counts[2] * dx)
+    fps = 30
     return Scene(
-        name=f"tilt-tank/{preset}",
+        name=f"tilt-tank/{preset}" if fluid == "low" else f"tilt-tank/{preset}-{fluid}",
         tank=Box((0.0, 0.0, 0.0), size),
         fluid=Box((0.0, 0.0, 0.0), fluid_hi),
         gravity=tuple(tilted_gravity(a) for a in TILT_DEGREES),
         target=Box((0.2, 0.25, 0.0), (0.4, 0.4, size[2])),
         spacing=dx,
-        substeps=cfl_substeps(dx, math.sqrt(2 * GRAVITY * size[1]), 30),
+        substeps=max(
+            cfl_substeps(dx, math.sqrt(2 * GRAVITY * size[1]), fps),
+            viscous_substeps(dx, liquid.viscosity, fps),
+        ),
+        fps=fps,
+        viscosity=liquid.viscosity,
+        wall_viscosity=liquid.wall_viscosity,
         rest_kinetic=TILT_TANK_REST_KINETIC[preset],
     )
 

@@ -10,12 +10,15 @@ import pytest
 
 from app.core import sph
 from app.core.scene import (
+    FLUIDS,
+    VISCOUS_STEP,
     Scene,
     cfl_substeps,
     initial_particles,
     kinetic_energy,
     potential_energies,
     tilt_tank,
+    viscous_substeps,
 )
 from app.core.sph_grid import (
     make_grid,
@@ -56,6 +59,61 @@ def test_substeps_satisfy_the_cfl_condition() -> None:
     speed = math.sqrt(2 * 9.81 * scene.tank.hi[1])
     assert scene.dt * speed <= 0.4 * scene.spacing
     assert cfl_substeps(0.01, 1.0, 30) == 9
+
+
+@pytest.mark.parametrize(("preset", "substeps"), [("tiny", 12), ("small", 19), ("paper", 33)])
+def test_the_low_fluid_is_the_scene_graphs_were_grown_with(preset: str, substeps: int) -> None:
+    scene = tilt_tank(preset, "low")
+    assert scene == tilt_tank(preset)
+    assert scene.name == f"tilt-tank/{preset}" and scene.substeps == substeps
+    assert (scene.viscosity, scene.wall_viscosity) == (1e-3, 5e-4)
+
+
+@pytest.mark.parametrize("preset", ["tiny", "small", "paper"])
+def test_the_high_fluid_differs_only_in_the_fluid_table(preset: str) -> None:
+    low, high = tilt_tank(preset).to_dict(), tilt_tank(preset, "high").to_dict()
+    changed = {key for key in low if low[key] != high[key]}
+    assert changed <= {"name", "viscosity", "wall_viscosity", "substeps"}
+    assert high["name"] == f"tilt-tank/{preset}-high"
+    assert (high["viscosity"], high["wall_viscosity"]) == (
+        FLUIDS["high"].viscosity,
+        FLUIDS["high"].wall_viscosity,
+    )
+    assert high["viscosity"] >= 10 * low["viscosity"]
+    # more substeps only where the viscosity needs them, never fewer than the CFL's
+    assert high["substeps"] == max(low["substeps"], viscous_substeps(low["spacing"], 1e-2, 30))
+
+
+@pytest.mark.parametrize("fluid", list(FLUIDS))
+@pytest.mark.parametrize("preset", ["tiny", "small", "paper"])
+def test_every_scene_keeps_the_explicit_viscosity_stable(preset: str, fluid: str) -> None:
+    scene = tilt_tank(preset, fluid)
+    assert scene.dt <= VISCOUS_STEP * scene.spacing**2 / scene.viscosity
+
+
+def test_viscous_bound_matches_the_largest_eigenvalue_of_the_viscosity_operator() -> None:
+    """Power iteration on the NumPy twin: |lambda_max| dt <= 0.5 for the high fluid.
+
+    The viscosity term is linear in the velocities, so a_visc = A v; explicit steps are
+    stable for dt |lambda_max(A)| < 2, and VISCOUS_STEP keeps a factor four of margin.
+    """
+    scene = tilt_tank("tiny", "high")
+    pos = initial_particles(scene)[:, :3].astype(np.float64)
+    walls = wall_particles(scene)
+    psi = wall_volumes(walls, scene)
+    nb = sph.find_neighbours(pos, walls, scene.support)
+    v = np.random.default_rng(0).normal(size=pos.shape)
+    for _ in range(60):
+        a = sph.nonpressure_accel(pos, v, nb, walls, psi, np.zeros(3), scene)
+        lam = float(np.sum(a * v) / np.sum(v * v))
+        v = a / np.linalg.norm(a)
+    assert lam < 0
+    assert 0.3 < abs(lam) * scene.dt <= 0.5
+
+
+def test_an_unknown_fluid_is_refused() -> None:
+    with pytest.raises(ValueError, match="unknown fluid 'bogus'"):
+        tilt_tank("tiny", "bogus")
 
 
 def test_energies() -> None:
