@@ -45,7 +45,8 @@ def analytics(
     settings = get_settings()
     with session_factory()() as session:
         if threshold is None:
-            dynamics = make_dynamics(get_graph_row(session, graph).dynamics)
+            row = get_graph_row(session, graph)
+            dynamics = make_dynamics(row.dynamics, row.scene.get("preset"), row.scene.get("fluid"))
             threshold = settings.high_error_threshold or dynamics.high_error_threshold
         report = graph_analytics(session, graph, threshold)
     if json_output:

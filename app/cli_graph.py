@@ -61,16 +61,20 @@ def init(
     name: str = typer.Argument(..., help="name of the new graph"),
     dynamics: str = typer.Option("toy", help="toy or liquid"),
     preset: str | None = typer.Option(None, help="liquid preset: tiny, small or paper"),
+    fluid: str | None = typer.Option(None, help="liquid fluid: low (default) or high"),
     strategy: str = typer.Option("sr-crowd", help="max-error, baseline, sr-heuristic, sr-crowd"),
     depth: int = typer.Option(2, help="depth of the initial simulation tree (>= 2)"),
     json_output: bool = typer.Option(False, "--json", help="print JSON"),
 ) -> None:
     """Create a graph: the initial tree of the dynamics, its leaves blended back."""
     from app.config import get_settings
+    from app.services.dynamics import check_fluid
     from app.services.graphs import init_graph
 
     if dynamics == "liquid" and preset is None:
         preset = "small"
+    if fluid is not None:
+        check_fluid(fluid)
     with transaction() as session:
         summary = init_graph(
             session,
@@ -78,6 +82,7 @@ def init(
             name=name,
             dynamics=dynamics,
             preset=preset,
+            fluid=fluid,
             strategy=strategy,
             depth=depth,
         )

@@ -14,9 +14,15 @@ from typing import Any
 
 import typer
 
-from app.services.dynamics import DEFAULT_LIQUID_PRESET, check_liquid_preset
+from app.services.dynamics import (
+    DEFAULT_FLUID,
+    DEFAULT_LIQUID_PRESET,
+    check_fluid,
+    check_liquid_preset,
+)
 
 PRESET_HELP = "tilt-tank preset: tiny, small or paper"
+FLUID_HELP = "fluid: low or high viscosity"
 
 
 def register_liquid_commands(app: typer.Typer, bench_app: typer.Typer) -> None:
@@ -56,8 +62,15 @@ def _positive(name: str, value: int) -> int:
     return value
 
 
+def _verdict(check: dict[str, Any]) -> str:
+    if "skipped" in check:
+        return f"skipped ({check['skipped']})"
+    return "passed" if check["passed"] else "FAILED"
+
+
 def validate_command(
     preset: str = typer.Option(DEFAULT_LIQUID_PRESET, help=PRESET_HELP),
+    fluid: str = typer.Option(DEFAULT_FLUID, help=FLUID_HELP),
     json_path: str | None = typer.Option(
         None, "--json", help="write the JSON to this file ('-' or absent: stdout)"
     ),
@@ -65,19 +78,21 @@ def validate_command(
     """Physical checks of the PCISPH liquid (minutes on small); exit 1 if one fails.
 
     Runs the kernel/NumPy twins, bit-reproducibility, a hydrostatic tank, Martin and
-    Moyce's dam break and the settling after a tilt. With ``--json FILE`` the JSON goes
-    to the file and one line per check to stdout.
+    Moyce's dam break (water: skipped for the high-viscosity fluid) and the settling
+    after a tilt. With ``--json FILE`` the JSON goes to the file and one line per check
+    to stdout.
     """
     check_liquid_preset(preset)
+    check_fluid(fluid)
     from app.services.sph_validation import validate
 
-    typer.echo(f"validating tilt-tank/{preset} (minutes) ...", err=True)
-    report = validate(preset)
+    typer.echo(f"validating tilt-tank/{preset} with the {fluid} fluid (minutes) ...", err=True)
+    report = validate(preset, fluid)
     if json_path and json_path != "-":
         Path(json_path).parent.mkdir(parents=True, exist_ok=True)
         Path(json_path).write_text(_dumps(report) + "\n")
         for name, check in report["checks"].items():
-            typer.echo(f"{name}: {'passed' if check['passed'] else 'FAILED'}")
+            typer.echo(f"{name}: {_verdict(check)}")
         typer.echo(f"all passed: {report['passed']} (details: {json_path})")
     else:
         typer.echo(_dumps(report))
@@ -87,21 +102,25 @@ def validate_command(
 
 def calibrate_command(
     preset: str = typer.Option(..., help=PRESET_HELP),
+    fluid: str = typer.Option(DEFAULT_FLUID, help=FLUID_HELP),
 ) -> None:
     """Measure T0, w_e, the crowd radius and the high-error threshold of a preset.
 
-    Stores them in ``app/data/calibration/<preset>.json`` (read by ``LiquidDynamics``)
-    and prints them. About 30 s on tiny, 3 min on small, tens of minutes on paper.
+    Stores them in ``app/data/calibration/<preset>.json`` (``<preset>-high.json`` for
+    the high-viscosity fluid; read by ``LiquidDynamics``) and prints them. About 30 s
+    on tiny, 3 min on small, tens of minutes on paper (longer for the high fluid).
     """
     check_liquid_preset(preset)
+    check_fluid(fluid)
     from app.services.calibration import calibrate
 
-    typer.echo(f"calibrating tilt-tank/{preset} ...", err=True)
-    typer.echo(_dumps(calibrate(preset)))
+    typer.echo(f"calibrating tilt-tank/{preset} with the {fluid} fluid ...", err=True)
+    typer.echo(_dumps(calibrate(preset, fluid)))
 
 
 def bench_sph_command(
     preset: str = typer.Option(DEFAULT_LIQUID_PRESET, help=PRESET_HELP),
+    fluid: str = typer.Option(DEFAULT_FLUID, help=FLUID_HELP),
     steps: int = typer.Option(300, help="substeps timed (rounded down to whole frames)"),
     splishsplash: bool = typer.Option(
         True, "--splishsplash/--no-splishsplash", help="also time SPlisHSPlasH's PCISPH"
@@ -110,21 +129,24 @@ def bench_sph_command(
 ) -> None:
     """Particle-substeps per second of the PCISPH kernels (converged and at 3 iterations)."""
     check_liquid_preset(preset)
+    check_fluid(fluid)
     _positive("--steps", steps)
     from app.services.sph_bench import bench_sph
 
-    _print(bench_sph(preset, steps, compare_splishsplash=splishsplash), json_output)
+    _print(bench_sph(preset, steps, compare_splishsplash=splishsplash, fluid=fluid), json_output)
 
 
 def bench_clip_command(
     preset: str = typer.Option(DEFAULT_LIQUID_PRESET, help=PRESET_HELP),
+    fluid: str = typer.Option(DEFAULT_FLUID, help=FLUID_HELP),
     json_output: bool = typer.Option(True, "--json/--no-json", help="print JSON (default)"),
 ) -> None:
     """Seconds per clip of each stage of a liquid edge (SPH to WebP) and its bytes."""
     check_liquid_preset(preset)
+    check_fluid(fluid)
     from app.services.bench_clip import bench_clip
 
-    _print(bench_clip(preset), json_output)
+    _print(bench_clip(preset, fluid), json_output)
 
 
 def bench_store_command(

@@ -36,7 +36,7 @@ def _npz_bytes(array: np.ndarray) -> int:
     return len(buffer.getvalue())
 
 
-def bench_clip(preset: str = "small") -> dict:
+def bench_clip(preset: str = "small", fluid: str = "low") -> dict:
     """Time simulate (SPH), SDF, features, blend and render of one clip; size its data.
 
     Returns
@@ -45,7 +45,7 @@ def bench_clip(preset: str = "small") -> dict:
         ``seconds`` per clip by stage, ``bytes_per_frame`` by stored item and in total,
         and the sizes that explain them (particles, voxels, image size).
     """
-    dyn = LiquidDynamics(preset)
+    dyn = LiquidDynamics(preset, fluid)
     sim = dyn.simulator
     state = sim.settle(seconds=1.0, damped_seconds=0.5)
     sim.simulate_clip(state, 0)  # warm up kernels and buffers
@@ -71,6 +71,7 @@ def bench_clip(preset: str = "small") -> dict:
     per_frame["total"] = sum(per_frame.values())
     return {
         "preset": preset,
+        "fluid": fluid,
         "particles": int(sim.n),
         "voxels": list(dyn.grid.shape),
         "image": [dyn.render_settings.width, dyn.render_settings.height],

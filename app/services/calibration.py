@@ -1,5 +1,8 @@
 """Measure a liquid preset's constants and store them (``srg calibrate --preset small``).
 
+Each fluid (``--fluid low|high``) has its own calibration: the constants below are
+measured on the preset's scene with that fluid.
+
 * **T0** (``rest_kinetic``): the largest kinetic energy over the last second of a 3 s
   settle (the scene's definition), unless the scene already carries a measured value.
 * **w_e** (``energy_weight``): fitted so that ``dist_s ~ w_e dist_e`` over pairs of nearly-
@@ -36,6 +39,7 @@ from app.services.liquid import (
     LiquidCalibration,
     LiquidDynamics,
     calibration_json,
+    calibration_path,
 )
 
 #: kinetic energies of the pushed near-rest clips, in units of T0
@@ -68,16 +72,18 @@ def _nearest(values: np.ndarray, controls: list[int]) -> np.ndarray:
     return np.where(same, values, np.inf).min(axis=1)
 
 
-def calibrate(preset: str) -> dict:
+def calibrate(preset: str, fluid: str = "low") -> dict:
     """Measure T0, w_e, the crowd radius and the high-error threshold; write the JSON.
 
-    Returns the stored dict (also written to ``app/data/calibration/<preset>.json``).
-    Takes about 30 s on ``tiny`` and 3 min on ``small`` (2 CPU cores).
+    Returns the stored dict (also written to ``app/data/calibration/<preset>.json``, or
+    ``<preset>-<fluid>.json`` for a fluid other than ``low``). Takes about 30 s on
+    ``tiny`` and 3 min on ``small`` (2 CPU cores); the high fluid takes longer (more
+    substeps, see ``app.core.scene.viscous_substeps``).
     """
-    probe = LiquidDynamics(preset, calibration=LiquidCalibration(0.0, 1.0, 0.0, 0.0))
+    probe = LiquidDynamics(preset, fluid, calibration=LiquidCalibration(0.0, 1.0, 0.0, 0.0))
     rest, measured_t0 = measure_rest_kinetic(probe)
     t0 = probe.scene.rest_kinetic or measured_t0
-    dyn = LiquidDynamics(preset, calibration=LiquidCalibration(t0, 1.0, 0.0, 0.0))
+    dyn = LiquidDynamics(preset, fluid, calibration=LiquidCalibration(t0, 1.0, 0.0, 0.0))
 
     near_rest = [dyn.features(dyn.simulate(pushed(dyn, rest, f * t0), 0)) for f in PUSH_ENERGIES]
     pairs = list(itertools.combinations(near_rest, 2))
@@ -118,6 +124,6 @@ def calibrate(preset: str) -> dict:
         "best_blend_dist_median": float(np.median(_nearest(dists, controls))),
     }
     CALIBRATION_DIR.mkdir(parents=True, exist_ok=True)
-    text = calibration_json(preset, calibration, details)
-    (CALIBRATION_DIR / f"{preset}.json").write_text(text)
-    return {"preset": preset, **calibration.__dict__, **details}
+    text = calibration_json(preset, calibration, details, fluid)
+    calibration_path(preset, fluid).write_text(text)
+    return {"preset": preset, "fluid": fluid, **calibration.__dict__, **details}

@@ -1,4 +1,5 @@
-"""Which dynamics a graph runs: scenes are data, so a graph stores a name and a preset.
+"""Which dynamics a graph runs: scenes are data, so a graph stores a name, a preset and
+(liquid only) a fluid.
 
 The liquid is imported only when asked for: it pulls in PyOpenCL and Mitsuba, and the
 API, the CLI and the toy experiments import this module without needing either.
@@ -7,13 +8,16 @@ API, the CLI and the toy experiments import this module without needing either.
 from __future__ import annotations
 
 from app.core.dynamics import Dynamics
-from app.core.scene import TILT_TANK_SPACINGS
+from app.core.scene import FLUIDS, TILT_TANK_SPACINGS
 from app.core.toy import ToyDynamics
 
 DYNAMICS_NAMES = ("toy", "liquid")
 #: presets of the liquid (``app.core.scene.tilt_tank``), smallest first
 LIQUID_PRESETS = tuple(sorted(TILT_TANK_SPACINGS, key=TILT_TANK_SPACINGS.__getitem__, reverse=True))
 DEFAULT_LIQUID_PRESET = "small"
+#: fluids of the liquid (``app.core.scene.FLUIDS``): the paper's low and high viscosity
+LIQUID_FLUIDS = tuple(FLUIDS)
+DEFAULT_FLUID = "low"
 
 
 class UnknownDynamics(ValueError):
@@ -24,6 +28,10 @@ class UnknownPreset(ValueError):
     pass
 
 
+class UnknownFluid(ValueError):
+    pass
+
+
 def check_liquid_preset(preset: str) -> str:
     """``preset`` itself if the liquid has it; else :class:`UnknownPreset` (one line)."""
     if preset not in LIQUID_PRESETS:
@@ -31,28 +39,44 @@ def check_liquid_preset(preset: str) -> str:
     return preset
 
 
-def make_dynamics(name: str, preset: str | None = None) -> Dynamics:
-    """The dynamics ``name`` with the scene ``preset`` (ignored by ``toy``).
+def check_fluid(fluid: str) -> str:
+    """``fluid`` itself if the liquid has it; else :class:`UnknownFluid` (one line)."""
+    if fluid not in LIQUID_FLUIDS:
+        raise UnknownFluid(f"unknown fluid {fluid!r} (known: {', '.join(LIQUID_FLUIDS)})")
+    return fluid
+
+
+def make_dynamics(name: str, preset: str | None = None, fluid: str | None = None) -> Dynamics:
+    """The dynamics ``name`` with the scene ``preset`` and ``fluid`` (liquid only).
+
+    ``preset`` is ignored by ``toy``; a ``fluid`` given for the toy is refused, as it
+    would otherwise be silently dropped.
 
     Raises
     ------
-    UnknownDynamics, UnknownPreset
-        A name or preset that does not exist (both ``ValueError``).
+    UnknownDynamics, UnknownPreset, UnknownFluid
+        A name, preset or fluid that does not exist (all ``ValueError``).
+    ValueError
+        A fluid for the toy.
     app.services.liquid.MissingCalibration
-        The liquid preset has no stored calibration (a ``LookupError``); the message
-        names the command that makes one.
+        The liquid preset and fluid have no stored calibration (a ``LookupError``); the
+        message names the command that makes one.
     """
     if name == "toy":
+        if fluid is not None:
+            raise ValueError(f"the toy has no fluid (got {fluid!r}); fluids are the liquid's")
         return ToyDynamics()
     if name == "liquid":
         preset = check_liquid_preset(preset or DEFAULT_LIQUID_PRESET)
+        fluid = check_fluid(fluid or DEFAULT_FLUID)
         from app.services.liquid import LiquidDynamics, MissingCalibration
 
         try:
-            return LiquidDynamics(preset)
+            return LiquidDynamics(preset, fluid)
         except MissingCalibration:
+            option = "" if fluid == DEFAULT_FLUID else f" --fluid {fluid}"
             raise MissingCalibration(
-                f"no calibration for liquid preset {preset!r}; "
-                f"run `srg calibrate --preset {preset}` first"
+                f"no calibration for liquid preset {preset!r} ({fluid} viscosity); "
+                f"run `srg calibrate --preset {preset}{option}` first"
             ) from None
     raise UnknownDynamics(f"unknown dynamics {name!r} (known: {', '.join(DYNAMICS_NAMES)})")

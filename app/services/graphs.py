@@ -110,6 +110,7 @@ def init_graph(
     name: str,
     dynamics: str = "toy",
     preset: str | None = None,
+    fluid: str | None = None,
     strategy: str = "sr-crowd",
     depth: int = 2,
     seed: int = 0,
@@ -120,12 +121,14 @@ def init_graph(
         raise ValueError("a graph name must be non-empty and not all digits (ids are)")
     if session.scalar(select(Graph.id).where(Graph.name == name)) is not None:
         raise GraphExists(f"a graph named {name!r} already exists")
-    model = make_dynamics(dynamics, preset)
+    model = make_dynamics(dynamics, preset, fluid)
     bank = MemoryClipBank()
     graph = initial_tree(model, bank, depth=depth, prefilter_k=settings.prefilter_k)
     scene: dict[str, object] = {"fps": model.fps}
     if preset is not None:
         scene["preset"] = preset
+    if fluid is not None:
+        scene["fluid"] = fluid
     try:
         graph_id = create_graph(
             session,
@@ -360,7 +363,7 @@ def play_graph(
     for index, trace in enumerate(traces):
         key = f"local-{run}-{index}"
         record_trace(session, publication_id, player_id, key, trace, publication=publication)
-    dynamics = make_dynamics(row.dynamics, row.scene.get("preset"))
+    dynamics = make_dynamics(row.dynamics, row.scene.get("preset"), row.scene.get("fluid"))
     threshold = settings.high_error_threshold or dynamics.high_error_threshold
     steps = np.concatenate(traces)
     return PlayResult(

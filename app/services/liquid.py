@@ -8,7 +8,8 @@ return the same kind. Occupancy in the features is uint8 for the same reason.
 
 The constants the paper measures (T0, w_e) and the defaults of the crowd radius and the
 high-error threshold come from the preset's stored calibration
-(``app/data/calibration/<preset>.json``, written by ``app.services.calibration``).
+(``app/data/calibration/<preset>.json`` for the low-viscosity fluid,
+``<preset>-<fluid>.json`` for another, written by ``app.services.calibration``).
 """
 
 from __future__ import annotations
@@ -49,6 +50,11 @@ class MissingCalibration(LookupError):
     """The preset has no stored calibration: run ``srg calibrate --preset <preset>``."""
 
 
+def calibration_path(preset: str, fluid: str = "low", directory: Path = CALIBRATION_DIR) -> Path:
+    """Where the calibration of ``preset`` and ``fluid`` is stored (low: ``<preset>.json``)."""
+    return directory / (f"{preset}.json" if fluid == "low" else f"{preset}-{fluid}.json")
+
+
 @dataclass(frozen=True)
 class LiquidCalibration:
     """Measured constants of a preset (see ``app.services.calibration``)."""
@@ -59,17 +65,25 @@ class LiquidCalibration:
     high_error_threshold: float
 
 
-def load_calibration(preset: str, directory: Path = CALIBRATION_DIR) -> LiquidCalibration:
-    path = directory / f"{preset}.json"
+def load_calibration(
+    preset: str, fluid: str = "low", directory: Path = CALIBRATION_DIR
+) -> LiquidCalibration:
+    path = calibration_path(preset, fluid, directory)
     if not path.exists():
-        raise MissingCalibration(f"no calibration for preset {preset!r}; run srg calibrate")
+        option = "" if fluid == "low" else f" --fluid {fluid}"
+        raise MissingCalibration(
+            f"no calibration for preset {preset!r}; run srg calibrate --preset {preset}{option}"
+        )
     data = json.loads(path.read_text())
     return LiquidCalibration(**{k: float(data[k]) for k in LiquidCalibration.__annotations__})
 
 
-def calibration_json(preset: str, calibration: LiquidCalibration, details: dict) -> str:
+def calibration_json(
+    preset: str, calibration: LiquidCalibration, details: dict, fluid: str = "low"
+) -> str:
     """The stored form: the four constants plus how they were measured."""
-    return json.dumps({"preset": preset, **asdict(calibration), **details}, indent=2) + "\n"
+    head = {"preset": preset, "fluid": fluid}
+    return json.dumps({**head, **asdict(calibration), **details}, indent=2) + "\n"
 
 
 class LiquidDynamics:
@@ -79,8 +93,10 @@ class LiquidDynamics:
     ----------
     preset : str
         ``tiny``, ``small`` or ``paper`` (``app.core.scene.tilt_tank``).
+    fluid : str
+        ``low`` or ``high`` viscosity (``app.core.scene.FLUIDS``).
     calibration : LiquidCalibration, optional
-        Defaults to the stored one of the preset.
+        Defaults to the stored one of the preset and fluid.
     render_settings : RenderSettings, optional
         Image size and samples per pixel of :meth:`render`.
     """
@@ -92,13 +108,15 @@ class LiquidDynamics:
     def __init__(
         self,
         preset: str = "small",
+        fluid: str = "low",
         calibration: LiquidCalibration | None = None,
         render_settings: RenderSettings | None = None,
     ) -> None:
         self.preset = preset
-        self.scene: Scene = tilt_tank(preset)
+        self.fluid = fluid
+        self.scene: Scene = tilt_tank(preset, fluid)
         self.grid: SurfaceGrid = surface_grid(self.scene)
-        self.calibration = calibration or load_calibration(preset)
+        self.calibration = calibration or load_calibration(preset, fluid)
         self.frames_per_clip = self.scene.frames_per_clip
         self.n_controls = self.scene.n_controls
         self.fps = float(self.scene.fps)

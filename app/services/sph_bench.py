@@ -131,16 +131,19 @@ def _log_value(log: str, prefix: str) -> float:
     return 0.0
 
 
-def bench_sph(preset: str, steps: int, compare_splishsplash: bool = True) -> dict[str, Any]:
-    """Time ``steps`` substeps of the tilt tank ``preset`` (after a short settle).
+def bench_sph(
+    preset: str, steps: int, compare_splishsplash: bool = True, fluid: str = "low"
+) -> dict[str, Any]:
+    """Time ``steps`` substeps of the tilt tank ``preset`` with ``fluid`` (after a short settle).
 
     Returns our throughput converged to eta and at SPlisHSPlasH's iteration count
     (its PCISPH stops on the signed mean error, so it runs its minimum, 3), its
     throughput when installed, the ratios, and peak resident memory (MB).
     """
-    scene = tilt_tank(preset)
+    scene = tilt_tank(preset, fluid)
     result: dict[str, Any] = {
         "preset": preset,
+        "fluid": fluid,
         "particles": SphSimulator(scene).n,
         "dt": scene.dt,
         "converged": _ours(scene, steps, None),

@@ -15,9 +15,13 @@ from typer.testing import CliRunner
 from app.cli_liquid import register_liquid_commands
 from app.services import liquid
 from app.services.dynamics import (
+    DEFAULT_FLUID,
     DYNAMICS_NAMES,
+    LIQUID_FLUIDS,
     LIQUID_PRESETS,
+    UnknownFluid,
     UnknownPreset,
+    check_fluid,
     make_dynamics,
 )
 
@@ -33,6 +37,7 @@ def cli() -> typer.Typer:
 
 
 UNKNOWN = "unknown preset 'huge' (known: tiny, small, paper)"
+UNKNOWN_FLUID = "unknown fluid 'bogus' (known: low, high)"
 
 
 @pytest.mark.parametrize(
@@ -42,6 +47,10 @@ UNKNOWN = "unknown preset 'huge' (known: tiny, small, paper)"
         (["calibrate", "--preset", "huge"], UNKNOWN),
         (["bench", "sph", "--preset", "huge"], UNKNOWN),
         (["bench", "clip", "--preset", "huge"], UNKNOWN),
+        (["validate", "--preset", "tiny", "--fluid", "bogus"], UNKNOWN_FLUID),
+        (["calibrate", "--preset", "tiny", "--fluid", "bogus"], UNKNOWN_FLUID),
+        (["bench", "sph", "--fluid", "bogus"], UNKNOWN_FLUID),
+        (["bench", "clip", "--fluid", "bogus"], UNKNOWN_FLUID),
         (["bench", "sph", "--steps", "0"], "--steps must be positive, got 0"),
         (["bench", "sph", "--preset", "tiny", "--steps", "-5"], "--steps must be positive, got -5"),
         (["bench", "store", "--edges", "0"], "--edges must be positive, got 0"),
@@ -71,6 +80,26 @@ def test_main_prints_srg_error_and_exits_2(
     assert err == f"srg: error: {UNKNOWN}\n"
 
 
+@pytest.mark.parametrize(
+    "args",
+    [
+        ["calibrate", "--preset", "tiny", "--fluid", "bogus"],
+        ["init", "g", "--dynamics", "liquid", "--preset", "tiny", "--fluid", "bogus"],
+    ],
+)
+def test_an_unknown_fluid_is_one_line_and_exit_2(
+    monkeypatch: pytest.MonkeyPatch, capsys: pytest.CaptureFixture[str], args: list[str]
+) -> None:
+    """The whole ``srg`` app: refused before any simulation or database work."""
+    import app.cli
+
+    monkeypatch.setattr(sys, "argv", ["srg", *args])
+    with pytest.raises(SystemExit) as exit_info:
+        app.cli.main()
+    assert exit_info.value.code == 2
+    assert capsys.readouterr().err == f"srg: error: {UNKNOWN_FLUID}\n"
+
+
 def test_make_dynamics_knows_the_liquid_and_names_its_errors(
     monkeypatch: pytest.MonkeyPatch,
 ) -> None:
@@ -81,17 +110,45 @@ def test_make_dynamics_knows_the_liquid_and_names_its_errors(
     with pytest.raises(UnknownPreset, match="unknown preset 'huge'"):
         make_dynamics("liquid", "huge")
 
-    def missing(preset: str) -> liquid.LiquidCalibration:
+    def missing(preset: str, fluid: str = "low") -> liquid.LiquidCalibration:
         raise liquid.MissingCalibration(f"no calibration for preset {preset!r}")
 
     monkeypatch.setattr(liquid, "load_calibration", missing)
     with pytest.raises(LookupError, match=r"run `srg calibrate --preset tiny` first"):
         make_dynamics("liquid", "tiny")
+    with pytest.raises(LookupError, match=r"run `srg calibrate --preset tiny --fluid high` first"):
+        make_dynamics("liquid", "tiny", "high")
+
+
+def test_make_dynamics_takes_a_fluid_for_the_liquid_only() -> None:
+    assert LIQUID_FLUIDS == ("low", "high") and DEFAULT_FLUID == "low"
+    assert check_fluid("high") == "high"
+    high = make_dynamics("liquid", "tiny", "high")
+    assert high.fluid == "high"  # type: ignore[attr-defined]
+    assert high.scene.name == "tilt-tank/tiny-high"  # type: ignore[attr-defined]
+    assert make_dynamics("liquid", "tiny").fluid == "low"  # type: ignore[attr-defined]
+    with pytest.raises(UnknownFluid, match=r"^unknown fluid 'bogus' \(known: low, high\)$"):
+        make_dynamics("liquid", "tiny", "bogus")
+    with pytest.raises(ValueError, match=r"^the toy has no fluid \(got 'high'\)"):
+        make_dynamics("toy", fluid="high")
+    assert make_dynamics("toy").name == "toy"
+
+
+def test_each_fluid_reads_its_own_calibration_file(tmp_path: Path) -> None:
+    assert liquid.calibration_path("tiny", "low").name == "tiny.json"
+    assert liquid.calibration_path("tiny", "high").name == "tiny-high.json"
+    assert liquid.load_calibration("tiny", "high") != liquid.load_calibration("tiny")
+    with pytest.raises(liquid.MissingCalibration, match="--preset tiny --fluid high"):
+        liquid.load_calibration("tiny", "high", tmp_path)
 
 
 def _fake_report(passed: bool) -> dict[str, Any]:
     checks = {"twins": {"passed": True}, "hydrostatic": {"passed": passed}}
     return {"preset": "tiny", "checks": checks, "passed": passed}
+
+
+def _fake_validate(passed: bool) -> Any:
+    return lambda preset, fluid: _fake_report(passed)
 
 
 @pytest.mark.parametrize("passed", [True, False])
@@ -100,7 +157,7 @@ def test_validate_prints_the_report_and_exits_1_when_a_check_fails(
 ) -> None:
     from app.services import sph_validation
 
-    monkeypatch.setattr(sph_validation, "validate", lambda preset: _fake_report(passed))
+    monkeypatch.setattr(sph_validation, "validate", _fake_validate(passed))
     result = CliRunner().invoke(cli, ["validate", "--preset", "tiny", "--json", "-"])
     assert result.exit_code == (0 if passed else 1)
     assert json.loads(result.stdout) == _fake_report(passed)
@@ -111,12 +168,33 @@ def test_validate_json_file_gets_the_report_and_stdout_a_line_per_check(
 ) -> None:
     from app.services import sph_validation
 
-    monkeypatch.setattr(sph_validation, "validate", lambda preset: _fake_report(False))
+    monkeypatch.setattr(sph_validation, "validate", _fake_validate(False))
     target = tmp_path / "out" / "validate.json"
     result = CliRunner().invoke(cli, ["validate", "--preset", "tiny", "--json", str(target)])
     assert result.exit_code == 1
     assert json.loads(target.read_text()) == _fake_report(False)
     assert result.stdout.splitlines()[:2] == ["twins: passed", "hydrostatic: FAILED"]
+
+
+def test_validate_reports_a_check_that_does_not_apply_as_skipped(
+    cli: typer.Typer, monkeypatch: pytest.MonkeyPatch, tmp_path: Path
+) -> None:
+    from app.services import sph_validation
+
+    seen = []
+
+    def fake(preset: str, fluid: str) -> dict[str, Any]:
+        seen.append((preset, fluid))
+        checks = {"twins": {"passed": True}, "dam_break": {"skipped": "water only"}}
+        passed = all(sph_validation.check_passed(c) is not False for c in checks.values())
+        return {"preset": preset, "fluid": fluid, "checks": checks, "passed": passed}
+
+    monkeypatch.setattr(sph_validation, "validate", fake)
+    args = ["validate", "--preset", "tiny", "--fluid", "high", "--json", str(tmp_path / "v.json")]
+    result = CliRunner().invoke(cli, args)
+    assert result.exit_code == 0 and seen == [("tiny", "high")]
+    lines = result.stdout.splitlines()
+    assert lines[:2] == ["twins: passed", "dam_break: skipped (water only)"]
 
 
 def test_importing_the_dynamics_registry_does_not_load_opencl_or_mitsuba() -> None:
