@@ -103,19 +103,54 @@ def validate_command(
 def calibrate_command(
     preset: str = typer.Option(..., help=PRESET_HELP),
     fluid: str = typer.Option(DEFAULT_FLUID, help=FLUID_HELP),
+    only: str | None = typer.Option(
+        None, help="re-measure just this constant ('threshold'), keep the others stored"
+    ),
+    figures: Path | None = typer.Option(
+        None, help="with --only threshold: write the study's PNG figures to this directory"
+    ),
+    records: Path | None = typer.Option(
+        None, help="with --only threshold: write every measured blend to this JSON file"
+    ),
 ) -> None:
     """Measure T0, w_e, the crowd radius and the high-error threshold of a preset.
 
     Stores them in ``app/data/calibration/<preset>.json`` (``<preset>-high.json`` for
-    the high-viscosity fluid; read by ``LiquidDynamics``) and prints them. About 30 s
-    on tiny, 3 min on small, tens of minutes on paper (longer for the high fluid).
+    the high-viscosity fluid; read by ``LiquidDynamics``) and prints them. About 4 min
+    on tiny, 7 min on small, tens of minutes on paper (longer for the high fluid); the
+    threshold (``docs/threshold.md``) is most of it on tiny.
     """
     check_liquid_preset(preset)
     check_fluid(fluid)
+    if only not in (None, "threshold"):
+        raise ValueError(f"--only takes 'threshold', got {only!r}")
+    if only is None and (figures or records):
+        raise ValueError("--figures and --records go with --only threshold")
+
+    def progress(message: str) -> None:
+        typer.echo(message, err=True)
+
+    if only == "threshold":
+        from app.services.calibration import calibrate_threshold
+
+        typer.echo(f"threshold of tilt-tank/{preset}, {fluid} fluid (minutes) ...", err=True)
+        stored, study = calibrate_threshold(preset, fluid, progress)
+        if records:
+            records.parent.mkdir(parents=True, exist_ok=True)
+            records.write_text(_dumps({**stored, "blends": study.records()}) + "\n")
+        if figures:
+            from app.reports.threshold import write_threshold_figures
+
+            name = preset if fluid == DEFAULT_FLUID else f"{preset}-{fluid}"
+            old = stored.get("percentile_threshold")
+            for path in write_threshold_figures(study, figures, name, old):
+                typer.echo(f"wrote {path}", err=True)
+        typer.echo(_dumps(stored))
+        return
     from app.services.calibration import calibrate
 
     typer.echo(f"calibrating tilt-tank/{preset} with the {fluid} fluid ...", err=True)
-    typer.echo(_dumps(calibrate(preset, fluid)))
+    typer.echo(_dumps(calibrate(preset, fluid, progress)))
 
 
 def bench_sph_command(

@@ -49,6 +49,11 @@ UNKNOWN_FLUID = "unknown fluid 'bogus' (known: low, high)"
         (["bench", "clip", "--preset", "huge"], UNKNOWN),
         (["validate", "--preset", "tiny", "--fluid", "bogus"], UNKNOWN_FLUID),
         (["calibrate", "--preset", "tiny", "--fluid", "bogus"], UNKNOWN_FLUID),
+        (["calibrate", "--preset", "tiny", "--only", "w_e"], "--only takes 'threshold', got 'w_e'"),
+        (
+            ["calibrate", "--preset", "tiny", "--figures", "out"],
+            "--figures and --records go with --only threshold",
+        ),
         (["bench", "sph", "--fluid", "bogus"], UNKNOWN_FLUID),
         (["bench", "clip", "--fluid", "bogus"], UNKNOWN_FLUID),
         (["bench", "sph", "--steps", "0"], "--steps must be positive, got 0"),
