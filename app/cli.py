@@ -11,7 +11,7 @@ import sys
 from collections.abc import Callable, Iterator
 from contextlib import contextmanager
 from pathlib import Path
-from typing import Any
+from typing import TYPE_CHECKING, Any
 
 import typer
 from rich.console import Console
@@ -23,6 +23,9 @@ from app.cli_demo import demo
 from app.cli_graph import register_graph_commands
 from app.cli_liquid import register_liquid_commands
 from app.cli_runtime import register_runtime_commands
+
+if TYPE_CHECKING:
+    from app.services.experiment import ExperimentPlan
 
 app = typer.Typer(
     help="Self-refining games: grow, publish and play precomputed state graphs.",
@@ -63,40 +66,111 @@ def emit(data: dict[str, Any], json_path: str | None) -> None:
 
 @app.command()
 def experiment(
-    dynamics: str = typer.Option("toy", help="dynamics to grow"),
+    dynamics: str | None = typer.Option(None, help="dynamics to grow: toy (default) or liquid"),
+    preset: str | None = typer.Option(None, help="liquid preset: tiny, small or paper"),
+    fluid: str | None = typer.Option(None, help="liquid fluid: low (default) or high"),
     quick: bool = typer.Option(False, "--quick", help="3 small checkpoints: minutes, not hours"),
+    strategies: str | None = typer.Option(
+        None, help="comma-separated strategies (default: all four)"
+    ),
+    seeds: str | None = typer.Option(None, help="comma-separated seeds (default 0,1,2)"),
+    checkpoints: str | None = typer.Option(None, help="comma-separated frame counts"),
+    sessions: int | None = typer.Option(None, help="bot sessions per checkpoint (default 30)"),
+    name: str | None = typer.Option(
+        None, help="experiment name (default: from dynamics, preset and fluid)"
+    ),
+    resume: bool = typer.Option(
+        False, "--resume", help="finish the stored experiment NAME from its last checkpoint"
+    ),
+    jobs: int | None = typer.Option(
+        None, help="runs at once (default: the cores in-process; every run on workers)"
+    ),
     json_path: str | None = typer.Option(
         None, "--json", help="write the result here ('-': stdout)"
     ),
-    out: Path = typer.Option(Path("var/experiment"), help="directory for plots and report.md"),
-    seeds: str = typer.Option("0,1,2", help="comma-separated seeds"),
-    checkpoints: str | None = typer.Option(None, help="comma-separated frame counts"),
+    out: Path | None = typer.Option(
+        None, help="directory for plots and report.md (default var/experiment/NAME)"
+    ),
 ) -> None:
-    """Grow one graph per strategy through checkpoints and compare what bots see (paper 7)."""
-    from app.reports.experiment import write_report
-    from app.services.experiment import ExperimentPlan, parse_checkpoints, run_experiment
+    """Grow one graph per strategy and seed through checkpoints; compare what bots see.
 
-    base = ExperimentPlan.quick(dynamics) if quick else ExperimentPlan(dynamics=dynamics)
-    try:
-        seed_values = tuple(int(s) for s in seeds.split(","))
-    except ValueError:
-        raise UserError(f"seeds must be comma-separated integers, got {seeds!r}") from None
-    plan = ExperimentPlan(
-        dynamics=dynamics,
-        strategies=base.strategies,
-        seeds=seed_values,
-        checkpoints=parse_checkpoints(checkpoints) if checkpoints else base.checkpoints,
-        sessions=base.sessions,
-        mean_steps=base.mean_steps,
-        batch_size=base.batch_size,
+    The paper's section 7 (docs/experiment.md). Graphs, traces and every checkpoint's
+    figures are stored, so an interrupted experiment continues with ``--resume``. With
+    SRG_BROKER_URL set, growth runs on the Celery workers.
+    """
+    import os
+
+    from app.config import get_settings
+    from app.reports.experiment import write_report
+    from app.services.dynamics import make_dynamics
+    from app.services.experiment import (
+        create_experiment,
+        grow_in_process,
+        run_experiment,
+        stored_plan,
     )
-    with progress_bar(plan.total_frames, "frames grown") as advance:
-        result = run_experiment(plan, advance)
-    report = write_report(result, out)
+    from app.services.graphs import artifact_store
+
+    if jobs is not None and jobs < 1:
+        raise UserError(f"--jobs must be positive, got {jobs}")
+    options = (dynamics, preset, fluid, strategies, seeds, checkpoints, sessions)
+    name = name or "-".join(x for x in ("experiment", dynamics or "toy", preset, fluid) if x)
+    if resume:
+        if quick or any(option is not None for option in options):
+            raise UserError("--resume runs the stored plan: give only --name, --jobs, --json")
+        plan = stored_plan(name)
+    else:
+        plan = _experiment_plan(dynamics or "toy", quick, *options[1:])
+        make_dynamics(plan.dynamics, plan.preset, plan.fluid)  # unknown preset, fluid...
+        create_experiment(name, plan)
+    settings = get_settings()
+    if settings.eager:
+        grower = grow_in_process
+        jobs = jobs or min(os.cpu_count() or 1, len(plan.runs))
+    else:
+        from app.tasks.growth import grow_on_workers
+
+        grower = grow_on_workers
+        jobs = jobs or len(plan.runs)
+    total = len(plan.runs) * plan.checkpoints[-1]
+    with progress_bar(total, f"{name}: frames grown") as advance:
+        result = run_experiment(name, grower, jobs=jobs, progress=advance)
+    report = write_report(
+        result, out or settings.var_dir / "experiment" / name, artifact_store(settings).get_arrays
+    )
     emit(result, json_path)
-    summary = result["summary"]
-    typer.echo(json.dumps(summary, indent=2), err=json_path == "-")
+    typer.echo(json.dumps(result["summary"], indent=2), err=json_path == "-")
     typer.echo(f"report: {report}", err=True)
+
+
+def _experiment_plan(
+    dynamics: str,
+    quick: bool,
+    preset: str | None,
+    fluid: str | None,
+    strategies: str | None,
+    seeds: str | None,
+    checkpoints: str | None,
+    sessions: int | None,
+) -> ExperimentPlan:
+    from app.core.strategies import parse_strategy
+    from app.services.experiment import ExperimentPlan, parse_checkpoints
+
+    changes: dict[str, Any] = {"preset": preset, "fluid": fluid}
+    if strategies is not None:
+        changes["strategies"] = tuple(parse_strategy(s.strip()) for s in strategies.split(","))
+    if seeds is not None:
+        try:
+            changes["seeds"] = tuple(int(s) for s in seeds.split(","))
+        except ValueError:
+            raise UserError(f"seeds must be comma-separated integers, got {seeds!r}") from None
+    if checkpoints is not None:
+        changes["checkpoints"] = parse_checkpoints(checkpoints)
+    if sessions is not None:
+        changes["sessions"] = sessions
+    if quick:
+        return ExperimentPlan.quick(dynamics, **changes)
+    return ExperimentPlan(dynamics=dynamics, **changes)
 
 
 def main() -> None:

@@ -109,9 +109,9 @@ def grow(
     settings = get_settings()
     total = frames if frames is not None else expansions or settings.batch_size
     label = "frames" if frames is not None else "expansions"
-    with transaction() as session, progress_bar(total, label) as advance:
+    with progress_bar(total, label) as advance:
         result = grow_graph(
-            session,
+            transaction,
             settings,
             name=name,
             strategy=strategy,

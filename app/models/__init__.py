@@ -1,6 +1,7 @@
 """SQLAlchemy models; importing this package registers every table on ``Base.metadata``."""
 
 from app.models.base import Base
+from app.models.experiment import Experiment, ExperimentCheckpoint
 from app.models.graph import Artifact, Clip, Edge, ExpansionClip, Graph, GrowthEpoch, Vertex
 from app.models.play import Player, Publication, PublicationEdge, Trace, TraceStep
 
@@ -9,6 +10,8 @@ __all__ = [
     "Base",
     "Clip",
     "Edge",
+    "Experiment",
+    "ExperimentCheckpoint",
     "ExpansionClip",
     "Graph",
     "GrowthEpoch",

@@ -1,7 +1,15 @@
-"""Plots and a markdown report of an experiment result (the dict of run_experiment)."""
+"""Plots and a markdown report of an experiment (the dict of ``services.experiment.collect``).
+
+The figures are the paper's: Fig. 5 (mean observed error against graph size), Fig. 6
+(high-error fraction), Fig. 7 (error histograms at the last checkpoint), Figs. 8/9
+(predicted against observed edge-visit densities, as a scatter and on the drawn graph)
+and section 7.1's table. Per-step errors and densities come from each checkpoint's
+arrays artifact, read through ``load_arrays``.
+"""
 
 from __future__ import annotations
 
+from collections.abc import Callable
 from pathlib import Path
 from typing import Any
 
@@ -10,32 +18,53 @@ import matplotlib
 matplotlib.use("Agg")
 import matplotlib.pyplot as plt  # noqa: E402
 import numpy as np  # noqa: E402
+from matplotlib.collections import LineCollection  # noqa: E402
+
+ArraysLoader = Callable[[str], dict[str, np.ndarray]]
 
 FIGURES = {
-    "observed_mean_error": ("Mean observed error per step (Fig. 5)", "error-per-step.png"),
-    "high_error_fraction": ("Fraction of play time on high-error edges (Fig. 6)", "high-error.png"),
+    "observed_mean_error": (
+        "Mean observed blend error per step (Fig. 5)",
+        "mean observed error per step (dist units)",
+        "error-per-step.png",
+    ),
+    "high_error_fraction": (
+        "Play time on high-error edges (Fig. 6)",
+        "fraction of steps above the high-error threshold",
+        "high-error.png",
+    ),
 }
+#: the paper's Fig. 8 colours: >= 10 % of the busiest edge red, 2-10 % orange, else grey
+DENSITY_BANDS = ((0.10, "#d62728"), (0.02, "#ff9f1c"))
+#: strategies compared in Figs. 7-9, as in the paper
+COMPARED = ("baseline", "sr-crowd")
 
 
 def _series(result: dict[str, Any], strategy: str, key: str) -> tuple[np.ndarray, np.ndarray]:
     by_seed = result["results"][strategy]
-    sizes = np.array([[row["checkpoint_frames"] for row in rows] for rows in by_seed.values()])
+    sizes = np.array([[row["size_frames"] for row in rows] for rows in by_seed.values()])
     values = np.array(
         [[np.nan if row[key] is None else row[key] for row in rows] for rows in by_seed.values()]
     )
-    return sizes[0], values
+    return sizes.mean(axis=0), values
 
 
-def plot_metric(result: dict[str, Any], key: str, title: str, path: Path) -> Path:
-    fig, ax = plt.subplots(figsize=(6, 4))
+def plot_metric(
+    result: dict[str, Any], key: str, title: str, ylabel: str, path: Path
+) -> Path:
+    """Mean over seeds against graph size, the band spanning the seeds (min to max)."""
+    fig, ax = plt.subplots(figsize=(6.4, 4.2))
     for strategy in result["results"]:
         sizes, values = _series(result, strategy, key)
-        mean = np.nanmean(values, axis=0)
-        ax.plot(sizes, mean, marker="o", label=strategy)
-        ax.fill_between(sizes, np.nanmin(values, axis=0), np.nanmax(values, axis=0), alpha=0.2)
+        ax.plot(sizes, np.nanmean(values, axis=0), marker="o", label=strategy)
+        if values.shape[0] > 1:
+            ax.fill_between(sizes, np.nanmin(values, axis=0), np.nanmax(values, axis=0), alpha=0.2)
     ax.set_xscale("log")
     ax.set_xlabel("graph size (simulated frames)")
-    ax.set_title(title)
+    ax.set_ylabel(ylabel)
+    seeds = len(result["plan"]["seeds"])
+    ax.set_title(f"{title}\nmean over {seeds} seed(s), band: min to max")
+    ax.grid(alpha=0.3)
     ax.legend()
     fig.tight_layout()
     fig.savefig(path, dpi=110)
@@ -43,20 +72,135 @@ def plot_metric(result: dict[str, Any], key: str, title: str, path: Path) -> Pat
     return path
 
 
-def plot_histograms(result: dict[str, Any], path: Path) -> Path:
-    """Error histogram at the last checkpoint, summed over seeds (Fig. 7)."""
-    fig, ax = plt.subplots(figsize=(6, 4))
-    for strategy, by_seed in result["results"].items():
-        finals = [rows[-1] for rows in by_seed.values()]
-        counts = np.sum([row["histogram_counts"] for row in finals], axis=0)
-        edges = np.asarray(finals[0]["histogram_edges"])
-        ax.step(edges[:-1], counts / max(counts.sum(), 1), where="post", label=strategy)
-    ax.set_xlabel("blend error of the step")
+def _last_arrays(
+    result: dict[str, Any], strategy: str, load_arrays: ArraysLoader
+) -> list[dict[str, np.ndarray]]:
+    return [load_arrays(rows[-1]["arrays"]) for rows in result["results"][strategy].values()]
+
+
+def _threshold(result: dict[str, Any]) -> float:
+    rows = next(iter(next(iter(result["results"].values())).values()))
+    return float(rows[-1]["high_error_threshold"])
+
+
+def plot_histograms(result: dict[str, Any], load_arrays: ArraysLoader, path: Path) -> Path:
+    """Errors of the steps players took at the last checkpoint, seeds pooled (Fig. 7)."""
+    threshold = _threshold(result)
+    compared = [s for s in COMPARED if s in result["results"]] or list(result["results"])
+    errors = {
+        s: np.concatenate([a["step_errors"] for a in _last_arrays(result, s, load_arrays)])
+        for s in compared
+    }
+    top = max(2.0 * threshold, *(float(e.max()) for e in errors.values()))
+    bins = np.linspace(0.0, top, 25)
+    fig, ax = plt.subplots(figsize=(6.4, 4.2))
+    for strategy, values in errors.items():
+        counts, _ = np.histogram(values, bins=bins)
+        ax.step(bins[:-1], counts / max(values.size, 1), where="post", label=strategy)
+    label = f"high-error threshold {threshold:.3g}"
+    ax.axvline(threshold, color="black", linestyle="--", label=label)
+    ax.set_xlabel("blend error of the step taken (dist units; 0 = simulated edge)")
     ax.set_ylabel("fraction of steps")
     ax.set_yscale("log")
-    ax.set_title("Errors players saw at the last checkpoint (Fig. 7)")
+    size = int(np.mean(_series(result, compared[0], "size_frames")[0][-1]))
+    ax.set_title(f"Errors players saw at {size} frames (Fig. 7)")
+    ax.grid(alpha=0.3)
     ax.legend()
     fig.tight_layout()
+    fig.savefig(path, dpi=110)
+    plt.close(fig)
+    return path
+
+
+def plot_density_scatter(result: dict[str, Any], load_arrays: ArraysLoader, path: Path) -> Path:
+    """Predicted against observed P(e) per edge at the last checkpoint, first seed."""
+    strategies = list(result["results"])
+    fig, axes = plt.subplots(1, len(strategies), figsize=(3.4 * len(strategies), 3.6))
+    for ax, strategy in zip(np.atleast_1d(axes), strategies, strict=True):
+        arrays = _last_arrays(result, strategy, load_arrays)[0]
+        row = next(iter(result["results"][strategy].values()))[-1]
+        predicted, observed = arrays["predicted_density"], arrays["observed_density"]
+        floor = 0.1 / max(int(row["n_steps"]), 1)  # below one observed step: unvisited
+        ax.scatter(
+            np.maximum(predicted, floor), np.maximum(observed, floor), s=5, alpha=0.5, lw=0
+        )
+        ax.plot([floor, 1], [floor, 1], color="black", lw=0.8, label="predicted = observed")
+        ax.set_xscale("log")
+        ax.set_yscale("log")
+        ax.set_xlim(floor / 2, 1)
+        ax.set_ylim(floor / 2, 1)
+        corr = row["density_correlation"]
+        ax.set_title(f"{strategy}\ncorrelation {corr:.2f}" if corr is not None else strategy)
+        ax.set_xlabel("predicted edge-visit density")
+        ax.set_ylabel("observed edge-visit density")
+        ax.legend(loc="lower right", fontsize=7)
+    fig.suptitle(
+        "Predicted against observed edge-visit densities at the last checkpoint (Figs. 8/9);"
+        " on the bottom edge: edges no bot took",
+        fontsize=10,
+    )
+    fig.tight_layout()
+    fig.savefig(path, dpi=110)
+    plt.close(fig)
+    return path
+
+
+def _layout(descriptors: np.ndarray) -> np.ndarray:
+    """2-D positions of vertices: the first two principal components of their descriptors."""
+    centred = descriptors - descriptors.mean(axis=0)
+    _, _, vt = np.linalg.svd(centred, full_matrices=False)
+    return centred @ vt[:2].T
+
+
+def plot_density_graph(
+    result: dict[str, Any], strategy: str, load_arrays: ArraysLoader, path: Path
+) -> Path:
+    """The graph with SIM edges coloured by predicted and by observed density (Figs. 8/9).
+
+    Vertices sit at the first two principal components of their occupancy descriptors,
+    so states that look alike sit together; blend edges are hidden, as in the paper.
+    """
+    arrays = _last_arrays(result, strategy, load_arrays)[0]
+    n_vertices = arrays["vertex_descriptors"].shape[0]
+    n_controls = arrays["edge_dst"].size // n_vertices
+    xy = _layout(arrays["vertex_descriptors"].astype(np.float64))
+    sim = np.flatnonzero(arrays["edge_kind"] == 0)
+    src, dst = sim // n_controls, arrays["edge_dst"][sim]
+    segments = np.stack([xy[src], xy[dst]], axis=1)
+    fig, axes = plt.subplots(1, 2, figsize=(9.6, 4.4))
+    for ax, key, label in zip(
+        axes,
+        ("predicted_density", "observed_density"),
+        ("predicted by the strategy's player model", "observed in the bots' play"),
+        strict=True,
+    ):
+        density = arrays[key][sim]
+        relative = density / max(float(density.max()), 1e-300)
+        colours = np.full(sim.size, "#c8c8c8", dtype=object)
+        widths = np.full(sim.size, 0.3)
+        for level, colour in reversed(DENSITY_BANDS):
+            colours[relative >= level] = colour
+            widths[relative >= level] = 1.2
+        order = np.argsort(relative)  # the busiest edges drawn last, on top
+        ax.add_collection(
+            LineCollection(segments[order], colors=list(colours[order]), linewidths=widths[order])
+        )
+        ax.scatter(xy[:, 0], xy[:, 1], s=1, color="#555555")
+        ax.autoscale()
+        ax.set_title(label, fontsize=9)
+        ax.set_xlabel("descriptor PC 1")
+        ax.set_ylabel("descriptor PC 2")
+    handles = [
+        plt.Line2D([], [], color=DENSITY_BANDS[0][1], label=">= 10 % of the busiest edge"),
+        plt.Line2D([], [], color=DENSITY_BANDS[1][1], label="2-10 %"),
+        plt.Line2D([], [], color="#c8c8c8", label="< 2 %"),
+    ]
+    fig.legend(handles=handles, loc="lower center", ncol=3, fontsize=8)
+    size = int(arrays["edge_dst"].size // n_controls)
+    fig.suptitle(
+        f"Edge-visit densities on the {strategy} graph ({size} vertices, SIM edges)", fontsize=10
+    )
+    fig.tight_layout(rect=(0, 0.06, 1, 1))
     fig.savefig(path, dpi=110)
     plt.close(fig)
     return path
@@ -64,27 +208,32 @@ def plot_histograms(result: dict[str, Any], path: Path) -> Path:
 
 def markdown(result: dict[str, Any], images: list[Path]) -> str:
     plan = result["plan"]
+    scene = plan["dynamics"] + "".join(
+        f" / {plan[k]}" for k in ("preset", "fluid") if plan.get(k)
+    )
+    seconds = result["seconds"]
     lines = [
-        f"# Self-refining experiment on `{plan['dynamics']}`",
+        f"# Self-refining experiment `{result['name']}` on `{scene}`",
         "",
         f"Strategies {', '.join(plan['strategies'])}; seeds {plan['seeds']}; checkpoints "
         f"{plan['checkpoints']} frames; {plan['sessions']} goal-directed bot sessions of "
-        f"mean {plan['mean_steps']} steps per checkpoint. Ran in {result['seconds']} s.",
+        f"mean {plan['mean_steps']} steps per checkpoint; {plan['batch_size']} expansions "
+        f"per growth epoch. High-error threshold {_threshold(result):.4g}."
+        + (f" This invocation ran {seconds} s." if seconds is not None else ""),
         "",
         "| strategy | frames | mean error/step | high-error fraction | predicted expected error "
         "| density corr. | density TV | score/step |",
         "|---|---|---|---|---|---|---|---|",
     ]
     for strategy, by_seed in result["results"].items():
-        columns = list(zip(*by_seed.values(), strict=True))
-        for rows in columns:
+        for rows in zip(*by_seed.values(), strict=True):
 
             def mean(key: str, rows: tuple[dict[str, Any], ...] = rows) -> str:
                 values = [r[key] for r in rows if r[key] is not None]
                 return f"{np.mean(values):.4g}" if values else "n/a"
 
             lines.append(
-                f"| {strategy} | {rows[0]['checkpoint_frames']} | {mean('observed_mean_error')} "
+                f"| {strategy} | {mean('size_frames')} | {mean('observed_mean_error')} "
                 f"| {mean('high_error_fraction')} | {mean('predicted_expected_error')} "
                 f"| {mean('density_correlation')} | {mean('density_tv_distance')} "
                 f"| {mean('mean_score_per_step')} |"
@@ -104,6 +253,7 @@ def markdown(result: dict[str, Any], images: list[Path]) -> str:
             f"Every seed {verdict} the targets (error ratio <= {versus['error_ratio_target']}, "
             f"high-error ratio <= {versus['high_error_ratio_target']}).",
         ]
+    lines += _cost_section(result)
     lines += [""] + [f"![{p.stem}]({p.name})" for p in images]
     return "\n".join(lines) + "\n"
 
@@ -121,7 +271,7 @@ def _prediction_section(result: dict[str, Any]) -> list[str]:
         "## Predicted against observed expected error per step (section 7.1)",
         "",
         "Predicted on each publication by STATERANK from the strategy's player model "
-        "(sr-crowd: learned from earlier publications' traces only) before the bots play it; "
+        "(sr-crowd: learned from earlier checkpoints' traces only) before the bots play it; "
         "the per-vertex bound uses the same traces' own control frequencies and session "
         "length. Prior-only mass: share of predicted play on vertices the crowd kernel does "
         "not reach.",
@@ -141,12 +291,36 @@ def _prediction_section(result: dict[str, Any]) -> list[str]:
             predicted = mean("predicted_expected_error")
             bound = mean("per_vertex_bound_expected_error")
             lines.append(
-                f"| {strategy} | {rows[0]['checkpoint_frames']} | {predicted:.4g} "
+                f"| {strategy} | {mean('size_frames'):.0f} | {predicted:.4g} "
                 f"| {observed:.4g} | {_relative(predicted, observed)} | {bound:.4g} "
                 f"| {_relative(bound, observed)} | {mean('predicted_session_steps'):.0f} / "
                 f"{mean('observed_session_steps'):.0f} "
                 f"| {_number(mean('predicted_mass_prior_only'))} |"
             )
+    return lines
+
+
+def _cost_section(result: dict[str, Any]) -> list[str]:
+    """Where the time and memory went, per strategy at the last checkpoint (seed means)."""
+    lines = [
+        "",
+        "## Cost",
+        "",
+        "Growth seconds per checkpoint (wall, in the run's process; runs share the cores) "
+        "and peak resident memory of that process.",
+        "",
+        "| strategy | grow s (sum over checkpoints) | frames | peak resident MB | KB per frame |",
+        "|---|---|---|---|---|",
+    ]
+    for strategy, by_seed in result["results"].items():
+        runs = list(by_seed.values())
+        grow = np.mean([sum(float(r["grow_seconds"]) for r in rows) for rows in runs])
+        frames = np.mean([rows[-1]["size_frames"] for rows in runs])
+        resident = np.mean([rows[-1]["resident_mb"] for rows in runs])
+        lines.append(
+            f"| {strategy} | {grow:.0f} | {frames:.0f} | {resident:.0f} "
+            f"| {1024 * resident / max(frames, 1):.1f} |"
+        )
     return lines
 
 
@@ -160,13 +334,19 @@ def _number(value: float) -> str:
     return "n/a" if np.isnan(value) else f"{value:.2f}"
 
 
-def write_report(result: dict[str, Any], out_dir: Path) -> Path:
+def write_report(result: dict[str, Any], out_dir: Path, load_arrays: ArraysLoader) -> Path:
     """PNG plots and ``report.md`` into ``out_dir``; returns the markdown path."""
     out_dir.mkdir(parents=True, exist_ok=True)
     images = [
-        plot_metric(result, key, title, out_dir / name) for key, (title, name) in FIGURES.items()
+        plot_metric(result, key, title, ylabel, out_dir / name)
+        for key, (title, ylabel, name) in FIGURES.items()
     ]
-    images.append(plot_histograms(result, out_dir / "error-histogram.png"))
+    images.append(plot_histograms(result, load_arrays, out_dir / "error-histogram.png"))
+    images.append(plot_density_scatter(result, load_arrays, out_dir / "density-scatter.png"))
+    for strategy in (s for s in COMPARED if s in result["results"]):
+        images.append(
+            plot_density_graph(result, strategy, load_arrays, out_dir / f"density-{strategy}.png")
+        )
     report = out_dir / "report.md"
     report.write_text(markdown(result, images))
     return report

@@ -113,15 +113,14 @@ def run_demo(
         if number > plan.rounds:
             break
         stage("grow", number)
-        with sessions.begin() as session:
-            grow_graph(
-                session,
-                settings,
-                name=plan.name,
-                strategy="sr-crowd",
-                expansions=plan.budget,
-                progress=advance,
-            )
+        grow_graph(
+            sessions.begin,
+            settings,
+            name=plan.name,
+            strategy="sr-crowd",
+            expansions=plan.budget,
+            progress=advance,
+        )
     return rounds
 
 

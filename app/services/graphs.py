@@ -10,6 +10,7 @@ from __future__ import annotations
 
 import uuid
 from collections.abc import Callable
+from contextlib import AbstractContextManager
 from dataclasses import dataclass, field
 
 import numpy as np
@@ -36,6 +37,8 @@ from app.store.publications import latest_publication, load_publication, publish
 from app.store.traces import get_or_create_player, load_traces, record_trace
 
 Progress = Callable[[int], None]
+#: the unit of work of one growth step (see :data:`app.services.growth.Scope`)
+Scope = Callable[[], AbstractContextManager[Session]]
 
 
 class GraphExists(ValueError):
@@ -163,66 +166,89 @@ class GrowthBusy(ValueError):
 
 
 def grow_graph(
-    session: Session,
+    scope: Scope,
     settings: Settings,
     *,
     name: str | int,
     strategy: str | None = None,
     frames: int | None = None,
     expansions: int | None = None,
+    to_frames: int | None = None,
+    renders: bool | None = None,
+    batch_size: int | None = None,
     progress: Progress | None = None,
 ) -> GrowResult:
-    """Grow in-process by a budget of frames or expansions, one epoch row per batch.
+    """Grow in-process by a budget (frames, expansions, or up to a size), epoch by epoch.
 
     Each epoch is the very unit the Celery ``grow_epoch`` task runs, step by step
     (:mod:`app.services.growth`): plan (rank, pick the top BLEND edges, relink lazily),
-    simulate and render each clip, integrate the expansions in plan order, render the
-    new blends; here all in the caller's transaction.
+    simulate each clip, integrate the expansions in plan order, render (when
+    ``renders``, default ``settings.growth_renders``). Every step runs in a
+    ``scope()``: :func:`app.db.transaction` makes each step durable (an interrupted grow
+    keeps its finished steps, and the next grow first finishes the interrupted epoch);
+    :func:`app.services.growth.in_session` runs all in one caller-owned transaction.
     """
-    from app.services.growth import plan_epoch, run_epoch_in_process
+    from app.services.growth import plan_epoch, run_epoch, running_epoch
 
-    if frames is None and expansions is None:
+    if sum(b is not None for b in (frames, expansions, to_frames)) > 1:
+        raise ValueError("give one growth budget: frames, expansions or a size to reach")
+    if frames is None and expansions is None and to_frames is None:
         expansions = settings.batch_size
-    for budget in (frames, expansions):
+    for budget in (frames, expansions, to_frames):
         if budget is not None and budget <= 0:
             raise ValueError("the growth budget must be positive")
-    row = get_graph_row(session, name)
-    chosen = parse_strategy(strategy) if strategy else parse_strategy(row.strategy)
-    result = GrowResult(graph=row.name, strategy=chosen.value)
-    per_expansion = row.n_controls * row.frames_per_clip
-    size = (session.scalar(select(func.count()).where(Clip.graph_id == row.id)) or 0) * (
-        row.frames_per_clip
-    )
+    renders = settings.growth_renders if renders is None else renders
+    batch = batch_size or settings.batch_size
+    with scope() as session:
+        row = get_graph_row(session, name)
+        graph_id, n_controls, frames_per_clip = row.id, row.n_controls, row.frames_per_clip
+        chosen = parse_strategy(strategy) if strategy else parse_strategy(row.strategy)
+        size = (session.scalar(select(func.count()).where(Clip.graph_id == graph_id)) or 0) * (
+            frames_per_clip
+        )
+        interrupted = running_epoch(session, graph_id) if settings.eager else None
+        interrupted_id = None if interrupted is None else interrupted.id
+    result = GrowResult(graph=str(row.name), strategy=chosen.value)
+    per_expansion = n_controls * frames_per_clip
 
     def advance(_: object) -> None:
         if progress is not None:
-            progress(per_expansion if frames is not None else 1)
+            progress(1 if expansions is not None else per_expansion)
 
-    target_frames = size + frames if frames is not None else None
+    if interrupted_id is not None:  # embedded: nobody else can be running it
+        result.expansions += len(
+            run_epoch(scope, settings, interrupted_id, renders=renders, on_expansion=advance)
+        )
+        size = _epoch_size(scope, interrupted_id)
+    if frames is not None:
+        to_frames = size + frames
     while True:
-        if target_frames is not None:
-            left = -(-(target_frames - size) // per_expansion)
+        if to_frames is not None:
+            left = -(-(to_frames - size) // per_expansion)
         else:
             assert expansions is not None
             left = expansions - result.expansions
         if left <= 0:
             break
-        plan = plan_epoch(
-            session, settings, row.id, count=min(left, settings.batch_size), strategy=chosen
-        )
+        with scope() as session:
+            plan = plan_epoch(session, settings, graph_id, count=min(left, batch), strategy=chosen)
         if plan is None:
-            raise GrowthBusy(f"graph {row.name!r} has an epoch running on the workers")
-        done = len(run_epoch_in_process(session, settings, plan, on_expansion=advance))
-        epoch = session.get_one(GrowthEpoch, plan.epoch_id)
-        size = epoch.size_frames
+            raise GrowthBusy(f"graph {result.graph!r} has an epoch running on the workers")
+        done = run_epoch(scope, settings, plan.epoch_id, renders=renders, on_expansion=advance)
+        size = _epoch_size(scope, plan.epoch_id)
         result.epochs += 1
-        result.expansions += done
+        result.expansions += len(done)
         result.relinks += plan.relinks
         result.epoch_ids.append(plan.epoch_id)
         if not plan.expansions:
             break
     result.size_frames = size
     return result
+
+
+def _epoch_size(scope: Scope, epoch_id: int) -> int:
+    with scope() as session:
+        return session.get_one(GrowthEpoch, epoch_id).size_frames
 
 
 # ---- render and publish ----------------------------------------------------------------
@@ -297,14 +323,23 @@ class PublishResult:
 
 
 def publish_graph(
-    session: Session, settings: Settings, *, name: str | int, progress: Progress | None = None
+    session: Session,
+    settings: Settings,
+    *,
+    name: str | int,
+    render: bool = True,
+    progress: Progress | None = None,
 ) -> PublishResult:
-    """Pre-publish relinking, animations for every edge, then a frozen publication."""
+    """Pre-publish relinking, animations for every edge, then a frozen publication.
+
+    ``render=False`` freezes the graph without animations: the experiment's bots play
+    edges, not pictures, and rendering would cost more than growing.
+    """
     loaded = open_graph(session, settings, name)
     refiner = refiner_for(session, settings, loaded, Strategy.BASELINE)
     relinked = len(refiner.publish()[1])
     save_graph(session, loaded.row.id, loaded.graph, loaded.bank, loaded.artifacts)
-    rendered = render_missing_animations(session, loaded, progress)
+    rendered = render_missing_animations(session, loaded, progress) if render else 0
     publication_id = publish(session, loaded.row.id, loaded.graph)
     row = session.get_one(PublicationRow, publication_id)
     return PublishResult(

@@ -13,15 +13,16 @@ One epoch (DESIGN section 5) is:
    the expansion, idempotent (see its docstring);
 4. :func:`blend_step` - render the new BLEND edges' animations.
 
-``grow_graph`` (eager, in the caller's transaction) and the Celery tasks (one
-transaction per step, on workers) call exactly these functions, and integration order
-is the plan's in both, so one seed grows one graph either way.
+``grow_graph`` (eager, :func:`run_epoch`) and the Celery tasks (on workers) call
+exactly these functions, one transaction per step, and integration order is the plan's
+in both, so one seed grows one graph either way.
 """
 
 from __future__ import annotations
 
 import time
 from collections.abc import Callable
+from contextlib import AbstractContextManager, nullcontext
 from dataclasses import dataclass
 from functools import lru_cache
 
@@ -97,9 +98,14 @@ def lock_graph(session: Session, graph_id: int) -> Graph:
 
 
 @lru_cache(maxsize=4)
-def cached_dynamics(name: str, preset: str | None) -> Dynamics:
+def cached_dynamics(name: str, preset: str | None, fluid: str | None = None) -> Dynamics:
     """One dynamics per worker process: the liquid builds OpenCL programs once."""
-    return make_dynamics(name, preset)
+    return make_dynamics(name, preset, fluid)
+
+
+def graph_dynamics(row: Graph) -> Dynamics:
+    """The dynamics a stored graph was grown with (its scene names preset and fluid)."""
+    return cached_dynamics(row.dynamics, row.scene.get("preset"), row.scene.get("fluid"))
 
 
 @lru_cache(maxsize=4)
@@ -122,8 +128,7 @@ def loaded_graph(session: Session, settings: Settings, row: Graph) -> LoadedGrap
     if settings.resolved_redis_url:
         cache = _shape_cache(settings.resolved_redis_url, settings.occupancy_cache_ttl)
         bank.use_shape_cache(cache)
-    dynamics = cached_dynamics(row.dynamics, row.scene.get("preset"))
-    return LoadedGraph(row, graph, bank, dynamics, artifacts)
+    return LoadedGraph(row, graph, bank, graph_dynamics(row), artifacts)
 
 
 def keep_graph(session: Session, loaded: LoadedGraph) -> None:
@@ -275,39 +280,83 @@ def _heartbeat(session: Session, epoch_id: int) -> None:
     )
 
 
-def simulate_step(
-    session: Session, settings: Settings, epoch_id: int, position: int, control: int
-) -> str:
-    """Simulate one clip of a planned expansion; return its stage artifact's digest.
+@dataclass(frozen=True)
+class ClipJob:
+    """What simulating one planned clip needs, read from the database beforehand."""
 
-    Toy: the whole clip (frames and features). Liquid: PCISPH only, the particle
-    positions of the k frames and the end state (the SDF is :func:`sdf_step`'s).
-    """
-    stored = _stored_clip(session, epoch_id, position, control)
-    if stored is not None:  # a redelivery after the clip was recorded
-        return stored
+    dynamics: Dynamics
+    state: np.ndarray
+    control: int
+
+
+def clip_job(
+    session: Session, settings: Settings, epoch_id: int, position: int, control: int
+) -> ClipJob | str:
+    """The start state and dynamics of a planned clip, or its digest once recorded."""
+    if (stored := _stored_clip(session, epoch_id, position, control)) is not None:
+        return stored  # a redelivery after the clip was recorded
     _, row, dead_end = _planned(session, epoch_id, position)
-    artifacts = artifact_store(settings)
     bundle = session.scalar(
         select(Clip.bundle).where(Clip.graph_id == row.id, Clip.idx == dead_end)
     )
     if bundle is None:
         raise LookupError(f"graph {row.id} has no clip {dead_end}")
-    state = artifacts.get_arrays(bundle, ("end_state",))["end_state"]
-    if settings.test_simulate_delay > 0:  # test-only: a window to kill the worker in
-        time.sleep(settings.test_simulate_delay)
-    dynamics = cached_dynamics(row.dynamics, row.scene.get("preset"))
-    if row.dynamics == "liquid":
-        positions, end_state = dynamics.simulator.simulate_clip(state, control)  # type: ignore[attr-defined]
-        arrays = {
+    state = artifact_store(settings).get_arrays(bundle, ("end_state",))["end_state"]
+    return ClipJob(graph_dynamics(row), state, control)
+
+
+def simulate_job(job: ClipJob) -> dict[str, np.ndarray]:
+    """The simulated stage of a clip, no database needed.
+
+    Toy: the whole clip (frames and features). Liquid: PCISPH only, the particle
+    positions of the k frames and the end state (the SDF is :func:`finish_clip`'s).
+    """
+    dynamics = job.dynamics
+    if dynamics.name == "liquid":
+        positions, end_state = dynamics.simulator.simulate_clip(job.state, job.control)  # type: ignore[attr-defined]
+        return {
             "positions": positions,
             "end_state": end_state,
-            "control": np.asarray(control, dtype=np.int64),
+            "control": np.asarray(job.control, dtype=np.int64),
         }
-    else:
-        sim = dynamics.simulate(state, control)
-        arrays = clip_arrays(sim, dynamics.features(sim))
-    return artifacts.put_arrays(arrays, session=session)
+    sim = dynamics.simulate(job.state, job.control)
+    return clip_arrays(sim, dynamics.features(sim))
+
+
+def finish_clip(dynamics: Dynamics, stage: dict[str, np.ndarray]) -> dict[str, np.ndarray] | None:
+    """Liquid: the clip (Zhu-Bridson SDF frames and features) of a simulated stage.
+
+    None when the stage already is the clip (the toy has no SDF stage).
+    """
+    if "positions" not in stage:
+        return None
+    frames = dynamics.surface_frames(stage["positions"])  # type: ignore[attr-defined]
+    sim = SimClip(control=int(stage["control"]), frames=frames, end_state=stage["end_state"])
+    return clip_arrays(sim, dynamics.features(sim))
+
+
+def record_clip(
+    session: Session, epoch_id: int, position: int, control: int, clip: str
+) -> None:
+    """Note a planned clip's artifact on ``expansion_clips`` (once) and beat the heart."""
+    insert_ignoring_duplicates(
+        session,
+        ExpansionClip,
+        [{"epoch_id": epoch_id, "position": position, "control": control, "clip": clip}],
+    )
+    _heartbeat(session, epoch_id)
+
+
+def simulate_step(
+    session: Session, settings: Settings, epoch_id: int, position: int, control: int
+) -> str:
+    """Simulate one clip of a planned expansion; return its stage artifact's digest."""
+    job = clip_job(session, settings, epoch_id, position, control)
+    if isinstance(job, str):
+        return job
+    if settings.test_simulate_delay > 0:  # test-only: a window to kill the worker in
+        time.sleep(settings.test_simulate_delay)
+    return artifact_store(settings).put_arrays(simulate_job(job), session=session)
 
 
 def sdf_step(
@@ -318,30 +367,16 @@ def sdf_step(
     position: int,
     control: int,
 ) -> str:
-    """Turn a simulated stage into a clip and record it; return the clip artifact.
-
-    Liquid: the Zhu-Bridson SDF of every frame, then the clip's features. The toy has no
-    SDF stage: its :func:`simulate_step` already made the clip, which passes through.
-    """
+    """Turn a simulated stage into a clip and record it; return the clip artifact."""
     stored = _stored_clip(session, epoch_id, position, control)
     if stored is not None:
         return stored
     _, row, _ = _planned(session, epoch_id, position)
     artifacts = artifact_store(settings)
-    arrays = artifacts.get_arrays(stage)
-    clip = stage
-    if "positions" in arrays:
-        dynamics = cached_dynamics(row.dynamics, row.scene.get("preset"))
-        frames = dynamics.surface_frames(arrays["positions"])  # type: ignore[attr-defined]
-        sim = SimClip(control=control, frames=frames, end_state=arrays["end_state"])
-        clip = artifacts.put_arrays(clip_arrays(sim, dynamics.features(sim)), session=session)
-    insert_ignoring_duplicates(
-        session,
-        ExpansionClip,
-        [{"epoch_id": epoch_id, "position": position, "control": control, "clip": clip}],
-    )
-    _heartbeat(session, epoch_id)
-    return clip
+    clip = finish_clip(graph_dynamics(row), artifacts.get_arrays(stage))
+    digest = stage if clip is None else artifacts.put_arrays(clip, session=session)
+    record_clip(session, epoch_id, position, control, digest)
+    return digest
 
 
 def render_step(
@@ -352,7 +387,7 @@ def render_step(
     if found.animation is None:
         _, row, _ = _planned(session, epoch_id, position)
         artifacts = artifact_store(settings)
-        dynamics = cached_dynamics(row.dynamics, row.scene.get("preset"))
+        dynamics = graph_dynamics(row)
         frames = artifacts.get_arrays(found.clip, ("frames",))["frames"]
         found.animation = artifacts.put_bytes(
             encode_strip(dynamics.render(frames)), media_type=STRIP_MEDIA_TYPE, session=session
@@ -533,30 +568,68 @@ def blend_step(session: Session, settings: Settings, epoch_id: int) -> int:
 
 
 # ---- the whole epoch in-process ---------------------------------------------------------------
-def run_epoch_in_process(
-    session: Session,
+#: opens the unit of work of one step: a fresh transaction (durable steps) or the caller's
+Scope = Callable[[], AbstractContextManager[Session]]
+
+
+def in_session(session: Session) -> Scope:
+    """A scope that runs every step in ``session``, in one transaction the caller owns."""
+    return lambda: nullcontext(session)
+
+
+def run_epoch(
+    scope: Scope,
     settings: Settings,
-    plan: EpochPlan,
+    epoch_id: int,
+    *,
+    renders: bool,
     on_expansion: Callable[[Integration], None] | None = None,
 ) -> list[Integration]:
-    """Every step of a planned epoch in plan order, in the caller's transaction (eager)."""
-    work = epoch_work(session, plan.epoch_id)
+    """What is left of a planned epoch, step by step in plan order, one ``scope`` a step.
+
+    With :func:`app.db.transaction` as the scope every step commits on its own, as on
+    the workers: an interruption keeps what was done, and running the epoch again (it
+    reads what is left from the database) finishes it with the same result.
+    """
+    with scope() as session:
+        work = epoch_work(session, epoch_id)
+        row = session.get_one(Graph, session.get_one(GrowthEpoch, epoch_id).graph_id)
+        controls = range(row.n_controls)
     missing = set(work.missing_clips)
     done = []
     for position in work.pending:
-        for control in range(session.get_one(Graph, plan.graph_id).n_controls):
+        for control in controls:
             if (position, control) in missing:
-                stage = simulate_step(session, settings, plan.epoch_id, position, control)
-                clip = sdf_step(session, settings, stage, plan.epoch_id, position, control)
-                if settings.growth_renders:
-                    render_step(session, settings, clip, plan.epoch_id, position, control)
-        integration = integrate_step(session, settings, plan.epoch_id, position)
+                clip = _simulate_in_process(scope, settings, epoch_id, position, control)
+                if renders:
+                    with scope() as session:
+                        render_step(session, settings, clip, epoch_id, position, control)
+        with scope() as session:
+            integration = integrate_step(session, settings, epoch_id, position)
         done.append(integration)
         if on_expansion is not None:
             on_expansion(integration)
-    if settings.growth_renders:
-        blend_step(session, settings, plan.epoch_id)
+    if renders:
+        with scope() as session:
+            blend_step(session, settings, epoch_id)
     return done
+
+
+def _simulate_in_process(
+    scope: Scope, settings: Settings, epoch_id: int, position: int, control: int
+) -> str:
+    """One clip: read, then compute outside any transaction, then record (SQLite's
+    single writer is held only for the short record, so processes grow side by side)."""
+    with scope() as session:
+        job = clip_job(session, settings, epoch_id, position, control)
+    if isinstance(job, str):
+        return job
+    stage = simulate_job(job)
+    clip = finish_clip(job.dynamics, stage) or stage
+    with scope() as session:
+        digest = artifact_store(settings).put_arrays(clip, session=session)
+        record_clip(session, epoch_id, position, control, digest)
+    return digest
 
 
 # ---- between epochs -----------------------------------------------------------------------

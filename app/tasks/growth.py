@@ -16,18 +16,20 @@ on the way (a killed worker, a restarted Redis) is found and re-sent by the next
 
 from __future__ import annotations
 
+import time
+from collections.abc import Callable
 from typing import Any
 
 from celery import chain, chord
 from celery.canvas import Signature
 from celery.utils.log import get_task_logger
-from sqlalchemy import select
+from sqlalchemy import func, select
 from sqlalchemy.exc import IntegrityError, OperationalError
 
 from app.config import get_settings
 from app.db import transaction
 from app.services import growth
-from app.store.graphs import StaleGraph
+from app.store.graphs import StaleGraph, get_graph_row
 from app.tasks.celery_app import celery_app
 
 log = get_task_logger(__name__)
@@ -64,16 +66,17 @@ def render(clip: str, epoch_id: int, position: int, control: int) -> str:
 
 
 @celery_app.task(name="srg.integrate", bind=True)
-def integrate(self: Any, epoch_id: int, position: int) -> int | None:
+def integrate(self: Any, epoch_id: int, position: int, renders: bool | None = None) -> int | None:
     """Swap one planned expansion into the graph (once); the new vertex's index."""
     settings = get_settings()
+    renders = settings.growth_renders if renders is None else renders
     try:
         with transaction() as session:
             outcome = growth.integrate_step(session, settings, epoch_id, position)
     except growth.ExpansionNotReady as exc:
         if exc.missing:
             missing = [(position, c) for c in exc.missing]
-            clip_pipelines(epoch_id, missing, renders=settings.growth_renders).apply_async()
+            clip_pipelines(epoch_id, missing, renders=renders).apply_async()
         raise self.retry(
             exc=exc, countdown=NOT_READY_DELAY, max_retries=settings.task_max_retries
         ) from exc
@@ -127,15 +130,20 @@ def publish(self: Any, graph_id: int) -> int:
 
 
 @celery_app.task(name="srg.grow_epoch")
-def grow_epoch(graph_id: int) -> int | None:
+def grow_epoch(
+    graph_id: int, count: int | None = None, renders: bool | None = None
+) -> int | None:
     """Plan the graph's next epoch (or re-send a stalled one) and dispatch its canvas.
 
-    Returns the epoch id, or None when an epoch of the graph is already running.
+    ``count`` blend edges are expanded (default ``SRG_BATCH_SIZE``); ``renders`` says
+    whether to render animations (default ``SRG_GROWTH_RENDERS``). Returns the epoch
+    id, or None when an epoch of the graph is already running.
     """
     settings = get_settings()
+    renders = settings.growth_renders if renders is None else renders
     try:
         with transaction() as session:
-            plan = growth.plan_epoch(session, settings, graph_id)
+            plan = growth.plan_epoch(session, settings, graph_id, count=count)
     except IntegrityError:  # another tick opened the same epoch number first
         return None
     if plan is None:
@@ -152,7 +160,7 @@ def grow_epoch(graph_id: int) -> int | None:
     if plan.expansions:
         with transaction() as session:
             work = growth.epoch_work(session, plan.epoch_id)
-        epoch_canvas(work, renders=settings.growth_renders).apply_async()
+        epoch_canvas(work, renders=renders).apply_async()
     return plan.epoch_id
 
 
@@ -184,8 +192,66 @@ def clip_pipeline(epoch_id: int, position: int, control: int, *, renders: bool) 
 
 def epoch_canvas(work: growth.EpochWork, *, renders: bool) -> Signature:
     """The flat canvas of what is left of an epoch (see the module docstring)."""
-    integrations = [integrate.si(work.epoch_id, p) for p in work.pending]
+    integrations = [integrate.si(work.epoch_id, p, renders) for p in work.pending]
     tail = [blend.si(work.epoch_id)] if renders else []
     body = chain(*integrations, *tail)
     header = [clip_pipeline(work.epoch_id, p, c, renders=renders) for p, c in work.missing_clips]
     return chord(header, body) if header else body
+
+
+# ---- the client side: grow a graph to a size on the workers -------------------------------
+#: seconds between two looks at an epoch's state
+EPOCH_POLL = 0.5
+
+
+def grow_on_workers(
+    name: str, to_frames: int, batch: int, progress: Callable[[int], None] | None = None
+) -> None:
+    """Grow the stored graph ``name`` to ``to_frames`` frames through ``grow_epoch``.
+
+    The same workflow beat drives, one epoch at a time and without renders: this only
+    sends epochs and waits for them. An epoch that stalls (a lost worker or message) is
+    re-sent by ``grow_epoch`` itself once ``SRG_EPOCH_RESEND_AFTER`` has passed.
+    """
+    settings = get_settings()
+    with transaction() as session:
+        row = get_graph_row(session, name)
+        graph_id, per_expansion = row.id, row.n_controls * row.frames_per_clip
+    size = _size_frames(graph_id)
+    while (left := -(-(to_frames - size) // per_expansion)) > 0:
+        epoch_id = grow_epoch.delay(graph_id, min(left, batch), False).get(
+            timeout=settings.task_time_limit
+        )
+        _wait_for_epochs(graph_id, settings.epoch_resend_after)
+        grown = _size_frames(graph_id)
+        if progress is not None:
+            progress(grown - size)
+        if epoch_id is not None and grown == size:
+            return  # nothing left to expand
+        size = grown
+
+
+def _size_frames(graph_id: int) -> int:
+    from app.models import Clip, Graph
+
+    with transaction() as session:
+        clips = session.scalar(select(func.count()).where(Clip.graph_id == graph_id)) or 0
+        return int(clips) * session.get_one(Graph, graph_id).frames_per_clip
+
+
+def _wait_for_epochs(graph_id: int, resend_after: float) -> None:
+    """Until no epoch of the graph runs; a stalled one is handed to ``grow_epoch`` again."""
+    last_change = time.monotonic()
+    seen: tuple[int, float | None] | None = None
+    while True:
+        with transaction() as session:
+            running = growth.running_epoch(session, graph_id)
+            state = None if running is None else (running.id, running.heartbeat)
+        if state is None:
+            return
+        if state != seen:
+            seen, last_change = state, time.monotonic()
+        elif time.monotonic() - last_change > resend_after:
+            grow_epoch.delay(graph_id, None, False)
+            last_change = time.monotonic()
+        time.sleep(EPOCH_POLL)

@@ -15,6 +15,7 @@ from app.db import make_engine, session_factory
 from app.models import Clip, Edge, GrowthEpoch, Vertex
 from app.services.graph_cache import graph_cache
 from app.services.graphs import grow_graph, init_graph, open_graph
+from app.services.growth import in_session
 from app.store.epochs import EpochStatus
 from app.tasks.celery_app import make_celery
 
@@ -62,7 +63,7 @@ def eager_reference(tmp_path: Path, epochs: int, batch: int = BATCH) -> dict[str
     )
     graph_id = seed_graph(settings, "eager")
     with session_factory(make_engine(url))() as session:
-        grow_graph(session, settings, name=graph_id, expansions=epochs * batch)
+        grow_graph(in_session(session), settings, name=graph_id, expansions=epochs * batch)
         session.commit()
         return snapshot(session, settings, graph_id)
 

@@ -1,4 +1,4 @@
-"""The experiment pipeline end to end on a small plan (the --quick figures live in the README)."""
+"""The experiment's prediction and its plan checks (the CLI tests run it end to end)."""
 
 from __future__ import annotations
 
@@ -7,35 +7,21 @@ from typing import Any
 
 import numpy as np
 import pytest
+from database_helpers import migrate
 
+from app.config import get_settings
 from app.core.bots import play_sessions
 from app.core.metrics import CheckpointReport, evaluate_checkpoint
 from app.core.publication import Publication
 from app.core.strategies import Strategy
-from app.reports.experiment import write_report
+from app.db import get_engine
 from app.services import experiment
-from app.services.experiment import ExperimentPlan, parse_checkpoints, run_experiment, run_one
-
-
-def test_small_experiment_shows_sr_crowd_ahead_of_baseline(tmp_path: Path) -> None:
-    plan = ExperimentPlan(
-        strategies=(Strategy.BASELINE, Strategy.SR_CROWD),
-        seeds=(5,),
-        checkpoints=(600, 2_400),
-        sessions=20,
-        mean_steps=40,
-    )
-    frames: list[int] = []
-    result = run_experiment(plan, frames.append)
-    rows = result["results"]
-    assert set(rows) == {"baseline", "sr-crowd"}  # type: ignore[arg-type]
-    last = {s: rows[s]["5"][-1] for s in rows}  # type: ignore[index]
-    assert all(row["size_frames"] >= 2_400 for row in last.values())
-    assert last["sr-crowd"]["observed_mean_error"] < last["baseline"]["observed_mean_error"]
-    assert sum(frames) >= 2 * 2_400
-    report = write_report(result, tmp_path)
-    text = report.read_text()
-    assert "sr-crowd" in text and (tmp_path / "error-per-step.png").stat().st_size > 1000
+from app.services.experiment import (
+    ExperimentPlan,
+    create_experiment,
+    parse_checkpoints,
+    run_experiment,
+)
 
 
 @pytest.mark.parametrize("text", ["", "a,b", "300,200", "0,100", "100,100"])
@@ -45,10 +31,15 @@ def test_bad_checkpoints_are_refused(text: str) -> None:
 
 
 def test_prediction_is_for_the_publication_played_from_earlier_traces(
-    monkeypatch: pytest.MonkeyPatch,
+    monkeypatch: pytest.MonkeyPatch, tmp_path: Path
 ) -> None:
     """Predict, then observe: STATERANK runs on the relinked publication the bots get,
     with rho (and the crowd model) from the traces of earlier publications only."""
+    monkeypatch.setenv("SRG_VAR_DIR", str(tmp_path))
+    monkeypatch.delenv("SRG_DATABASE_URL", raising=False)
+    get_settings.cache_clear()
+    get_engine.cache_clear()
+    migrate(get_settings().resolved_database_url)
     played: list[Publication] = []
     predictions: list[np.ndarray] = []
 
@@ -64,9 +55,15 @@ def test_prediction_is_for_the_publication_played_from_earlier_traces(
 
     monkeypatch.setattr(experiment, "play_sessions", recording_play)
     monkeypatch.setattr(experiment, "evaluate_checkpoint", recording_evaluate)
-    plan = ExperimentPlan(checkpoints=(600, 1_500), sessions=10, mean_steps=30)
+    plan = ExperimentPlan(
+        strategies=(Strategy.SR_CROWD,), seeds=(1,), checkpoints=(600, 1_500), sessions=10,
+        mean_steps=30,
+    )  # fmt: skip
+    create_experiment("prediction", plan)
     progress: list[int] = []
-    rows = run_one(plan, Strategy.SR_CROWD, 1, progress.append)
+    result = run_experiment("prediction", progress=progress.append)
+    rows = result["results"]["sr-crowd"]["1"]
+    assert sum(progress) >= 1_500
     assert any(int(row["relinked_before_publish"]) > 0 for row in rows)  # type: ignore[call-overload]
     for row, publication, prob in zip(rows, played, predictions, strict=True):
         # stationary on the publication's edges: pi = (1 - rho) inflow + rho at the start
@@ -83,3 +80,11 @@ def test_prediction_is_for_the_publication_played_from_earlier_traces(
     assert rows[1]["predicted_session_steps"] != pytest.approx(rows[1]["observed_session_steps"])
     assert rows[0]["predicted_mass_prior_only"] is None
     assert 0.0 <= float(rows[1]["predicted_mass_prior_only"]) <= 1.0  # type: ignore[arg-type]
+
+
+@pytest.fixture(autouse=True)
+def _fresh_settings() -> Any:
+    yield
+    get_engine().dispose()
+    get_settings.cache_clear()
+    get_engine.cache_clear()

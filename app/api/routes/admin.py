@@ -33,9 +33,11 @@ def grow(
     session: Session = Depends(get_session),
 ) -> AdminResult:
     from app.services.graphs import grow_graph
+    from app.services.growth import in_session
 
     expansions = (body or GrowRequest()).expansions
-    result = grow_graph(session, request.app.state.settings, name=name, expansions=expansions)
+    settings = request.app.state.settings
+    result = grow_graph(in_session(session), settings, name=name, expansions=expansions)
     session.commit()
     return AdminResult(graph=name, result=_as_dict(result))
 

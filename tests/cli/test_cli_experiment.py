@@ -1,0 +1,158 @@
+"""`srg experiment`: stored, resumable after a kill with the same numbers, and its errors.
+
+The interruption is real: the command runs as a subprocess and is SIGKILLed once its
+first checkpoint is stored, in the middle of growing towards the next one.
+"""
+
+from __future__ import annotations
+
+import json
+import os
+import signal
+import subprocess
+import time
+from pathlib import Path
+from typing import Any
+
+import pytest
+from cli_helpers import SRG, ok, one_line_error, srg
+from sqlalchemy import create_engine, func, select
+
+from app.models import ExperimentCheckpoint, GrowthEpoch
+
+TOY_PLAN = ("--seeds", "0", "--checkpoints", "600,1500,2400", "--sessions", "10")
+LIQUID_PLAN = (
+    "--dynamics", "liquid", "--preset", "tiny", "--strategies", "baseline,sr-crowd",
+    "--seeds", "3", "--checkpoints", "120,240", "--sessions", "8",
+)  # fmt: skip
+#: figures that depend on the machine or on the order processes created rows in
+UNCOMPARABLE = ("grow_seconds", "checkpoint_seconds", "resident_mb", "publication_id")
+
+
+def comparable(result: dict[str, Any]) -> dict[str, Any]:
+    return {
+        strategy: {
+            seed: [{k: v for k, v in row.items() if k not in UNCOMPARABLE} for row in rows]
+            for seed, rows in by_seed.items()
+        }
+        for strategy, by_seed in result["results"].items()
+    }
+
+
+def run_json(var: Path, *args: str) -> dict[str, Any]:
+    ok(var, "experiment", *args, "--json", str(var / "result.json"))
+    return dict(json.loads((var / "result.json").read_text()))
+
+
+def checkpoints_stored(var: Path) -> int:
+    engine = create_engine(f"sqlite:///{var / 'srg.sqlite3'}")
+    try:
+        with engine.connect() as connection:
+            return int(connection.scalar(select(func.count()).select_from(ExperimentCheckpoint)))
+    except Exception:  # the tables are not there yet
+        return 0
+    finally:
+        engine.dispose()
+
+
+def kill_after_first_checkpoint(var: Path, *args: str) -> None:
+    """Start `srg experiment` and SIGKILL it (and its run processes) mid-growth."""
+    env = {k: v for k, v in os.environ.items() if not k.startswith("SRG_")}
+    env["SRG_VAR_DIR"] = str(var)
+    process = subprocess.Popen(
+        [str(SRG), "experiment", *args],
+        env=env,
+        stdout=subprocess.DEVNULL,
+        stderr=subprocess.DEVNULL,
+        start_new_session=True,
+    )
+    deadline = time.monotonic() + 300
+    while checkpoints_stored(var) < 1:
+        assert process.poll() is None, "the experiment ended before it could be interrupted"
+        assert time.monotonic() < deadline, "no checkpoint within 300 s"
+        time.sleep(0.1)
+    os.killpg(process.pid, signal.SIGKILL)
+    process.wait(30)
+
+
+@pytest.mark.slow
+@pytest.mark.parametrize(
+    "plan",
+    [TOY_PLAN, LIQUID_PLAN],
+    ids=["toy", "liquid-tiny"],
+)
+def test_a_killed_experiment_resumes_to_the_numbers_of_an_uninterrupted_one(
+    tmp_path: Path, plan: tuple[str, ...]
+) -> None:
+    whole, killed = tmp_path / "whole", tmp_path / "killed"
+    for var in (whole, killed):
+        ok(var, "db", "upgrade")
+    expected = run_json(whole, *plan)
+    kill_after_first_checkpoint(killed, *plan)
+    stored = checkpoints_stored(killed)
+    assert 1 <= stored < sum(len(s) for s in expected["results"].values()) * 2
+    resumed = run_json(killed, "--resume", "--name", expected["name"])
+    assert resumed["complete"] and resumed["plan"] == expected["plan"]
+    assert comparable(resumed) == comparable(expected)
+    assert resumed["summary"] == expected["summary"]
+
+
+def test_a_toy_experiment_reports_every_strategy_and_the_ratio_per_seed(tmp_path: Path) -> None:
+    ok(tmp_path, "db", "upgrade")
+    result = run_json(tmp_path, "--quick", "--seeds", "0,1", "--checkpoints", "600,1200")
+    assert set(result["results"]) == {"max-error", "baseline", "sr-heuristic", "sr-crowd"}
+    assert result["complete"] and len(result["results"]["sr-crowd"]["1"]) == 2
+    per_seed = result["summary"]["sr_crowd_vs_baseline"]["per_seed"]
+    assert [row["seed"] for row in per_seed] == ["0", "1"]
+    assert all(row["error_ratio"] > 0 for row in per_seed)
+    last = result["results"]["baseline"]["0"][-1]
+    assert last["size_frames"] >= 1200 and last["n_traces"] == 30
+    report = tmp_path / "experiment" / result["name"] / "report.md"
+    assert "sr-crowd" in report.read_text()
+    # a finished experiment resumes to the same result without growing anything
+    engine = create_engine(f"sqlite:///{tmp_path / 'srg.sqlite3'}")
+    with engine.connect() as connection:
+        epochs = connection.scalar(select(func.count()).select_from(GrowthEpoch))
+    again = run_json(tmp_path, "--resume", "--name", result["name"])
+    with engine.connect() as connection:
+        assert connection.scalar(select(func.count()).select_from(GrowthEpoch)) == epochs
+    engine.dispose()
+    assert comparable(again) == comparable(result)
+
+
+@pytest.mark.parametrize(
+    ("args", "fragment"),
+    [
+        (("--dynamics", "liquid", "--preset", "huge"), "unknown preset 'huge'"),
+        (("--dynamics", "liquid", "--preset", "tiny", "--fluid", "syrup"), "unknown fluid"),
+        (("--dynamics", "fluid"), "unknown dynamics 'fluid'"),
+        (("--preset", "tiny"), "the toy dynamics has no preset or fluid"),
+        (("--checkpoints", "300,200"), "checkpoints must be increasing"),
+        (("--checkpoints", "a,b"), "checkpoints must be comma-separated"),
+        (("--strategies", "best"), "unknown strategy"),
+        (("--seeds", "x"), "seeds must be comma-separated integers"),
+        (("--sessions", "0"), "sessions"),
+        (("--jobs", "0"), "--jobs must be positive"),
+        (("--resume", "--name", "never-ran"), "no experiment named 'never-ran' to resume"),
+        (("--resume", "--seeds", "1"), "--resume runs the stored plan"),
+        (("--name", "a/b"), "no '/'"),
+    ],
+)
+def test_bad_experiment_input_is_one_line_and_writes_nothing(
+    tmp_path: Path, args: tuple[str, ...], fragment: str
+) -> None:
+    ok(tmp_path, "db", "upgrade")
+    one_line_error(srg(tmp_path, "experiment", *args), fragment)
+    engine = create_engine(f"sqlite:///{tmp_path / 'srg.sqlite3'}")
+    with engine.connect() as connection:
+        assert connection.scalar(select(func.count()).select_from(ExperimentCheckpoint)) == 0
+        assert connection.exec_driver_sql("SELECT COUNT(*) FROM experiments").scalar() == 0
+        assert connection.exec_driver_sql("SELECT COUNT(*) FROM graphs").scalar() == 0
+    engine.dispose()
+
+
+def test_a_second_experiment_of_one_name_needs_resume(tmp_path: Path) -> None:
+    ok(tmp_path, "db", "upgrade")
+    args = ("--seeds", "0", "--checkpoints", "300", "--sessions", "3", "--strategies", "baseline")
+    ok(tmp_path, "experiment", *args)
+    one_line_error(srg(tmp_path, "experiment", *args), "add --resume")
