@@ -144,7 +144,7 @@ def plot_strips(study: ThresholdStudy, path: Path) -> Path:
     The red line on the blend's frames is the simulated liquid's silhouette.
     """
     rows: list[tuple[str, np.ndarray, np.ndarray | None]] = []
-    for name in ("below", "above"):
+    for name in ("below", "above", "above, visibly wrong"):
         if name in study.examples:
             simulated, blended, sim_masks, _, record = study.examples[name]
             verdict = (
@@ -153,14 +153,14 @@ def plot_strips(study: ThresholdStudy, path: Path) -> Path:
             rows.append(("simulated d", simulated, None))
             rows.append(
                 (
-                    f"blend, dist {record.dist:.3g}\n({name} threshold; {verdict})",
+                    f"blend, dist {record.dist:.3g}\n{name.split(',')[0]} the threshold\n{verdict}",
                     blended,
                     sim_masks,
                 )
             )
     n = len(STRIP_FRAMES)
     fig, axes = plt.subplots(
-        len(rows), n, figsize=(1.6 * n + 1.6, 1.25 * len(rows)), dpi=100, squeeze=False
+        len(rows), n, figsize=(1.35 * n + 1.7, 1.05 * len(rows) + 0.3), dpi=100, squeeze=False
     )
     for r, (label, images, outline) in enumerate(rows):
         for col, f in enumerate(STRIP_FRAMES):
@@ -175,8 +175,8 @@ def plot_strips(study: ThresholdStudy, path: Path) -> Path:
             if col == 0:
                 ax.set_ylabel(label, fontsize=7, rotation=0, ha="right", va="center")
     fig.suptitle(
-        f"threshold {study.threshold:.3g}: a blend just below and one just above "
-        "(red: the simulated silhouette)",
+        f"threshold {study.threshold:.3g}: the blends nearest it below and above, and the "
+        "nearest visibly wrong one above\n(red: the silhouette of the simulated clip d)",
         fontsize=9,
     )
     fig.tight_layout()

@@ -191,7 +191,8 @@ def measure_blends(
     rendered : int
         Blends rendered (with their simulated clips) for the RGB comparison; 0: none.
     examples : bool
-        Also render the blends just below and just above the threshold (for the docs).
+        Also render the blends nearest the threshold below and above it, and the nearest
+        visibly wrong one above it (for the docs).
 
     Raises
     ------
@@ -271,11 +272,20 @@ def measure_blends(
 
     found: dict[str, tuple[np.ndarray, np.ndarray, np.ndarray, np.ndarray, BlendRecord]] = {}
     if examples:
+        # the nearest blends on either side, and the nearest visibly wrong one above (at
+        # the threshold a blend is wrong only half the time, so "above" may look right)
         x, x_thr = log_dist(dist), np.log10(threshold)
-        for name, side in (("below", x <= x_thr), ("above", x > x_thr)):
+        sides = (
+            ("below", x <= x_thr),
+            ("above", x > x_thr),
+            ("above, visibly wrong", (x > x_thr) & wrong),
+        )
+        for name, side in sides:
             if side.any():
                 b = int(np.flatnonzero(side)[np.argmin(np.abs(x[side] - x_thr))])
                 record = blends[b]
+                if any(r[4] == record for r in found.values()):
+                    continue
                 found[name] = (
                     render_clip(record.dead_end),
                     dyn.render(blend_frames[b]),
