@@ -39,6 +39,7 @@ from app.core.silhouette import silhouette_projector, silhouettes, tank_camera
 from app.core.surface import dequantise_sdf, liquid_volumes, occupancy
 from app.core.visible_error import (
     VisibilityCriterion,
+    VisibleArtifacts,
     image_difference,
     swelling,
     visible_artifacts,
@@ -314,9 +315,37 @@ def measure_blends(
         "ridge": DEFAULT_RIDGE,
         "dist_range": [float(dist.min()), float(dist.max())],
         "best_target_wrong_fraction": float(np.mean([b.wrong for b in blends if b.rank == 0])),
+        "criterion_sensitivity": _sensitivity(blends, criterion, dist),
         "render_check": render_check,
     }
     return ThresholdStudy(threshold, details, blends, criterion, found)
+
+
+#: factors the criterion's limits are scaled by in the sensitivity report
+SENSITIVITY_SCALES = (0.5, 2.0)
+
+
+def _sensitivity(
+    blends: list[BlendRecord], criterion: VisibilityCriterion, dist: np.ndarray
+) -> dict[str, float | None]:
+    """The threshold with every limit of the criterion scaled (not used, only reported).
+
+    It says how much the threshold rests on the just-noticeable differences chosen: a
+    criterion twice as strict or twice as lenient moves it this far.
+    """
+    out: dict[str, float | None] = {}
+    for scale in SENSITIVITY_SCALES:
+        limits = VisibilityCriterion(
+            criterion.mismatch * scale, criterion.swelling * scale, criterion.jump * scale
+        )
+        labels = np.array(
+            [limits.visibly_wrong(VisibleArtifacts(b.mismatch, b.swelling, b.jump)) for b in blends]
+        )
+        try:
+            out[f"limits_x{scale:g}"] = logistic_threshold(dist, labels)
+        except ThresholdFitError:
+            out[f"limits_x{scale:g}"] = None
+    return out
 
 
 def _with_image_difference(record: BlendRecord, value: float) -> BlendRecord:
