@@ -3,70 +3,88 @@
 from __future__ import annotations
 
 import json
+import os
 from pathlib import Path
 
 import typer
 
 
 def demo(
-    name: str = typer.Option("demo", help="graph to build, or to go on refining if it exists"),
+    name: str = typer.Option("demo", help="the demo's name; run again to go on from where it was"),
     dynamics: str = typer.Option("liquid", help="liquid or toy"),
-    preset: str = typer.Option("small", help="liquid preset: tiny, small or paper"),
-    rounds: int = typer.Option(3, help="self-refining rounds (publish, play, learn, grow)"),
-    budget: int = typer.Option(3, help="expansions grown per round"),
-    sessions: int = typer.Option(20, help="bot sessions per round"),
+    preset: str = typer.Option("tiny", help="liquid preset: tiny, small or paper"),
+    fluid: str | None = typer.Option(None, help="liquid fluid: low (default) or high"),
+    checkpoints: str = typer.Option(
+        "300,600,1000,1500", help="graph sizes (frames) where the bots play both graphs"
+    ),
+    sessions: int = typer.Option(30, help="bot sessions per checkpoint"),
     seed: int = typer.Option(0),
-    out: Path = typer.Option(Path("var/demo"), help="directory for report.md and its plots"),
-    json_path: str | None = typer.Option(None, "--json", help="also write the rounds as JSON"),
+    out: Path | None = typer.Option(None, help="directory for report.md (default var/demo)"),
+    json_path: str | None = typer.Option(None, "--json", help="also write the result as JSON"),
 ) -> None:
-    """Build a graph, then refine it in rounds from bots' play; print and report the error."""
+    """BASELINE and SR-CROWD graphs grown side by side; watch the error fall as bots play.
+
+    Ends with the SR-CROWD graph published with its animations, ready to play.
+    """
     from rich.console import Console
-    from rich.progress import Progress, SpinnerColumn, TextColumn, TimeElapsedColumn
     from rich.table import Table
 
+    from app.cli import emit, progress_bar
     from app.config import get_settings
-    from app.db import session_factory
-    from app.services.demo import DemoPlan, rounds_as_dicts, run_demo, write_demo_report
-
-    plan = DemoPlan(
-        name=name,
-        dynamics=dynamics,
-        preset=preset if dynamics == "liquid" else None,
-        rounds=rounds,
-        budget=budget,
-        sessions=sessions,
-        seed=seed,
+    from app.services.demo import (
+        demo_plan,
+        demo_rows,
+        publish_playable,
+        run_demo,
+        unrendered_edges,
+        write_demo_report,
     )
-    plan.check()
+    from app.services.dynamics import make_dynamics
+    from app.services.experiment import grow_in_process, parse_checkpoints
+    from app.services.graphs import artifact_store
+
+    plan = demo_plan(
+        dynamics, preset, fluid, parse_checkpoints(checkpoints), sessions=sessions, seed=seed
+    )
+    make_dynamics(plan.dynamics, plan.preset, plan.fluid)  # unknown preset, calibration
     settings = get_settings()
-    sessions_ = session_factory()
-    columns = (SpinnerColumn(), TextColumn("{task.description}"), TextColumn("{task.completed}"))
-    with Progress(*columns, TimeElapsedColumn(), console=Console(stderr=True)) as bar:
-        task = bar.add_task("starting", total=None)
-
-        def stage(what: str, number: int) -> None:
-            label = f"round {number}/{plan.rounds + 1}: {what}" if number else what
-            bar.update(task, description=label, completed=0)
-
-        def advance(n: int) -> None:
-            bar.advance(task, n)
-
-        rounds_done = run_demo(sessions_, settings, plan, stage, advance)
-    table = Table(title=f"{plan.name}: observed error per round (goal-directed bots)")
-    for column in ("round", "frames", "mean error", "high-error", "score/step"):
+    jobs = min(os.cpu_count() or 1, len(plan.runs))
+    total = len(plan.runs) * plan.checkpoints[-1]
+    with progress_bar(total, "baseline and sr-crowd: frames grown") as advance:
+        result = run_demo(name, plan, grow_in_process, jobs=jobs, progress=advance)
+    with progress_bar(unrendered_edges(name, plan), "animations rendered") as rendered:
+        graph, published = publish_playable(settings, name, plan, rendered)
+    table = Table(title=f"{name}: what goal-directed bots saw at each graph size")
+    for column in (
+        "frames",
+        "baseline error",
+        "sr-crowd error",
+        "sr-crowd / baseline",
+        "baseline high-error",
+        "sr-crowd high-error",
+    ):
         table.add_column(column, justify="right")
-    for r in rounds_done:
+    for row in demo_rows(result):
         table.add_row(
-            str(r.round),
-            str(r.size_frames),
-            f"{r.observed_mean_error:.4f}",
-            f"{r.high_error_fraction:.3f}",
-            f"{r.mean_score_per_step:.4g}",
+            str(row.frames),
+            f"{row.baseline_error:.4f}",
+            f"{row.sr_crowd_error:.4f}",
+            f"{row.ratio:.2f}",
+            f"{row.baseline_high_error:.3f}",
+            f"{row.sr_crowd_high_error:.3f}",
         )
     Console().print(table)
-    with sessions_() as session:
-        report = write_demo_report(session, settings, plan, rounds_done, out)
+    report = write_demo_report(
+        settings,
+        result,
+        graph,
+        out or settings.var_dir / "demo",
+        artifact_store(settings).get_arrays,
+    )
     if json_path:
-        Path(json_path).write_text(json.dumps(rounds_as_dicts(rounds_done), indent=2) + "\n")
+        emit(json.loads(json.dumps(result, default=str)), json_path)
     typer.echo(f"report: {report}")
-    typer.echo("play it: srg serve, then open http://127.0.0.1:8000/ in a browser")
+    typer.echo(
+        f"play it: srg serve, then open http://127.0.0.1:8000/ and pick {graph} "
+        f"(publication {published.number}, {published.size_frames} frames)"
+    )

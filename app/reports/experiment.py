@@ -183,7 +183,9 @@ def plot_density_graph(
             widths[relative >= level] = 1.2
         order = np.argsort(relative)  # the busiest edges drawn last, on top
         ax.add_collection(
-            LineCollection(segments[order], colors=list(colours[order]), linewidths=widths[order])
+            LineCollection(
+                list(segments[order]), colors=list(colours[order]), linewidths=widths[order]
+            )
         )
         ax.scatter(xy[:, 0], xy[:, 1], s=1, color="#555555")
         ax.autoscale()

@@ -1,177 +1,157 @@
 """`srg demo`: the product's main job on the embedded default.
 
-It builds (or continues) a graph and runs self-refining rounds on it: publish, let
-goal-directed bots play the publication, learn the crowd model from every trace so far
-and grow with sr-crowd. Each round is its own transaction, so an interrupted demo keeps
-the rounds it finished and the next run goes on from there.
+The demo is a small experiment (:mod:`app.services.experiment`): two graphs grow side by
+side from the same initial tree, one with BASELINE and one with SR-CROWD, and at each
+checkpoint goal-directed bots play both. A newcomer sees the error players meet fall
+faster on the graph that learns from play (the sizes are chosen from measurements:
+docs/experiment.md). The SR-CROWD graph is then published with its animations, ready to
+play in the browser. Its checkpoints are stored, so an interrupted demo goes on from the
+last one when run again.
 """
 
 from __future__ import annotations
 
-from collections.abc import Callable
-from dataclasses import asdict, dataclass
+from dataclasses import dataclass
 from pathlib import Path
+from typing import Any
 
 import numpy as np
 from sqlalchemy import select
-from sqlalchemy.orm import Session, sessionmaker
+from sqlalchemy.orm import Session
 
 from app.config import Settings
+from app.core.strategies import Strategy
+from app.db import transaction
 from app.models import Graph, PublicationEdge
+from app.reports.experiment import ArraysLoader, write_report
+from app.services.experiment import (
+    ExperimentExists,
+    ExperimentPlan,
+    Grower,
+    NothingToResume,
+    Progress,
+    create_experiment,
+    run_experiment,
+    run_graph_name,
+    stored_plan,
+)
 from app.services.graphs import (
-    PlayResult,
     PublishResult,
     artifact_store,
-    grow_graph,
-    init_graph,
-    play_graph,
+    count_missing_animations,
     publish_graph,
 )
 
-
-@dataclass(frozen=True)
-class DemoPlan:
-    name: str = "demo"
-    dynamics: str = "liquid"
-    preset: str | None = "small"
-    rounds: int = 3
-    budget: int = 3
-    sessions: int = 20
-    mean_steps: int = 60
-    seed: int = 0
-
-    def check(self) -> None:
-        if self.rounds < 1 or self.budget < 1 or self.sessions < 1 or self.mean_steps < 2:
-            raise ValueError("rounds, budget and sessions must be positive, mean steps >= 2")
+#: graph sizes (frames) where bots play: on `tiny` the two strategies part by 1,500
+DEMO_CHECKPOINTS = (300, 600, 1_000, 1_500)
+PLAYABLE = Strategy.SR_CROWD
 
 
 @dataclass(frozen=True)
-class DemoRound:
-    round: int
-    publication: int
-    size_frames: int
-    observed_mean_error: float
-    high_error_fraction: float
-    mean_score_per_step: float
-    steps: int
+class DemoRow:
+    """Both graphs at one checkpoint, as the demo's table shows them."""
+
+    frames: int
+    baseline_error: float
+    sr_crowd_error: float
+    baseline_high_error: float
+    sr_crowd_high_error: float
+
+    @property
+    def ratio(self) -> float:
+        return self.sr_crowd_error / self.baseline_error if self.baseline_error > 0 else 1.0
 
 
-#: stages reported to the caller's progress display: (stage name, round)
-Stage = Callable[[str, int], None]
+def demo_plan(
+    dynamics: str = "liquid",
+    preset: str | None = "tiny",
+    fluid: str | None = None,
+    checkpoints: tuple[int, ...] = DEMO_CHECKPOINTS,
+    sessions: int = 30,
+    seed: int = 0,
+) -> ExperimentPlan:
+    return ExperimentPlan(
+        dynamics=dynamics,
+        preset=preset if dynamics == "liquid" else None,
+        fluid=fluid,
+        strategies=(Strategy.BASELINE, PLAYABLE),
+        seeds=(seed,),
+        checkpoints=checkpoints,
+        sessions=sessions,
+    )
 
 
 def run_demo(
-    sessions: sessionmaker[Session],
-    settings: Settings,
-    plan: DemoPlan,
-    stage: Stage,
-    advance: Callable[[int], None],
-) -> list[DemoRound]:
-    """Rounds of publish, play, learn-and-grow; a final publish and play closes them."""
-    plan.check()
-    with sessions() as session:
-        exists = session.scalar(select(Graph.id).where(Graph.name == plan.name)) is not None
-    if not exists:
-        stage("initial tree", 0)
-        with sessions.begin() as session:
-            init_graph(
-                session,
-                settings,
-                name=plan.name,
-                dynamics=plan.dynamics,
-                preset=plan.preset,
-                strategy="sr-crowd",
+    name: str,
+    plan: ExperimentPlan,
+    grower: Grower,
+    *,
+    jobs: int,
+    progress: Progress | None = None,
+) -> dict[str, Any]:
+    """Grow, play and measure both graphs (resuming a stored demo): the result."""
+    try:
+        stored = stored_plan(name)
+    except NothingToResume:
+        create_experiment(name, plan)
+    else:
+        if stored != plan:
+            raise ExperimentExists(
+                f"a demo named {name!r} was run with other settings: choose another --name"
             )
-    rounds = []
-    for number in range(1, plan.rounds + 2):
-        stage("publish", number)
-        with sessions.begin() as session:
-            published: PublishResult = publish_graph(
-                session, settings, name=plan.name, progress=advance
-            )
-        stage("play", number)
-        with sessions.begin() as session:
-            played: PlayResult = play_graph(
-                session,
-                settings,
-                name=plan.name,
-                sessions=plan.sessions,
-                mean_steps=plan.mean_steps,
-                seed=plan.seed * 1000 + published.number,
-            )
-        rounds.append(
-            DemoRound(
-                round=number,
-                publication=published.number,
-                size_frames=published.size_frames,
-                observed_mean_error=played.observed_mean_error,
-                high_error_fraction=played.high_error_fraction,
-                mean_score_per_step=played.mean_score_per_step,
-                steps=played.steps,
-            )
+    return run_experiment(name, grower, jobs=jobs, progress=progress)
+
+
+def publish_playable(
+    settings: Settings, name: str, plan: ExperimentPlan, progress: Progress | None = None
+) -> tuple[str, PublishResult]:
+    """Publish the demo's SR-CROWD graph with every animation rendered; its name too."""
+    graph = run_graph_name(name, PLAYABLE, plan.seeds[0])
+    with transaction() as session:
+        return graph, publish_graph(session, settings, name=graph, progress=progress)
+
+
+def unrendered_edges(name: str, plan: ExperimentPlan) -> int:
+    """Edges of the playable graph without an animation yet (what publishing renders)."""
+    with transaction() as session:
+        graph = session.scalar(
+            select(Graph.id).where(Graph.name == run_graph_name(name, PLAYABLE, plan.seeds[0]))
         )
-        if number > plan.rounds:
-            break
-        stage("grow", number)
-        grow_graph(
-            sessions.begin,
-            settings,
-            name=plan.name,
-            strategy="sr-crowd",
-            expansions=plan.budget,
-            progress=advance,
+        return 0 if graph is None else count_missing_animations(session, graph)
+
+
+def demo_rows(result: dict[str, Any]) -> list[DemoRow]:
+    baseline, crowd = (
+        next(iter(result["results"][s.value].values())) for s in (Strategy.BASELINE, PLAYABLE)
+    )
+    return [
+        DemoRow(
+            frames=int(c["size_frames"]),
+            baseline_error=float(b["observed_mean_error"]),
+            sr_crowd_error=float(c["observed_mean_error"]),
+            baseline_high_error=float(b["high_error_fraction"]),
+            sr_crowd_high_error=float(c["high_error_fraction"]),
         )
-    return rounds
+        for b, c in zip(baseline, crowd, strict=True)
+    ]
 
 
 def write_demo_report(
-    session: Session, settings: Settings, plan: DemoPlan, rounds: list[DemoRound], out: Path
+    settings: Settings, result: dict[str, Any], graph: str, out: Path, load_arrays: ArraysLoader
 ) -> Path:
-    """report.md with the error per round plot and a contact sheet of rendered frames."""
-    import matplotlib
-
-    matplotlib.use("Agg")
-    import matplotlib.pyplot as plt
-
-    out.mkdir(parents=True, exist_ok=True)
-    x = [r.size_frames for r in rounds]
-    fig, ax = plt.subplots(figsize=(5, 3.2))
-    ax.plot(x, [r.observed_mean_error for r in rounds], "o-", label="observed mean error")
-    ax.plot(x, [r.high_error_fraction for r in rounds], "s--", label="high-error fraction")
-    ax.set_xlabel("graph size (simulated frames)")
-    ax.set_title(f"{plan.name}: what goal-directed bots saw")
-    ax.legend()
-    fig.tight_layout()
-    fig.savefig(out / "error-per-round.png", dpi=120)
-    plt.close(fig)
-    contact = contact_sheet(session, settings, plan.name)
+    """The experiment's report, with a contact sheet of the playable graph and how to play."""
+    report = write_report(result, out, load_arrays)
+    with transaction() as session:
+        contact = contact_sheet(session, settings, graph)
+    lines = ["", "## Play it", ""]
     if contact is not None:
         from PIL import Image
 
         Image.fromarray(contact).save(out / "contact-sheet.png")
-    lines = [
-        f"# srg demo: {plan.name} ({plan.dynamics}"
-        + (f", preset {plan.preset}" if plan.preset else "")
-        + ")",
-        "",
-        "Each round publishes the graph, lets goal-directed bots play it, then learns the "
-        "crowd player model from all traces so far and grows the graph with sr-crowd.",
-        "",
-        "| round | publication | frames | observed mean error | high-error fraction "
-        "| score per step | steps played |",
-        "|---:|---:|---:|---:|---:|---:|---:|",
-    ]
-    lines += [
-        f"| {r.round} | {r.publication} | {r.size_frames} | {r.observed_mean_error:.4f} "
-        f"| {r.high_error_fraction:.3f} | {r.mean_score_per_step:.4g} | {r.steps} |"
-        for r in rounds
-    ]
-    lines += ["", "![error per round](error-per-round.png)", ""]
-    if contact is not None:
-        lines += ["Frames of the edges players visited most:", "", "![frames](contact-sheet.png)"]
-    lines += ["", "Play it: `srg serve`, then open http://127.0.0.1:8000/", ""]
-    report = out / "report.md"
-    report.write_text("\n".join(lines))
+        lines += [f"Frames of the edges bots visited most on `{graph}`:", ""]
+        lines += ["![frames](contact-sheet.png)", ""]
+    lines += [f"`srg serve`, then open http://127.0.0.1:8000/ and pick `{graph}`.", ""]
+    report.write_text(report.read_text() + "\n".join(lines))
     return report
 
 
@@ -210,7 +190,3 @@ def contact_sheet(
         tiles.append(np.full_like(tiles[0], 255))
     rows = [np.concatenate(tiles[i : i + columns], axis=1) for i in range(0, len(tiles), columns)]
     return np.concatenate(rows, axis=0)
-
-
-def rounds_as_dicts(rounds: list[DemoRound]) -> list[dict[str, object]]:
-    return [asdict(r) for r in rounds]

@@ -108,22 +108,27 @@ def _trace_count(settings: Settings) -> int:
         engine.dispose()
 
 
-def test_the_demo_refines_in_rounds_and_writes_its_report(tmp_path: Path) -> None:
+def test_the_demo_grows_both_graphs_side_by_side_and_publishes_one_to_play(
+    tmp_path: Path,
+) -> None:
     out = tmp_path / "report"
-    rounds_json = tmp_path / "rounds.json"
+    result_json = tmp_path / "demo.json"
     ok(tmp_path, "db", "upgrade")
-    args = ["demo", "--dynamics", "toy", "--rounds", "2", "--budget", "2", "--sessions", "4"]
-    printed = ok(tmp_path, *args, "--out", str(out), "--json", str(rounds_json))
-    rounds = json.loads(rounds_json.read_text())
-    assert [r["round"] for r in rounds] == [1, 2, 3]
-    assert [r["publication"] for r in rounds] == [1, 2, 3]
-    assert [r["size_frames"] for r in rounds] == [120, 180, 240]  # 2 expansions of 3 clips
-    assert all(r["steps"] > 0 for r in rounds)
+    args = ["demo", "--dynamics", "toy", "--checkpoints", "300,900", "--sessions", "6"]
+    printed = ok(tmp_path, *args, "--out", str(out), "--json", str(result_json))
+    result = json.loads(result_json.read_text())
+    assert set(result["results"]) == {"baseline", "sr-crowd"}
+    sizes = [row["size_frames"] for row in result["results"]["sr-crowd"]["0"]]
+    assert sizes == [300, 900]
     report = (out / "report.md").read_text()
-    assert "| 3 | 3 | 240 |" in report and "srg serve" in printed
-    assert (out / "error-per-round.png").stat().st_size > 0
+    assert "demo.sr-crowd.0" in report and "srg serve" in printed
+    assert (out / "error-per-step.png").stat().st_size > 0
     assert (out / "contact-sheet.png").stat().st_size > 0
-    again = ok(tmp_path, *args, "--rounds", "1", "--out", str(out), "--json", str(rounds_json))
-    assert "report:" in again  # a second run goes on refining the same graph
-    assert [r["publication"] for r in json.loads(rounds_json.read_text())] == [4, 5]
-    one_line_error(srg(tmp_path, "demo", "--rounds", "0"), "must be positive")
+    playable = json.loads(ok(tmp_path, "status", "demo.sr-crowd.0", "--json"))
+    assert playable["unrendered_edges"] == 0 and playable["latest_publication"] == 3
+    # run again: the demo is stored, so it grows nothing and only publishes again
+    again = ok(tmp_path, *args, "--out", str(out), "--json", str(result_json))
+    assert "report:" in again
+    assert json.loads(result_json.read_text())["results"] == result["results"]
+    one_line_error(srg(tmp_path, "demo", "--sessions", "0"), "must be positive")
+    one_line_error(srg(tmp_path, *args[:-1], "7"), "other settings")
