@@ -81,11 +81,33 @@ def _require_broker() -> None:
         raise ValueError("no broker: set SRG_BROKER_URL=redis://... (see docs/runtime.md)")
 
 
+def _positive_ints(option: str, value: str) -> list[int]:
+    """A comma-separated list of positive integers, or a one-line ``ValueError``."""
+    message = f"{option} takes comma-separated positive integers, got {value!r}"
+    try:
+        numbers = [int(part) for part in value.split(",")]
+    except ValueError:
+        raise ValueError(message) from None
+    if any(n <= 0 for n in numbers):
+        raise ValueError(message)
+    return numbers
+
+
 def bench_grow(
     epochs: int = typer.Option(6, help="growth epochs per run"),
-    batch: int = typer.Option(8, help="expansions per epoch"),
+    batch: int = typer.Option(8, help="expansions per epoch (and integrated per graph size)"),
     workers: str = typer.Option("1,2", help="comma-separated worker-process counts"),
-    sizes: str = typer.Option("1000,10000,100000", help="graph sizes (edges) to integrate at"),
+    sizes: str | None = typer.Option(
+        None, help="graph sizes (edges) to integrate at [default: 1000,10000,100000]"
+    ),
+    frames: str | None = typer.Option(
+        None, help="graph sizes in simulated frames to integrate at, instead of --sizes"
+    ),
+    integration_only: bool = typer.Option(
+        False,
+        "--integration-only",
+        help="only the integrating step, on a graph of --dynamics (default: also throughput)",
+    ),
     dynamics: str = typer.Option("toy", help="dynamics of the throughput runs: toy or liquid"),
     preset: str | None = typer.Option(None, help="liquid preset (default tiny)"),
     json_output: bool = typer.Option(True, "--json/--no-json", help="print JSON (default)"),
@@ -94,16 +116,30 @@ def bench_grow(
     from app.services.bench_grow import bench_grow as run
     from app.services.dynamics import make_dynamics
 
+    if sizes is not None and frames is not None:
+        raise ValueError("give --sizes (edges) or --frames, not both")
+    for option, value in (("--epochs", epochs), ("--batch", batch)):
+        if value <= 0:
+            raise ValueError(f"{option} must be positive, got {value}")
     if dynamics == "liquid":
         preset = preset or "tiny"
-    make_dynamics(dynamics, preset)  # bad names fail here, before any service starts
+    model = make_dynamics(dynamics, preset)  # bad names fail here, before any service starts
+    edge_sizes = _positive_ints("--sizes", sizes or "1000,10000,100000")
+    frame_sizes = None if frames is None else _positive_ints("--frames", frames)
+    smallest = model.n_controls * (model.n_controls + 1) * model.frames_per_clip
+    if frame_sizes is not None and min(frame_sizes) < smallest:
+        raise ValueError(
+            f"--frames must be at least {smallest} (the initial tree), got {min(frame_sizes)}"
+        )
     result = run(
         dynamics=dynamics,
         preset=preset,
         epochs=epochs,
         batch=batch,
-        worker_counts=[int(w) for w in workers.split(",")],
-        sizes=[int(s) for s in sizes.split(",")],
+        worker_counts=_positive_ints("--workers", workers),
+        sizes=edge_sizes,
+        frames=frame_sizes,
+        integration_only=integration_only,
     )
     typer.echo(json.dumps(result, indent=2))
 
