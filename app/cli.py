@@ -122,7 +122,7 @@ def experiment(
     else:
         plan = _experiment_plan(dynamics or "toy", quick, *options[1:])
         make_dynamics(plan.dynamics, plan.preset, plan.fluid)  # unknown preset, fluid...
-        create_experiment(name, plan)
+        plan = create_experiment(name, plan)
     settings = get_settings()
     if settings.eager:
         grower = grow_in_process

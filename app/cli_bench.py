@@ -26,3 +26,21 @@ def bench_rank_command(
     if edges < controls * 10:
         raise ValueError(f"--edges must be at least {controls * 10}")
     _print(bench_rank(n_edges=edges, n_controls=controls, seed=seed))
+
+
+@bench_app.command(
+    "experiment", context_settings={"allow_extra_args": True, "ignore_unknown_options": True}
+)
+def bench_experiment_command(ctx: typer.Context) -> None:
+    """Wall and CPU time of `srg experiment ARGS...` from an empty database.
+
+    For example: srg bench experiment --dynamics liquid --preset tiny --seeds 0
+    --checkpoints 2000,5000,10000,20000 (the paper's four strategies to 20k frames).
+    """
+    from app.services.bench_experiment import bench_experiment
+
+    if any(arg in ("--json", "--resume", "--name", "--out") for arg in ctx.args):
+        raise ValueError(
+            "the benchmark runs a fresh experiment: leave out --json, --resume, --name, --out"
+        )
+    _print(bench_experiment(list(ctx.args)))

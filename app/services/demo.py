@@ -11,7 +11,7 @@ last one when run again.
 
 from __future__ import annotations
 
-from dataclasses import dataclass
+from dataclasses import dataclass, replace
 from pathlib import Path
 from typing import Any
 
@@ -95,7 +95,7 @@ def run_demo(
     except NothingToResume:
         create_experiment(name, plan)
     else:
-        if stored != plan:
+        if replace(stored, high_error_threshold=None) != plan:
             raise ExperimentExists(
                 f"a demo named {name!r} was run with other settings: choose another --name"
             )

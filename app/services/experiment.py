@@ -22,7 +22,7 @@ import resource
 import time
 from collections.abc import Callable, Sequence
 from concurrent.futures import FIRST_COMPLETED, ProcessPoolExecutor, wait
-from dataclasses import asdict, dataclass, fields
+from dataclasses import asdict, dataclass, fields, replace
 from multiprocessing import get_context
 from typing import Any
 
@@ -46,7 +46,7 @@ from app.core.refinement import Refiner
 from app.core.strategies import Strategy, parse_strategy
 from app.db import transaction
 from app.models import Clip, Experiment, ExperimentCheckpoint, Graph
-from app.services.dynamics import DYNAMICS_NAMES, UnknownDynamics
+from app.services.dynamics import DYNAMICS_NAMES, UnknownDynamics, make_dynamics
 from app.services.graphs import (
     graph_summary,
     grow_graph,
@@ -95,6 +95,9 @@ class ExperimentPlan:
     sessions: int = 30
     mean_steps: int = 60
     batch_size: int = 8
+    #: fixed when the experiment is created (the calibration's, unless set), so that every
+    #: checkpoint, resumed or not, counts high-error steps against one threshold
+    high_error_threshold: float | None = None
 
     def __post_init__(self) -> None:
         if self.dynamics not in DYNAMICS_NAMES:
@@ -107,6 +110,8 @@ class ExperimentPlan:
             raise ValueError("give one or more distinct seeds")
         if self.sessions < 1 or self.mean_steps < 2 or self.batch_size < 1:
             raise ValueError("sessions and batch size must be positive, mean steps >= 2")
+        if self.high_error_threshold is not None and not self.high_error_threshold > 0:
+            raise ValueError("the high-error threshold must be positive")
         _check_checkpoints(self.checkpoints)
 
     @classmethod
@@ -153,9 +158,18 @@ def grow_in_process(name: str, to_frames: int, batch: int, progress: Progress | 
 
 
 # ---- the experiment ---------------------------------------------------------------------
-def create_experiment(name: str, plan: ExperimentPlan) -> None:
-    """Store a new experiment's plan; :class:`ExperimentExists` if the name is taken."""
+def create_experiment(name: str, plan: ExperimentPlan) -> ExperimentPlan:
+    """Store a new experiment's plan, its high-error threshold fixed; return that plan.
+
+    The threshold is ``SRG_HIGH_ERROR_THRESHOLD``, else the dynamics' calibrated one.
+    :class:`ExperimentExists` if the name is taken.
+    """
     _check_name(name)
+    if plan.high_error_threshold is None:
+        threshold = get_settings().high_error_threshold or make_dynamics(
+            plan.dynamics, plan.preset, plan.fluid
+        ).high_error_threshold
+        plan = replace(plan, high_error_threshold=threshold)
     with transaction() as session:
         if session.scalar(select(Experiment.id).where(Experiment.name == name)) is not None:
             raise ExperimentExists(
@@ -170,6 +184,7 @@ def create_experiment(name: str, plan: ExperimentPlan) -> None:
             taken = ", ".join(clashes)
             raise ExperimentExists(f"graphs named {taken} exist: choose another --name")
         session.add(Experiment(name=name, plan=plan.to_dict()))
+    return plan
 
 
 def stored_plan(name: str) -> ExperimentPlan:
@@ -334,7 +349,7 @@ def checkpoint_figures(
         publication.edge_err,
         n,
         predicted,
-        settings.high_error_threshold or loaded.dynamics.high_error_threshold,
+        plan.high_error_threshold or loaded.dynamics.high_error_threshold,
         bound_edge_prob=per_vertex_bound_edge_probabilities(
             traces, publication.edge_dst, publication.start, fallback=model
         ),

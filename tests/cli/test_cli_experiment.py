@@ -163,6 +163,15 @@ def test_bad_experiment_input_is_one_line_and_writes_nothing(
     engine.dispose()
 
 
+def test_the_experiment_benchmark_times_a_fresh_run_and_refuses_resume(tmp_path: Path) -> None:
+    args = ("--seeds", "0", "--checkpoints", "300", "--sessions", "3", "--strategies", "baseline")
+    figures = json.loads(ok(tmp_path, "bench", "experiment", *args))
+    assert figures["frames"] >= 300 and figures["wall_s"] > 0 and figures["cpu_s"] > 0
+    assert set(figures["runs"]) == {"baseline/0"}
+    one_line_error(srg(tmp_path, "bench", "experiment", "--resume"), "fresh experiment")
+    one_line_error(srg(tmp_path, "bench", "experiment", "--preset", "huge"), "no preset")
+
+
 def test_a_second_experiment_of_one_name_needs_resume(tmp_path: Path) -> None:
     ok(tmp_path, "db", "upgrade")
     args = ("--seeds", "0", "--checkpoints", "300", "--sessions", "3", "--strategies", "baseline")
