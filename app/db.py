@@ -20,7 +20,9 @@ from sqlalchemy.orm import Session, sessionmaker
 
 from app.config import get_settings
 
-SQLITE_BUSY_TIMEOUT_MS = 30_000
+#: how long a SQLite writer waits for another's transaction: embedded runs share one file,
+#: and a checkpoint of a 20k-frame experiment graph holds the lock for tens of seconds
+SQLITE_BUSY_TIMEOUT_MS = 600_000
 
 
 def make_engine(url: str, **kwargs: Any) -> Engine:

@@ -21,7 +21,6 @@ from __future__ import annotations
 import resource
 import time
 from collections.abc import Callable, Sequence
-from concurrent.futures import FIRST_COMPLETED, ProcessPoolExecutor, wait
 from dataclasses import asdict, dataclass, fields, replace
 from multiprocessing import get_context
 from typing import Any
@@ -65,6 +64,8 @@ HIGH_ERROR_RATIO_TARGET = 0.2
 #: figures that measure the machine, not the algorithm: left out of reproducibility checks
 TIMING_KEYS = ("grow_seconds", "checkpoint_seconds", "resident_mb")
 BOT_PLAYER = "bot-experiment"
+#: seconds between two looks at the run processes (and the frames they grew)
+PROGRESS_POLL = 1.0
 
 Progress = Callable[[int], None]
 #: grows the stored graph ``name`` to at least ``to_frames`` frames, ``batch`` blends an epoch
@@ -221,17 +222,19 @@ def run_experiment(
 def _run_in_processes(
     name: str, plan: ExperimentPlan, grower: Grower, jobs: int, progress: Progress | None
 ) -> None:
-    context = get_context("spawn")
-    with ProcessPoolExecutor(max_workers=jobs, mp_context=context) as pool:
-        pending = {
-            pool.submit(run_one, name, strategy.value, seed, grower, None)
+    """The runs in a pool of spawned processes; the first failure stops them all (what
+    they finished is stored, so ``--resume`` goes on from there)."""
+    with get_context("spawn").Pool(jobs, maxtasksperchild=1) as pool:  # exit: terminate
+        pending = [
+            pool.apply_async(run_one, (name, strategy.value, seed, grower, None))
             for strategy, seed in plan.runs
-        }
+        ]
         reported = 0
         while pending:
-            finished, pending = wait(pending, timeout=1.0, return_when=FIRST_COMPLETED)
-            for future in finished:
-                future.result()  # a failed run stops the experiment with its error
+            time.sleep(PROGRESS_POLL)
+            for finished in [run for run in pending if run.ready()]:
+                finished.get()  # re-raises a run's error here
+                pending.remove(finished)
             if progress is not None:
                 grown = frames_grown(name, plan)
                 progress(grown - reported)
