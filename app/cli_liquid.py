@@ -174,14 +174,22 @@ def bench_sph_command(
 def bench_clip_command(
     preset: str = typer.Option(DEFAULT_LIQUID_PRESET, help=PRESET_HELP),
     fluid: str = typer.Option(DEFAULT_FLUID, help=FLUID_HELP),
+    settle: float = typer.Option(1.0, help="seconds of settling first (half damped)"),
+    frames: int | None = typer.Option(
+        None, help="simulate this many frames of each clip and scale (default: all)"
+    ),
     json_output: bool = typer.Option(True, "--json/--no-json", help="print JSON (default)"),
 ) -> None:
     """Seconds per clip of each stage of a liquid edge (SPH to WebP) and its bytes."""
     check_liquid_preset(preset)
     check_fluid(fluid)
+    if settle <= 0:
+        raise ValueError(f"--settle must be positive, got {settle}")
+    if frames is not None:
+        _positive("--frames", frames)
     from app.services.bench_clip import bench_clip
 
-    _print(bench_clip(preset, fluid), json_output)
+    _print(bench_clip(preset, fluid, settle=settle, frames=frames), json_output)
 
 
 def bench_store_command(

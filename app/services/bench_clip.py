@@ -5,6 +5,12 @@ most complex), then the opposite tilt, so meshing and rendering see a typical ha
 Bytes are those of what an edge keeps: its int8 SDF and uint8 occupancy frames
 (compressed npz), its animation strip and poster (WebP) and its end state (float32
 particles, compressed npz; kept by the vertex it reaches).
+
+For the large presets a whole measurement takes long: ``settle`` shortens the settling
+and ``frames`` simulates only that many frames of each clip; the simulation's seconds
+are then scaled to a clip of k frames, and the other stages run on a full clip made of
+the simulated frames repeated (their cost is per frame). A preset without a stored
+calibration is timed with placeholder constants (they change no timing).
 """
 
 from __future__ import annotations
@@ -18,8 +24,14 @@ import numpy as np
 
 from app.core.dynamics import SimClip
 from app.core.surface import pack_clip_fields
+from app.kernels.sph import SphSimulator
 from app.render.animation import encode_poster, encode_strip
-from app.services.liquid import LiquidDynamics
+from app.services.liquid import LiquidCalibration, LiquidDynamics, MissingCalibration
+
+#: constants for timing a preset that has no calibration yet: no stage's cost depends on them
+PLACEHOLDER_CALIBRATION = LiquidCalibration(
+    rest_kinetic=0.05, energy_weight=1.0, crowd_radius=1.0, high_error_threshold=1.0
+)
 
 T = TypeVar("T")
 
@@ -36,8 +48,34 @@ def _npz_bytes(array: np.ndarray) -> int:
     return len(buffer.getvalue())
 
 
-def bench_clip(preset: str = "small", fluid: str = "low") -> dict:
+def _dynamics(preset: str, fluid: str) -> tuple[LiquidDynamics, str]:
+    try:
+        return LiquidDynamics(preset, fluid), "stored"
+    except MissingCalibration:
+        return LiquidDynamics(preset, fluid, PLACEHOLDER_CALIBRATION), "placeholder"
+
+
+def _iterations(sim: SphSimulator) -> tuple[int, int]:
+    """Pressure iterations and substeps the simulator has run so far."""
+    return sim.stats.iterations, sim.stats.substeps
+
+
+def _full_clip(frames: np.ndarray, k: int) -> np.ndarray:
+    """``frames`` repeated along the first axis to ``k`` frames."""
+    return frames[np.arange(k) % len(frames)]
+
+
+def bench_clip(
+    preset: str = "small", fluid: str = "low", *, settle: float = 1.0, frames: int | None = None
+) -> dict:
     """Time simulate (SPH), SDF, features, blend and render of one clip; size its data.
+
+    Parameters
+    ----------
+    settle : float
+        Seconds of settling before the clips, the first half damped.
+    frames : int, optional
+        Simulate this many frames per clip (default: all k) and scale to k.
 
     Returns
     -------
@@ -45,15 +83,22 @@ def bench_clip(preset: str = "small", fluid: str = "low") -> dict:
         ``seconds`` per clip by stage, ``bytes_per_frame`` by stored item and in total,
         and the sizes that explain them (particles, voxels, image size).
     """
-    dyn = LiquidDynamics(preset, fluid)
+    dyn, calibration = _dynamics(preset, fluid)
     sim = dyn.simulator
-    state = sim.settle(seconds=1.0, damped_seconds=0.5)
-    sim.simulate_clip(state, 0)  # warm up kernels and buffers
-    (positions, end), t_sph = _timed(lambda: sim.simulate_clip(state, 1))
-    frames, t_sdf = _timed(lambda: dyn.surface_frames(positions))
-    clip = SimClip(control=1, frames=frames, end_state=end)
+    k = dyn.frames_per_clip
+    n = min(frames or k, k)
+    state = sim.settle(seconds=settle, damped_seconds=settle / 2)
+    sim.run(state, 0, 1)  # warm up kernels and buffers
+    iterations_before, substeps_before = _iterations(sim)
+    (positions, end), t_sph = _timed(lambda: sim.run(state, 1, n))
+    iterations, substeps = _iterations(sim)
+    mean_iterations = (iterations - iterations_before) / max(substeps - substeps_before, 1)
+    positions = _full_clip(positions, k)
+    frames_sdf, t_sdf = _timed(lambda: dyn.surface_frames(positions))
+    clip = SimClip(control=1, frames=frames_sdf, end_state=end)
     features, t_features = _timed(lambda: dyn.features(clip))
-    other = dyn.simulate(end, 2)
+    other_positions, other_end = sim.run(end, 2, n)
+    other = SimClip(2, dyn.surface_frames(_full_clip(other_positions, k)), other_end)
     other_features = dyn.features(other)
     _, t_dist = _timed(lambda: dyn.dist(features, other_features, 2))
     _, t_blend = _timed(lambda: dyn.blend(clip.frames, other.frames))
@@ -77,8 +122,12 @@ def bench_clip(preset: str = "small", fluid: str = "low") -> dict:
         "image": [dyn.render_settings.width, dyn.render_settings.height],
         "spp": dyn.render_settings.spp,
         "frames_per_clip": k,
+        "simulated_frames_per_clip": n,
+        "settle_seconds": settle,
+        "calibration": calibration,
+        "mean_pressure_iterations": mean_iterations,
         "seconds": {
-            "simulate": t_sph,
+            "simulate": t_sph * k / n,
             "sdf": t_sdf,
             "features": t_features,
             "dist": t_dist,

@@ -56,6 +56,8 @@ UNKNOWN_FLUID = "unknown fluid 'bogus' (known: low, high)"
         ),
         (["bench", "sph", "--fluid", "bogus"], UNKNOWN_FLUID),
         (["bench", "clip", "--fluid", "bogus"], UNKNOWN_FLUID),
+        (["bench", "clip", "--settle", "0"], "--settle must be positive, got 0.0"),
+        (["bench", "clip", "--frames", "0"], "--frames must be positive, got 0"),
         (["bench", "sph", "--steps", "0"], "--steps must be positive, got 0"),
         (["bench", "sph", "--preset", "tiny", "--steps", "-5"], "--steps must be positive, got -5"),
         (["bench", "store", "--edges", "0"], "--edges must be positive, got 0"),
