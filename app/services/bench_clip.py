@@ -15,18 +15,22 @@ calibration is timed with placeholder constants (they change no timing).
 
 from __future__ import annotations
 
+import hashlib
 import io
+import tempfile
 import time
 from collections.abc import Callable
+from pathlib import Path
 from typing import TypeVar
 
 import numpy as np
 
-from app.core.dynamics import SimClip
+from app.core.dynamics import ClipFeatures, SimClip
 from app.core.surface import pack_clip_fields
 from app.kernels.sph import SphSimulator
 from app.render.animation import encode_poster, encode_strip
 from app.services.liquid import LiquidCalibration, LiquidDynamics, MissingCalibration
+from app.store.artifacts import encode_arrays
 
 #: constants for timing a preset that has no calibration yet: no stage's cost depends on them
 PLACEHOLDER_CALIBRATION = LiquidCalibration(
@@ -53,6 +57,43 @@ def _dynamics(preset: str, fluid: str) -> tuple[LiquidDynamics, str]:
         return LiquidDynamics(preset, fluid), "stored"
     except MissingCalibration:
         return LiquidDynamics(preset, fluid, PLACEHOLDER_CALIBRATION), "placeholder"
+
+
+def _median_seconds(fn: Callable[[], object], repeats: int = 21) -> float:
+    times = [_timed(fn)[1] for _ in range(repeats)]
+    return float(np.median(times))
+
+
+def _writer_seconds(
+    dyn: LiquidDynamics, a: ClipFeatures, b: ClipFeatures, bundle: dict[str, np.ndarray]
+) -> dict[str, float]:
+    """What one new clip costs the integrating step (the graph's single writer), medians.
+
+    ``dist``: one comparison of a best-target search (it makes up to prefilter_k + 1 per
+    new clip); ``occupancy_read``: a search's feature-cache miss, reading a stored
+    bundle's occupancy and descriptor; ``bundle_write``: encoding, hashing and writing
+    the clip's bundle as ``save_graph`` does; ``clip_read``: reading it back whole, as
+    the step reads the recorded clip.
+    """
+
+    def write(path: Path) -> None:
+        data = encode_arrays(bundle)
+        hashlib.sha256(data).hexdigest()
+        path.write_bytes(data)
+
+    def read(path: Path, names: tuple[str, ...]) -> int:
+        with np.load(path) as npz:
+            return sum(npz[name].nbytes for name in names)
+
+    with tempfile.TemporaryDirectory() as tmp:
+        path = Path(tmp) / "bundle.npz"
+        write(path)
+        return {
+            "dist": _median_seconds(lambda: dyn.dist(a, b, 2)),
+            "occupancy_read": _median_seconds(lambda: read(path, ("occupancy", "descriptor"))),
+            "bundle_write": _median_seconds(lambda: write(path), 5),
+            "clip_read": _median_seconds(lambda: read(path, tuple(bundle)), 5),
+        }
 
 
 def _iterations(sim: SphSimulator) -> tuple[int, int]:
@@ -105,6 +146,13 @@ def bench_clip(
     dyn.renderer.frame(np.full(dyn.grid.shape, dyn.grid.far_value, np.float32))  # load scene
     images, t_render = _timed(lambda: dyn.render(clip.frames))
     strip, t_encode = _timed(lambda: encode_strip(images))
+    bundle = {
+        "frames": clip.frames,
+        "end_state": end,
+        "occupancy": features.occupancy,
+        "descriptor": features.descriptor,
+    }
+    writer = _writer_seconds(dyn, features, other_features, bundle)
 
     k = dyn.frames_per_clip
     per_frame = {
@@ -136,5 +184,6 @@ def bench_clip(
             "encode": t_encode,
         },
         "render_seconds_per_frame": t_render / k,
+        "writer_seconds_per_new_clip": writer,
         "bytes_per_frame": {key: round(v) for key, v in per_frame.items()},
     }
