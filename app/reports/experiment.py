@@ -244,10 +244,20 @@ def markdown(result: dict[str, Any], images: list[Path]) -> str:
     versus = result["summary"].get("sr_crowd_vs_baseline")
     if versus:
         lines += ["", "## sr-crowd against baseline at the last checkpoint", ""]
-        lines += ["| seed | error ratio | high-error ratio |", "|---|---|---|"]
         lines += [
-            f"| {s['seed']} | {s['error_ratio']:.3f} | {s['high_error_ratio']:.3f} |"
+            "| seed | error ratio | high-error ratio | at half the threshold "
+            "| at double the threshold |",
+            "|---|---|---|---|---|",
+        ]
+        lines += [
+            f"| {s['seed']} | {_number(s['error_ratio'], 3)} | {_number(s['high_error_ratio'], 3)} "
+            f"| {_number(s.get('high_error_ratio_at_half_threshold'), 3)} "
+            f"| {_number(s.get('high_error_ratio_at_double_threshold'), 3)} |"
             for s in versus["per_seed"]
+        ]
+        lines += [
+            "",
+            "A ratio is n/a where baseline's players met no step above that threshold.",
         ]
         verdict = "meets" if versus["every_seed_meets_targets"] else "does NOT meet"
         lines += [
@@ -332,8 +342,8 @@ def _relative(value: float, observed: float) -> str:
     return f"{(value - observed) / observed:+.0%}"
 
 
-def _number(value: float) -> str:
-    return "n/a" if np.isnan(value) else f"{value:.2f}"
+def _number(value: float | None, digits: int = 2) -> str:
+    return "n/a" if value is None or np.isnan(value) else f"{value:.{digits}f}"
 
 
 def write_report(result: dict[str, Any], out_dir: Path, load_arrays: ArraysLoader) -> Path:

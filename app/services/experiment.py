@@ -47,6 +47,7 @@ from app.db import transaction
 from app.models import Clip, Experiment, ExperimentCheckpoint, Graph
 from app.services.dynamics import DYNAMICS_NAMES, UnknownDynamics, make_dynamics
 from app.services.graphs import (
+    artifact_store,
     graph_summary,
     grow_graph,
     init_graph,
@@ -64,6 +65,18 @@ HIGH_ERROR_RATIO_TARGET = 0.2
 #: figures that measure the machine, not the algorithm: left out of reproducibility checks
 TIMING_KEYS = ("grow_seconds", "checkpoint_seconds", "resident_mb")
 BOT_PLAYER = "bot-experiment"
+#: the high-error fraction is also reported at these multiples of the threshold, fixed
+#: beforehand like the visible-error criterion's own halved and doubled limits
+THRESHOLD_SENSITIVITY = {"half": 0.5, "double": 2.0}
+#: the sr-crowd / baseline ratios of the summary, and the figures they divide
+RATIOS = {
+    "error_ratio": "observed_mean_error",
+    "high_error_ratio": "high_error_fraction",
+    **{
+        f"high_error_ratio_at_{label}_threshold": f"high_error_fraction_at_{label}_threshold"
+        for label in THRESHOLD_SENSITIVITY
+    },
+}
 #: seconds between two looks at the run processes (and the frames they grew)
 PROGRESS_POLL = 1.0
 
@@ -435,8 +448,17 @@ def collect(name: str, seconds: float | None = None) -> dict[str, Any]:
     results: dict[str, dict[str, list[dict[str, Any]]]] = {
         s.value: {str(seed): [] for seed in plan.seeds} for s in plan.strategies
     }
+    artifacts = artifact_store(get_settings())
     for row in rows:
-        results[row.strategy][str(row.seed)].append({**row.figures, "arrays": row.arrays})
+        errors = artifacts.get_arrays(row.arrays, ("step_errors",))["step_errors"]
+        threshold = float(row.figures["high_error_threshold"])
+        sensitivity = {
+            f"high_error_fraction_at_{label}_threshold": float(np.mean(errors > factor * threshold))
+            for label, factor in THRESHOLD_SENSITIVITY.items()
+        }
+        results[row.strategy][str(row.seed)].append(
+            {**row.figures, **sensitivity, "arrays": row.arrays}
+        )
     complete = all(
         len(by_seed) == len(plan.checkpoints)
         for runs in results.values()
@@ -477,27 +499,20 @@ def summarise(results: dict[str, dict[str, list[dict[str, Any]]]]) -> dict[str, 
             last[strategy][key] = relative_difference(last[strategy][source], observed)
     summary: dict[str, object] = {"last_checkpoint_mean_over_seeds": last}
     if "baseline" in results and "sr-crowd" in results:
-        per_seed: list[dict[str, float | str]] = []
+        per_seed: list[dict[str, Any]] = []
         for seed, rows in results["sr-crowd"].items():
             crowd, base = rows[-1], results["baseline"][seed][-1]
-            per_seed.append(
-                {
-                    "seed": seed,
-                    "error_ratio": _ratio(
-                        crowd["observed_mean_error"], base["observed_mean_error"]
-                    ),
-                    "high_error_ratio": _ratio(
-                        crowd["high_error_fraction"], base["high_error_fraction"]
-                    ),
-                }
-            )
+            ratios = {name: _ratio(crowd[key], base[key]) for name, key in RATIOS.items()}
+            per_seed.append({"seed": seed, **ratios})
         summary["sr_crowd_vs_baseline"] = {
             "per_seed": per_seed,
             "error_ratio_target": ERROR_RATIO_TARGET,
             "high_error_ratio_target": HIGH_ERROR_RATIO_TARGET,
             "every_seed_meets_targets": all(
-                float(s["error_ratio"]) <= ERROR_RATIO_TARGET
-                and float(s["high_error_ratio"]) <= HIGH_ERROR_RATIO_TARGET
+                s["error_ratio"] is not None
+                and s["error_ratio"] <= ERROR_RATIO_TARGET
+                and s["high_error_ratio"] is not None
+                and s["high_error_ratio"] <= HIGH_ERROR_RATIO_TARGET
                 for s in per_seed
             ),
         }
@@ -515,9 +530,10 @@ def without_timings(result: dict[str, Any]) -> dict[str, Any]:
     }
 
 
-def _ratio(numerator: object, denominator: object) -> float:
+def _ratio(numerator: object, denominator: object) -> float | None:
+    """numerator / denominator; None when the denominator is 0 (nothing to compare with)."""
     num, den = float(numerator), float(denominator)  # type: ignore[arg-type]
-    return num / den if den > 0 else float("inf") if num > 0 else 1.0
+    return num / den if den > 0 else None
 
 
 def _experiment_id(session: Session, name: str) -> int:
