@@ -223,9 +223,10 @@ def markdown(result: dict[str, Any], images: list[Path]) -> str:
         f"per growth epoch. High-error threshold {_threshold(result):.4g}."
         + (f" This invocation ran {seconds} s." if seconds is not None else ""),
         "",
-        "| strategy | frames | mean error/step | high-error fraction | predicted expected error "
-        "| density corr. | density TV | score/step |",
-        "|---|---|---|---|---|---|---|---|",
+        "| strategy | frames | mean error/step | high-error fraction | steps on blends "
+        "| error per blend step | predicted expected error | density corr. | density TV "
+        "| score/step |",
+        "|---|---|---|---|---|---|---|---|---|---|",
     ]
     for strategy, by_seed in result["results"].items():
         for rows in zip(*by_seed.values(), strict=True):
@@ -236,7 +237,8 @@ def markdown(result: dict[str, Any], images: list[Path]) -> str:
 
             lines.append(
                 f"| {strategy} | {mean('size_frames')} | {mean('observed_mean_error')} "
-                f"| {mean('high_error_fraction')} | {mean('predicted_expected_error')} "
+                f"| {mean('high_error_fraction')} | {mean('blend_step_fraction')} "
+                f"| {mean('mean_error_on_blend_steps')} | {mean('predicted_expected_error')} "
                 f"| {mean('density_correlation')} | {mean('density_tv_distance')} "
                 f"| {mean('mean_score_per_step')} |"
             )

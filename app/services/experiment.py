@@ -452,12 +452,17 @@ def collect(name: str, seconds: float | None = None) -> dict[str, Any]:
     for row in rows:
         errors = artifacts.get_arrays(row.arrays, ("step_errors",))["step_errors"]
         threshold = float(row.figures["high_error_threshold"])
-        sensitivity = {
+        derived = {
             f"high_error_fraction_at_{label}_threshold": float(np.mean(errors > factor * threshold))
             for label, factor in THRESHOLD_SENSITIVITY.items()
         }
+        # SIM edges have no error: what separates strategies is how often players meet a
+        # blend, and how bad the blends they meet are
+        blends = errors[errors > 0.0]
+        derived["blend_step_fraction"] = float(blends.size / max(errors.size, 1))
+        derived["mean_error_on_blend_steps"] = float(blends.mean()) if blends.size else 0.0
         results[row.strategy][str(row.seed)].append(
-            {**row.figures, **sensitivity, "arrays": row.arrays}
+            {**row.figures, **derived, "arrays": row.arrays}
         )
     complete = all(
         len(by_seed) == len(plan.checkpoints)
