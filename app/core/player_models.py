@@ -245,15 +245,70 @@ def observed_control_counts(
 
 
 def mean_session_length(traces: Iterable[Trace]) -> float:
-    """Mean number of steps per session, L; STATERANK restarts with probability 1/L.
+    """Mean number of steps per session, L, of traces already vetted (the evaluation's).
 
-    Empty traces are not sessions and are skipped. Raises ValueError when no trace has a
-    step: the caller then uses its default L.
+    Growth does not restart with it: a single long trace moves the mean anywhere, so
+    growth takes :func:`robust_session_length`. Empty traces are not sessions and are
+    skipped. Raises ValueError when no trace has a step.
     """
     lengths = [len(trace) for trace in traces if len(trace) > 0]
     if not lengths:
         raise ValueError("no trace has a step; the mean session length is undefined")
     return float(np.mean(lengths))
+
+
+#: the shortest session length L a restart rate is estimated at: rho = 1/L is at most 1/2
+MIN_SESSION_STEPS = 2.0
+
+
+def robust_session_length(
+    traces: Iterable[Trace], *, default: float, ceiling: float, floor: float = MIN_SESSION_STEPS
+) -> float:
+    r"""Session length L for STATERANK's restart rate :math:`\rho = 1/L`, robust to outliers.
+
+    STATERANK ends a session with probability :math:`\rho` at every step, so under its own
+    model session lengths are geometric (on 1, 2, ...) with mean :math:`L = 1/\rho`. The
+    geometric distribution whose median is :math:`m` has
+
+    .. math:: \rho = 1 - 2^{-1/m}, \qquad L = 1 / (1 - 2^{-1/m}) \approx m / \ln 2 + 1/2,
+
+    and that is the estimate, with :math:`m` the median length of the non-empty traces.
+    It estimates the mean of geometric sessions (the bots' and, to first order, players')
+    like the sample mean does, but a median moves by at most one rank per added trace,
+    while the mean follows a single huge trace anywhere: one player's two 85,000-step
+    traces set :math:`L` to 85,000, and STATERANK, whose cold start needs about
+    :math:`L \ln(1/tol)` iterations, then missed convergence on every epoch.
+
+    The result is clamped to ``[floor, ceiling]``, so the restart rate always lies in
+    ``[1/ceiling, 1/floor]`` whatever the traces (or ``default``) say: ``ceiling`` bounds
+    STATERANK's cost (900 steps: about 21,000 iterations at ``tol`` 1e-10), ``floor``
+    keeps a session longer than the single step from the start vertex.
+
+    Parameters
+    ----------
+    traces : iterable of (n, 2) traces
+        Played sessions; empty ones are not sessions and are skipped.
+    default : float
+        L before any trace has a step (the configured mean session length).
+    ceiling : float
+        Largest L returned (the smallest restart rate).
+    floor : float
+        Smallest L returned, at least 1.
+
+    Returns
+    -------
+    float
+        L, in steps.
+    """
+    if not 1.0 <= floor <= ceiling:
+        raise ValueError(f"need 1 <= floor <= ceiling, got floor {floor} and ceiling {ceiling}")
+    lengths = [len(trace) for trace in traces if len(trace) > 0]
+    if lengths:
+        median = float(np.median(lengths))
+        estimate = 1.0 / -np.expm1(-np.log(2.0) / median)  # 1 / (1 - 2^(-1/m)), no cancellation
+    else:
+        estimate = default
+    return float(np.clip(estimate, floor, ceiling))
 
 
 def _validated_controls(vertex_control: np.ndarray, n_controls: int) -> np.ndarray:

@@ -26,11 +26,11 @@ from app.core.growth import (
 from app.core.player_models import (
     crowd_player_model,
     heuristic_player_model,
-    mean_session_length,
     observed_control_counts,
+    robust_session_length,
 )
 from app.core.publication import Publication, freeze
-from app.core.staterank import edge_probabilities, staterank
+from app.core.staterank import STATERANK_MAX_ITER, edge_probabilities, staterank
 from app.core.strategies import EdgeWeights, Strategy, edge_weights
 
 Trace = np.ndarray
@@ -42,6 +42,10 @@ class RefinerConfig:
     crowd_radius: float = 0.15
     crowd_eps: float = 1e-3
     default_session_steps: float = 90.0
+    #: ceiling of the session length L (floor of the restart rate 1/L): bounds STATERANK's
+    #: iterations, about L ln(1/tol) from a cold start, whatever traces were uploaded
+    max_session_steps: float = 900.0
+    staterank_max_iter: int = STATERANK_MAX_ITER
     prefilter_k: int = 100
     batch_size: int = 4
 
@@ -79,11 +83,13 @@ class Refiner:
 
     @property
     def restart(self) -> float:
-        """rho = 1/L with L the mean session length seen in traces (or the default)."""
-        steps = (
-            mean_session_length(self.traces) if self.traces else self.config.default_session_steps
+        """rho = 1/L with L the robust session length of the traces (or the default)."""
+        steps = robust_session_length(
+            self.traces,
+            default=self.config.default_session_steps,
+            ceiling=self.config.max_session_steps,
         )
-        return 1.0 / max(steps, 1.0)
+        return 1.0 / steps
 
     def weights(self) -> EdgeWeights:
         result = edge_weights(
@@ -92,6 +98,7 @@ class Refiner:
             self.player_model(),
             restart=self.restart,
             warm_start=self._pi,
+            max_iter=self.config.staterank_max_iter,
         )
         if result.rank is not None:
             self._pi = result.rank.pi

@@ -18,6 +18,8 @@ import scipy.sparse as sp
 
 #: how far a vertex's outgoing probabilities may sum away from 1 (float round-off only)
 ROW_SUM_ATOL = 1e-8
+#: default iteration budget: a cold start at restart rate 1/L needs about L ln(1/tol)
+STATERANK_MAX_ITER = 100_000
 
 
 class StateRankConvergenceError(RuntimeError):
@@ -54,7 +56,7 @@ def staterank(
     *,
     warm_start: np.ndarray | None = None,
     tol: float = 1e-10,
-    max_iter: int = 100_000,
+    max_iter: int = STATERANK_MAX_ITER,
 ) -> StateRankResult:
     r"""Stationary distribution of the player's walk over the state graph (STATERANK).
 

@@ -14,7 +14,12 @@ from enum import StrEnum
 import numpy as np
 
 from app.core.graph import StateGraph
-from app.core.staterank import StateRankResult, staterank
+from app.core.staterank import (
+    STATERANK_MAX_ITER,
+    StateRankConvergenceError,
+    StateRankResult,
+    staterank,
+)
 
 
 class Strategy(StrEnum):
@@ -44,6 +49,9 @@ def parse_strategy(name: str) -> Strategy:
 class EdgeWeights:
     weights: np.ndarray
     rank: StateRankResult | None
+    #: why the weights are not the strategy's own (STATERANK failed) and what they are
+    #: instead; None when they are the strategy's
+    fallback: str | None = None
 
 
 def edge_weights(
@@ -53,11 +61,18 @@ def edge_weights(
     *,
     restart: float,
     warm_start: np.ndarray | None = None,
+    max_iter: int = STATERANK_MAX_ITER,
 ) -> EdgeWeights:
     """Weight of every edge under ``strategy``, given the player model ``control_prob`` (V, N).
 
     For ``sr-crowd`` the caller passes the crowd model (or the heuristic one while no
     traces exist); for the others the heuristic model.
+
+    If STATERANK misses convergence within ``max_iter`` iterations, the weights fall back
+    to the ``baseline`` ordering under the same model, the local :math:`P(c|v)` without
+    the visit probabilities: it needs no iteration, so growth goes on, a little less well
+    aimed, instead of stopping; ``fallback`` says so. With the bounded restart rate of
+    :func:`app.core.player_models.robust_session_length` this is not expected to happen.
     """
     if strategy is Strategy.MAX_ERROR:
         return EdgeWeights(np.ones(graph.n_edges), None)
@@ -65,5 +80,18 @@ def edge_weights(
     if strategy is Strategy.BASELINE:
         return EdgeWeights(local.copy(), None)
     src, _, dst = graph.edge_arrays()
-    rank = staterank(src, dst, local, graph.n_vertices, graph.start, restart, warm_start=warm_start)
+    try:
+        rank = staterank(
+            src,
+            dst,
+            local,
+            graph.n_vertices,
+            graph.start,
+            restart,
+            warm_start=warm_start,
+            max_iter=max_iter,
+        )
+    except StateRankConvergenceError as exc:
+        reason = f"{exc} at restart rate {restart:.3g}; ranked by the baseline ordering P(c|v)"
+        return EdgeWeights(local.copy(), None, fallback=reason)
     return EdgeWeights(rank.pi[src] * local, rank)

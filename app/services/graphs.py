@@ -70,6 +70,7 @@ def refiner_config(settings: Settings, dynamics: Dynamics) -> RefinerConfig:
         crowd_radius=settings.crowd_radius or dynamics.crowd_radius,
         crowd_eps=settings.crowd_eps,
         default_session_steps=settings.restart_steps,
+        max_session_steps=settings.max_session_steps,
         prefilter_k=settings.prefilter_k,
         batch_size=settings.batch_size,
     )
@@ -159,6 +160,8 @@ class GrowResult:
     relinks: int = 0
     size_frames: int = 0
     epoch_ids: list[int] = field(default_factory=list)
+    #: "epoch <id>: <why>" for each epoch ranked by a fallback (STATERANK did not converge)
+    ranking_fallbacks: list[str] = field(default_factory=list)
 
 
 class GrowthBusy(ValueError):
@@ -240,6 +243,8 @@ def grow_graph(
         result.expansions += len(done)
         result.relinks += plan.relinks
         result.epoch_ids.append(plan.epoch_id)
+        if plan.ranking_fallback is not None:
+            result.ranking_fallbacks.append(f"epoch {plan.epoch_id}: {plan.ranking_fallback}")
         if not plan.expansions:
             break
     result.size_frames = size

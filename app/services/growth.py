@@ -20,6 +20,7 @@ in both, so one seed grows one graph either way.
 
 from __future__ import annotations
 
+import logging
 import time
 from collections.abc import Callable
 from contextlib import AbstractContextManager, nullcontext
@@ -48,6 +49,7 @@ from app.store.graphs import GraphNotFound, load_graph, save_graph, set_animatio
 from app.store.occupancy_cache import RedisShapeCache
 
 CACHE_SCOPE = "growth"
+log = logging.getLogger(__name__)
 
 
 class ExpansionNotReady(RuntimeError):
@@ -68,6 +70,8 @@ class EpochPlan:
     relinks: int
     #: True when this re-sends a stalled epoch's missing work instead of a new plan
     resent: bool = False
+    #: why the ranking fell back from STATERANK and to what (None: it did not)
+    ranking_fallback: str | None = None
 
 
 @dataclass(frozen=True)
@@ -177,6 +181,7 @@ def _rank(session: Session, loaded: LoadedGraph, refiner: Refiner) -> EdgeWeight
         refiner.player_model(),
         restart=refiner.restart,
         warm_start=_warm_start(session, loaded),
+        max_iter=refiner.config.staterank_max_iter,
     )
 
 
@@ -221,12 +226,16 @@ def plan_epoch(
     epoch.heartbeat = time.time()
     if ranked.rank is not None:
         epoch.warm_start = loaded.artifacts.put_arrays({"pi": ranked.rank.pi}, session=session)
+    if ranked.fallback is not None:
+        log.warning("graph %d epoch %d: %s", graph_id, epoch.number, ranked.fallback)
     session.flush()
     if not expansions:
         size = loaded.graph.size_frames
         finish_epoch(session, epoch_id, expansions=0, relinks=epoch.relinks, size_frames=size)
     keep_graph(session, loaded)
-    return EpochPlan(epoch_id, graph_id, expansions, len(outcome.relinked))
+    return EpochPlan(
+        epoch_id, graph_id, expansions, len(outcome.relinked), ranking_fallback=ranked.fallback
+    )
 
 
 def epoch_work(session: Session, epoch_id: int) -> EpochWork:

@@ -2,7 +2,9 @@
 
 from __future__ import annotations
 
+import logging
 from collections.abc import Iterator
+from dataclasses import replace
 from pathlib import Path
 
 import numpy as np
@@ -14,11 +16,13 @@ from tasks_helpers import eager_reference, seed_graph, snapshot
 
 from app.config import Settings, get_settings
 from app.core.clipbank import MemoryClipBank
+from app.core.dynamics import Dynamics
 from app.core.growth import expand_blend_edge, initial_tree
+from app.core.refinement import RefinerConfig
 from app.core.toy import ToyDynamics
-from app.db import get_engine, session_factory
+from app.db import get_engine, session_factory, transaction
 from app.models import Graph, GrowthEpoch
-from app.services import growth
+from app.services import graphs, growth
 from app.store.artifacts import ArtifactStore
 from app.store.graphs import create_graph, load_graph, save_graph
 from app.store.occupancy_cache import RedisShapeCache
@@ -123,6 +127,32 @@ def test_a_running_epoch_blocks_a_second_until_it_stalls(settings: Settings) -> 
     with session_factory()() as session:
         numbers = session.scalars(select(GrowthEpoch.number)).all()
     assert numbers == [1]
+
+
+def test_growth_goes_on_when_staterank_fails_and_says_so(
+    settings: Settings, monkeypatch: pytest.MonkeyPatch, caplog: pytest.LogCaptureFixture
+) -> None:
+    """STATERANK forced to miss convergence: every epoch still grows, on the fallback."""
+    graph_id = seed_graph(settings)
+    configured = graphs.refiner_config
+
+    def one_iteration(settings: Settings, dynamics: Dynamics) -> RefinerConfig:
+        return replace(configured(settings, dynamics), staterank_max_iter=1)
+
+    monkeypatch.setattr(graphs, "refiner_config", one_iteration)
+    with caplog.at_level(logging.WARNING, logger="app.services.growth"):
+        result = graphs.grow_graph(transaction, settings, name=graph_id, expansions=8)
+    assert (result.epochs, result.expansions) == (2, 8)
+    assert len(result.ranking_fallbacks) == 2
+    assert all("did not converge in 1 iterations" in f for f in result.ranking_fallbacks)
+    assert result.ranking_fallbacks[0].startswith(f"epoch {result.epoch_ids[0]}: ")
+    warnings = [r.getMessage() for r in caplog.records if r.levelno == logging.WARNING]
+    assert len(warnings) == 2 and all("baseline ordering" in w for w in warnings)
+    # the workers' path plans its epochs the same way
+    assert grow_epoch.delay(graph_id).get() is not None
+    with session_factory()() as session:
+        statuses = session.scalars(select(GrowthEpoch.status)).all()
+    assert statuses == ["finished"] * 3
 
 
 def test_a_loaded_graph_orders_equal_energies_like_the_grown_one(

@@ -8,6 +8,7 @@ import pytest
 from app.core.bots import BotKind, play_sessions
 from app.core.clipbank import MemoryClipBank
 from app.core.growth import initial_tree
+from app.core.publication import Publication
 from app.core.refinement import Refiner, RefinerConfig
 from app.core.strategies import Strategy, edge_weights, parse_strategy
 from app.core.toy import ToyDynamics
@@ -80,3 +81,52 @@ def test_sr_crowd_learns_from_traces_and_others_ignore_them(publication) -> None
     assert not np.allclose(crowd.player_model(), crowd.heuristic_model())
     assert np.array_equal(heuristic.player_model(), heuristic.heuristic_model())
     assert crowd.restart != pytest.approx(1 / 90)
+
+
+def looping_trace(publication: Publication, control: int, steps: int) -> np.ndarray:
+    """A session that holds one control for ``steps`` steps: it ends up circling a loop."""
+    trace = np.empty((steps, 2), dtype=np.int64)
+    vertex = publication.start
+    for step in range(steps):
+        trace[step] = vertex, control
+        vertex = publication.destination(vertex, control)
+    return trace
+
+
+def test_two_huge_looping_traces_of_one_player_do_not_stop_growth() -> None:
+    """The finding: L = 85,000 steps made STATERANK miss convergence on every epoch."""
+    r = refiner(Strategy.SR_CROWD)
+    r.grow(expansions=2)
+    publication = r.publish()[0]
+    r.learn([looping_trace(publication, 1, 85_000) for _ in range(2)])
+    before = r.graph.n_vertices
+    epochs = r.grow(expansions=4)
+    assert r.graph.n_vertices == before + 4
+    assert 1.0 / r.restart == r.config.max_session_steps
+    assert r.weights().fallback is None  # the bounded restart converges: no fallback needed
+    assert len(epochs) == 1
+
+
+def test_staterank_that_fails_to_converge_falls_back_to_the_local_ordering() -> None:
+    r = refiner(Strategy.SR_HEURISTIC)
+    r.grow(expansions=10)
+    model = r.heuristic_model()
+    ranked = edge_weights(Strategy.SR_HEURISTIC, r.graph, model, restart=1 / 90, max_iter=1)
+    assert ranked.rank is None
+    assert np.array_equal(ranked.weights, model.reshape(-1))  # the baseline's weights
+    assert ranked.fallback is not None
+    assert "did not converge in 1 iterations" in ranked.fallback
+    assert "baseline" in ranked.fallback
+    converged = edge_weights(Strategy.SR_HEURISTIC, r.graph, model, restart=1 / 90)
+    assert converged.fallback is None and converged.rank is not None
+
+
+def test_growth_proceeds_when_staterank_never_converges() -> None:
+    bank = MemoryClipBank()
+    graph = initial_tree(DYN, bank)
+    config = RefinerConfig(batch_size=4, staterank_max_iter=1)
+    stuck = Refiner(graph, bank, DYN, Strategy.SR_CROWD, config)
+    before = graph.n_vertices
+    epochs = stuck.grow(expansions=8)
+    assert [len(e.expanded) for e in epochs] == [4, 4]
+    assert graph.n_vertices == before + 8

@@ -13,6 +13,7 @@ from app.core.player_models import (
     mean_session_length,
     observed_control_counts,
     observed_player_model,
+    robust_session_length,
     trace_edges,
 )
 
@@ -169,6 +170,42 @@ def test_mean_session_length_skips_empty_traces() -> None:
     assert mean_session_length([[(0, 0)] * 3, [], [(1, 1)]]) == 2.0
     with pytest.raises(ValueError, match="no trace has a step"):
         mean_session_length([[], []])
+
+
+def sessions(lengths: list[int] | np.ndarray) -> list[np.ndarray]:
+    return [np.zeros((int(n), 2), dtype=np.int64) for n in lengths]
+
+
+def test_robust_session_length_is_the_mean_of_geometric_sessions() -> None:
+    """Under the geometric lengths STATERANK's restart assumes, it estimates their mean."""
+    lengths = np.random.default_rng(0).geometric(1 / 90, size=4001)
+    estimate = robust_session_length(sessions(lengths), default=90.0, ceiling=900.0)
+    assert estimate == pytest.approx(90.0, rel=0.08)
+    assert estimate == pytest.approx(lengths.mean(), rel=0.08)
+
+
+def test_a_few_huge_traces_barely_move_the_robust_session_length() -> None:
+    lengths = np.random.default_rng(1).geometric(1 / 90, size=401)
+    honest = robust_session_length(sessions(lengths), default=90.0, ceiling=900.0)
+    hostile = sessions(lengths) + sessions([85_000, 85_000])
+    assert robust_session_length(hostile, default=90.0, ceiling=900.0) == pytest.approx(
+        honest, rel=0.02
+    )
+    # the mean, by contrast, is moved by a whole session per 200 traces of one player
+    assert mean_session_length(hostile) > 1.5 * mean_session_length(sessions(lengths))
+
+
+def test_robust_session_length_is_clamped_and_defaults_without_sessions() -> None:
+    # one player, two huge traces: the ceiling bounds the restart rate from below
+    assert robust_session_length(sessions([85_000] * 2), default=90.0, ceiling=900.0) == 900.0
+    # one-step sessions: the floor of 2 steps (restart rate at most 1/2)
+    assert robust_session_length(sessions([1] * 5), default=90.0, ceiling=900.0) == 2.0
+    assert robust_session_length([], default=90.0, ceiling=900.0) == 90.0
+    assert robust_session_length([[], []], default=90.0, ceiling=900.0) == 90.0
+    # a default outside the bounds is clamped too: no setting can stall STATERANK
+    assert robust_session_length([], default=1e6, ceiling=900.0) == 900.0
+    with pytest.raises(ValueError, match="ceiling"):
+        robust_session_length([], default=90.0, ceiling=1.0)
 
 
 def test_observed_model_is_the_visited_rows_frequencies_and_the_fallback_elsewhere() -> None:
