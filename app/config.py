@@ -28,6 +28,9 @@ class Settings(BaseSettings):
     batch_size: int = Field(4, description="blend edges expanded per growth epoch")
     prefilter_k: int = Field(100, description="energy pre-filter size for best-target search")
     restart_steps: float = Field(90.0, description="default mean session length L (steps)")
+    max_session_steps: float = Field(
+        900.0, ge=2.0, description="ceiling of the session length L STATERANK restarts with"
+    )
     alpha: float = Field(0.8, description="heuristic player model: keep-control probability")
     crowd_radius: float = Field(0.0, description="crowd model kernel radius r (0: per dynamics)")
     crowd_eps: float = Field(1e-3, description="crowd model prior weight epsilon")
@@ -67,6 +70,9 @@ class Settings(BaseSettings):
     # API
     admin_token: str = "change-me"
     max_trace_bytes: int = 1_000_000
+    max_trace_steps: int = Field(
+        2_000, ge=1, description="steps per uploaded trace (the web client sends <= 1,800)"
+    )
     uploads_per_minute: int = 60
 
     @property

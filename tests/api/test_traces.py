@@ -2,12 +2,16 @@
 
 from __future__ import annotations
 
+import re
 from pathlib import Path
 
 import pytest
 from api_helpers import Published, make_client, register, row_counts, walk
 from fastapi.testclient import TestClient
 from sqlalchemy.orm import Session
+
+from app.api.app import STATIC_DIR
+from app.config import Settings
 
 
 def body(published: Published, steps: list[list[int]], key: str = "key-1") -> dict[str, object]:
@@ -151,6 +155,43 @@ def test_a_too_large_body_is_a_413_before_parsing(
         # Just under the limit is parsed (and here found invalid: not JSON).
         assert small.post("/api/traces", content=b"x" * 200, headers=headers).status_code == 422
     assert row_counts(session) == (0, 0, 0)
+
+
+def test_two_traces_longer_than_a_session_are_refused_and_write_nothing(
+    client: TestClient, player: dict[str, str], published: Published, session: Session
+) -> None:
+    """The finding: one fresh player's two 85,000-step traces (under 1 MB) were stored."""
+    steps = walk(published.publication, [1] * 85_000)
+    for key in ("huge-1", "huge-2"):
+        reply = client.post("/api/traces", json=body(published, steps, key), headers=player)
+        assert reply.status_code == 413, reply.text
+        assert reply.json() == {
+            "error": "a trace of 85000 steps; at most 2000 are accepted per trace",
+            "max_steps": 2000,
+        }
+    assert row_counts(session) == (0, 0, 0)
+
+
+def test_traces_up_to_the_step_limit_are_stored(
+    session: Session, db_url: str, artifact_dir: Path, published: Published
+) -> None:
+    with make_client(session, db_url, artifact_dir, max_trace_steps=5) as limited:
+        headers = register(limited)
+        at_limit = body(published, walk(published.publication, [1] * 5), key="five")
+        assert limited.post("/api/traces", json=at_limit, headers=headers).status_code == 201
+        over = body(published, walk(published.publication, [1] * 6), key="six")
+        reply = limited.post("/api/traces", json=over, headers=headers)
+        assert reply.status_code == 413 and reply.json()["max_steps"] == 5
+    assert row_counts(session) == (1, 5, 5)
+
+
+def test_the_step_limit_leaves_room_for_the_web_client() -> None:
+    source = (STATIC_DIR / "client.js").read_text()
+    found = re.search(r"const MAX_TRACE_STEPS = (\d+);", source)
+    assert found is not None
+    client_limit = int(found.group(1))
+    server_limit = Settings.model_fields["max_trace_steps"].default
+    assert client_limit < server_limit <= 2 * client_limit
 
 
 def test_uploads_over_the_rate_are_429_with_retry_after(

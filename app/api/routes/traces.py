@@ -2,9 +2,10 @@
 
 Every check runs before anything is written: body size (413, before parsing; a declared
 Content-Length over the limit is refused unread), bearer token (401/403), rate limit
-(429), schema (422), publication (404), every step following an edge (422), key reuse
-for another trace (409). The first
-upload of a key answers 201; a replay of it answers 200 with the same trace id.
+(429), schema (422), steps per trace (413, ``max_trace_steps``: longer than any session),
+publication (404), every step following an edge (422), key reuse for another trace
+(409). The first upload of a key answers 201; a replay of it answers 200 with the same
+trace id.
 """
 
 from __future__ import annotations
@@ -64,6 +65,13 @@ def upload_trace(
         upload = TraceUpload.model_validate_json(body)
     except ValidationError as exc:
         raise ApiError(422, "invalid trace upload", details=validation_details(exc)) from None
+    max_steps: int = request.app.state.settings.max_trace_steps
+    if len(upload.steps) > max_steps:  # no session is that long: it would skew growth's L
+        raise ApiError(
+            413,
+            f"a trace of {len(upload.steps)} steps; at most {max_steps} are accepted per trace",
+            max_steps=max_steps,
+        )
     publications: FrozenCache[Publication] = request.app.state.publications
     publication = publications.get_or_load(
         upload.publication_id, lambda: load_publication(session, upload.publication_id)
