@@ -116,9 +116,9 @@ def calibrate_command(
     """Measure T0, w_e, the crowd radius and the high-error threshold of a preset.
 
     Stores them in ``app/data/calibration/<preset>.json`` (``<preset>-high.json`` for
-    the high-viscosity fluid; read by ``LiquidDynamics``) and prints them. About 4 min
-    on tiny, 7 min on small, tens of minutes on paper (longer for the high fluid); the
-    threshold (``docs/threshold.md``) is most of it on tiny.
+    the high-viscosity fluid; read by ``LiquidDynamics``) and prints them. The threshold
+    (``docs/threshold.md``) is most of the time: 4-8 min on tiny, about 18 min on small
+    at a load of 11 on 2 cores; the paper preset takes hours.
     """
     check_liquid_preset(preset)
     check_fluid(fluid)

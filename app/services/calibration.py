@@ -87,8 +87,8 @@ def calibrate(
     Returns the stored dict (also written to ``app/data/calibration/<preset>.json``, or
     ``<preset>-<fluid>.json`` for a fluid other than ``low``). Takes about 30 s on
     ``tiny`` and 3 min on ``small`` (2 CPU cores) before the threshold, which adds
-    about 4 min on ``tiny``; the high fluid takes longer (more substeps, see
-    ``app.core.scene.viscous_substeps``).
+    4-8 min on ``tiny`` and up to 18 min on ``small`` (2 loaded cores); the high fluid
+    takes longer (more substeps, see ``app.core.scene.viscous_substeps``).
     """
     probe = LiquidDynamics(preset, fluid, calibration=LiquidCalibration(0.0, 1.0, 0.0, 0.0))
     rest, measured_t0 = measure_rest_kinetic(probe)

@@ -395,7 +395,7 @@ def measure_visible_threshold(
 
     Returns ``(threshold, details)``; ``details`` is JSON-able (the calibration stores
     it). Raises :class:`~app.core.error_threshold.ThresholdFitError` when the blends do
-    not straddle the criterion. About 3 min on tiny with the defaults (2 CPU cores).
+    not straddle the criterion. 4-8 min on tiny with the defaults (2 loaded cores).
     """
     study = measure_blends(
         dyn, clips=clips, seed=seed, rendered=rendered, examples=False, progress=progress
