@@ -68,12 +68,19 @@ class Settings(BaseSettings):
     )
 
     # API
-    admin_token: str = "change-me"
+    admin_token: str = Field(
+        "", description="bearer token of the admin routes; '' (no default secret): routes off"
+    )
     max_trace_bytes: int = 1_000_000
     max_trace_steps: int = Field(
         2_000, ge=1, description="steps per uploaded trace (the web client sends <= 1,800)"
     )
     uploads_per_minute: int = 60
+
+    @property
+    def admin_routes_on(self) -> bool:
+        """Admin routes answer only once a token is configured: there is no default one."""
+        return bool(self.admin_token.strip())
 
     @property
     def resolved_database_url(self) -> str:

@@ -79,15 +79,16 @@ def session_factory(engine: Engine | None = None) -> sessionmaker[Session]:
 
 
 @contextmanager
-def transaction() -> Iterator[Session]:
+def transaction(factory: sessionmaker[Session] | None = None) -> Iterator[Session]:
     """One session whose work is committed at the end, or rolled back on any error.
 
-    The unit of work of a CLI command and of a Celery task alike. On SQLite it begins
+    The unit of work of a CLI command and of a Celery task alike (and of the API's
+    background growth, with the app's ``factory``). On SQLite it begins
     as a writer (:func:`begin_immediate`): our units of work read and then write, and
     a deferred one fails at once when another process committed in between; so keep
     them short and compute outside them (``app.services.growth.run_epoch`` does).
     """
-    with session_factory()() as session:
+    with (factory or session_factory())() as session:
         begin_immediate(session)
         try:
             yield session

@@ -1,4 +1,5 @@
-"""Request dependencies: the database session, settings, bearer tokens, the trace body.
+"""Request dependencies: the database session, settings, bearer tokens, the trace body,
+the unit of work of background growth.
 
 Routes own their transaction (STYLE habit 7): they call ``session.commit()`` once; any
 exception rolls the session back here, so a rejected request writes nothing.
@@ -7,16 +8,23 @@ exception rolls the session back here, so a rejected request writes nothing.
 from __future__ import annotations
 
 import secrets
-from collections.abc import Iterator
+from collections.abc import Callable, Iterator
+from contextlib import AbstractContextManager
 
 from fastapi import Depends, Request
 from sqlalchemy.orm import Session
 
 from app.api.errors import ApiError
 from app.config import Settings
+from app.db import transaction
 from app.store.traces import player_for_token
 
+#: a unit of work per growth step (:data:`app.services.growth.Scope`, not imported: the
+#: API loads growth only when it grows)
+GrowthScope = Callable[[], AbstractContextManager[Session]]
+
 BEARER_CHALLENGE = {"WWW-Authenticate": "Bearer"}
+ADMIN_ROUTES_OFF = "admin routes are off: set SRG_ADMIN_TOKEN"
 
 
 def get_settings(request: Request) -> Settings:
@@ -58,11 +66,24 @@ def current_player(
     return player_id
 
 
-def require_admin(
-    token: str = Depends(bearer_token), settings: Settings = Depends(get_settings)
-) -> None:
+def require_admin(request: Request, settings: Settings = Depends(get_settings)) -> None:
+    """``Authorization: Bearer <admin_token>``, compared in constant time.
+
+    With no token configured the admin routes are off: 403 for every request, whatever
+    it presents, so no default secret ever opens them.
+    """
+    if not settings.admin_routes_on:
+        raise ApiError(403, ADMIN_ROUTES_OFF)
+    token = bearer_token(request)
     if not secrets.compare_digest(token.encode(), settings.admin_token.encode()):
         raise ApiError(403, "admin token required")
+
+
+def growth_scope(request: Request) -> GrowthScope:
+    """The unit of work of growth run off the request: a transaction per step, on the
+    app's database, so each finished step is kept whatever happens to the server."""
+    factory = request.app.state.session_factory
+    return lambda: transaction(factory)
 
 
 async def limited_body(request: Request) -> bytes:

@@ -8,6 +8,7 @@ on SQLite and PostgreSQL alike (PostgreSQL rejects NUL characters in text).
 
 from __future__ import annotations
 
+from datetime import datetime
 from typing import Annotated, Literal
 
 from pydantic import BaseModel, ConfigDict, Field, StrictInt
@@ -91,3 +92,41 @@ class GrowRequest(BaseModel):
     model_config = ConfigDict(extra="forbid")
 
     expansions: Annotated[StrictInt, Field(ge=1, le=10_000)] = 4
+
+
+class GrowQueued(BaseModel):
+    """A grow request accepted (202): the growth runs elsewhere; follow it at ``poll``."""
+
+    graph: str
+    expansions: int
+    #: "workers": one Celery ``grow_epoch`` of that many expansions; "server": a background
+    #: job of this server, in epochs of ``SRG_BATCH_SIZE``
+    runs_on: Literal["workers", "server"]
+    #: the graph's latest epoch number when the growth was queued: its epochs come after
+    after_epoch: int
+    #: GET it (admin token) for the epochs after ``after_epoch``
+    poll: str
+
+
+class EpochOut(BaseModel):
+    id: int
+    number: int
+    strategy: str
+    #: running, finished or failed
+    status: str
+    #: expansions in the epoch's plan
+    planned: int
+    #: expansions done, set when the epoch finishes
+    expansions: int
+    relinks: int
+    size_frames: int
+    started_at: datetime
+    finished_at: datetime | None
+
+
+class GraphEpochs(BaseModel):
+    graph: str
+    #: an epoch of the graph is running, or this server is growing the graph
+    running: bool
+    #: oldest first, at most 100 (ask again with ``after`` the last number)
+    epochs: list[EpochOut]

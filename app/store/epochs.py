@@ -55,3 +55,23 @@ def finish_epoch(
     row.size_frames = size_frames
     row.finished_at = func.now()  # the database's clock
     session.flush()
+
+
+def last_epoch_number(session: Session, graph_id: int) -> int:
+    """The number of the graph's latest epoch; 0 before its first."""
+    last = session.scalar(
+        select(func.max(GrowthEpoch.number)).where(GrowthEpoch.graph_id == graph_id)
+    )
+    return int(last or 0)
+
+
+def epochs_after(session: Session, graph_id: int, after: int, limit: int) -> list[GrowthEpoch]:
+    """The graph's epochs numbered above ``after``, oldest first, at most ``limit``."""
+    return list(
+        session.scalars(
+            select(GrowthEpoch)
+            .where(GrowthEpoch.graph_id == graph_id, GrowthEpoch.number > after)
+            .order_by(GrowthEpoch.number)
+            .limit(limit)
+        )
+    )

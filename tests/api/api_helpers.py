@@ -12,10 +12,11 @@ from sqlalchemy import func, select
 from sqlalchemy.orm import Session
 
 from app.api.app import create_app
-from app.api.deps import get_session
+from app.api.deps import get_session, growth_scope
 from app.config import Settings
 from app.core.publication import Publication
 from app.models import Trace, TraceStep
+from app.services.growth import in_session
 
 ADMIN_TOKEN = "test-admin-token"
 
@@ -49,6 +50,8 @@ def make_client(session: Session, db_url: str, artifact_dir: Path, **settings: A
             raise
 
     app.dependency_overrides[get_session] = joined_session
+    # background growth in the test's session too (the test client runs it before answering)
+    app.dependency_overrides[growth_scope] = lambda: in_session(session)
     return TestClient(app)
 
 

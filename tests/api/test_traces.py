@@ -6,7 +6,7 @@ import re
 from pathlib import Path
 
 import pytest
-from api_helpers import Published, make_client, register, row_counts, walk
+from api_helpers import ADMIN_TOKEN, Published, make_client, register, row_counts, walk
 from fastapi.testclient import TestClient
 from sqlalchemy.orm import Session
 
@@ -170,6 +170,22 @@ def test_two_traces_longer_than_a_session_are_refused_and_write_nothing(
             "max_steps": 2000,
         }
     assert row_counts(session) == (0, 0, 0)
+
+
+def test_the_longest_traces_accepted_leave_growth_working(
+    client: TestClient, player: dict[str, str], published: Published
+) -> None:
+    """Two traces of the most steps accepted, circling one loop: the graph still grows."""
+    steps = walk(published.publication, [1] * 2000)
+    for key in ("long-1", "long-2"):
+        reply = client.post("/api/traces", json=body(published, steps, key), headers=player)
+        assert reply.status_code == 201, reply.text
+    admin = {"Authorization": f"Bearer {ADMIN_TOKEN}"}
+    grow = f"/api/graphs/{published.name}/grow"
+    reply = client.post(grow, json={"expansions": 4}, headers=admin)
+    assert reply.status_code == 202, reply.text
+    epochs = client.get(reply.json()["poll"], headers=admin).json()["epochs"]
+    assert [(e["status"], e["expansions"]) for e in epochs] == [("finished", 4)]
 
 
 def test_traces_up_to_the_step_limit_are_stored(

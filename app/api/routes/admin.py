@@ -1,19 +1,32 @@
-"""Admin actions on a graph: publish the current version, grow it by some expansions.
+"""Admin actions on a graph: publish the current version, queue growth, follow its epochs.
 
-Both need ``Authorization: Bearer <admin_token>``; the work is done by the graph
-services that the CLI calls too, and the route commits what they wrote.
+All need ``Authorization: Bearer <admin_token>`` and are off (403) while no token is
+configured. Publishing is done by the graph service the CLI calls too, and the route
+commits what it wrote; growth is only queued here (:mod:`app.api.growth_jobs`) and
+answered with 202 and the epochs to poll.
 """
 
 from __future__ import annotations
 
-from fastapi import APIRouter, Depends, Request
+from typing import Annotated
+from urllib.parse import quote
+
+from fastapi import APIRouter, BackgroundTasks, Depends, Query, Request
 from fastapi.encoders import jsonable_encoder
 from sqlalchemy.orm import Session
 
-from app.api.deps import get_session, require_admin
-from app.api.schemas import AdminResult, GrowRequest
+from app.api.deps import GrowthScope, get_session, growth_scope, require_admin
+from app.api.errors import ApiError
+from app.api.growth_jobs import GrowthJobs, grow_in_background, send_to_workers
+from app.api.schemas import INT32_MAX, AdminResult, EpochOut, GraphEpochs, GrowQueued, GrowRequest
+from app.config import Settings
+from app.store.epochs import epochs_after, last_epoch_number
+from app.store.graphs import get_graph_row
 
 router = APIRouter(prefix="/api/graphs", tags=["admin"], dependencies=[Depends(require_admin)])
+
+#: epochs listed per poll
+EPOCHS_LISTED = 100
 
 
 @router.post("/{name}/publish")
@@ -25,21 +38,90 @@ def publish(name: str, request: Request, session: Session = Depends(get_session)
     return AdminResult(graph=name, result=_as_dict(result))
 
 
-@router.post("/{name}/grow")
+@router.post(
+    "/{name}/grow",
+    status_code=202,
+    responses={409: {"description": "the graph is growing already: poll it, then grow"}},
+)
 def grow(
     name: str,
     request: Request,
+    background: BackgroundTasks,
     body: GrowRequest | None = None,
     session: Session = Depends(get_session),
-) -> AdminResult:
-    from app.services.graphs import grow_graph
-    from app.services.growth import in_session
+    scope: GrowthScope = Depends(growth_scope),
+) -> GrowQueued:
+    """Queue growth by ``expansions`` and answer 202 at once, naming the epochs to poll.
 
+    With a broker: one Celery ``grow_epoch`` of that many expansions, which a worker plans
+    and fans out. Without (embedded): a background job of this server, growing in epochs
+    of ``SRG_BATCH_SIZE`` after the response is sent.
+    """
     expansions = (body or GrowRequest()).expansions
-    settings = request.app.state.settings
-    result = grow_graph(in_session(session), settings, name=name, expansions=expansions)
-    session.commit()
-    return AdminResult(graph=name, result=_as_dict(result))
+    settings: Settings = request.app.state.settings
+    jobs: GrowthJobs = request.app.state.growth_jobs
+    row = get_graph_row(session, name)
+    graph_id, graph_name = row.id, row.name
+    after = last_epoch_number(session, graph_id)
+    running = _running_epoch(session, graph_id)
+    session.commit()  # only reads: end them before queueing
+    poll = f"{router.prefix}/{quote(graph_name, safe='')}/epochs?after={after}"
+    queued = {"graph": graph_name, "expansions": expansions, "after_epoch": after, "poll": poll}
+    if not settings.eager:
+        if running is not None:
+            raise ApiError(
+                409,
+                f"epoch {running} of graph {graph_name!r} is running on the workers; "
+                "grow once it has finished",
+                poll=poll,
+            )
+        send_to_workers(graph_id, expansions, renders=settings.growth_renders)
+        return GrowQueued(runs_on="workers", **queued)
+    if not jobs.claim(graph_id):
+        raise ApiError(409, f"graph {graph_name!r} is already growing in this server", poll=poll)
+    background.add_task(grow_in_background, jobs, scope, settings, graph_id, expansions)
+    return GrowQueued(runs_on="server", **queued)
+
+
+@router.get("/{name}/epochs")
+def epochs(
+    name: str,
+    request: Request,
+    after: Annotated[int, Query(ge=0, le=INT32_MAX)] = 0,
+    session: Session = Depends(get_session),
+) -> GraphEpochs:
+    """The graph's growth epochs numbered above ``after``, oldest first: a grow's progress."""
+    row = get_graph_row(session, name)
+    jobs: GrowthJobs = request.app.state.growth_jobs
+    listed = epochs_after(session, row.id, after, EPOCHS_LISTED)
+    running = jobs.running(row.id) or _running_epoch(session, row.id) is not None
+    return GraphEpochs(
+        graph=row.name,
+        running=running,
+        epochs=[
+            EpochOut(
+                id=epoch.id,
+                number=epoch.number,
+                strategy=epoch.strategy,
+                status=epoch.status,
+                planned=len(epoch.plan or []),
+                expansions=epoch.expansions,
+                relinks=epoch.relinks,
+                size_frames=epoch.size_frames,
+                started_at=epoch.started_at,
+                finished_at=epoch.finished_at,
+            )
+            for epoch in listed
+        ],
+    )
+
+
+def _running_epoch(session: Session, graph_id: int) -> int | None:
+    """The number of the graph's running epoch, if one runs."""
+    from app.services.growth import running_epoch
+
+    running = running_epoch(session, graph_id)
+    return None if running is None else running.number
 
 
 def _as_dict(result: object) -> dict[str, object]:

@@ -1,0 +1,75 @@
+"""Admin growth off the request: a Celery ``grow_epoch`` with a broker, a background job of
+this server without one.
+
+Growing by up to 10,000 expansions takes minutes to hours, far longer than an HTTP request
+should hold a connection and a worker thread, so the admin grow route only queues the
+growth and answers 202 with the epochs to poll. In the embedded mode the job runs
+:func:`app.services.graphs.grow_graph` after the response, one transaction per step, so
+every finished step is kept if the server stops, and the next grow finishes the epoch that
+was interrupted. One job per graph at a time in a server process: two would run the
+same epoch twice over.
+"""
+
+from __future__ import annotations
+
+import logging
+import threading
+
+from app.api.deps import GrowthScope
+from app.config import Settings
+
+log = logging.getLogger(__name__)
+
+
+class GrowthJobs:
+    """The graphs this server process is growing in the background."""
+
+    def __init__(self) -> None:
+        self._lock = threading.Lock()
+        self._graphs: set[int] = set()
+
+    def claim(self, graph_id: int) -> bool:
+        """Take the graph for a new job; False if a job of this server grows it already."""
+        with self._lock:
+            if graph_id in self._graphs:
+                return False
+            self._graphs.add(graph_id)
+            return True
+
+    def release(self, graph_id: int) -> None:
+        with self._lock:
+            self._graphs.discard(graph_id)
+
+    def running(self, graph_id: int) -> bool:
+        with self._lock:
+            return graph_id in self._graphs
+
+
+def grow_in_background(
+    jobs: GrowthJobs, scope: GrowthScope, settings: Settings, graph_id: int, expansions: int
+) -> None:
+    """Grow a claimed graph by ``expansions``, then release it; failures are logged only
+    (nobody waits on a background job to raise to)."""
+    from app.services import graphs  # growth is loaded when something grows
+
+    try:
+        result = graphs.grow_graph(scope, settings, name=graph_id, expansions=expansions)
+    except Exception:
+        log.exception("background growth of graph %d failed", graph_id)
+    else:
+        log.info(
+            "graph %d grew by %d expansions in %d epochs (%d frames)",
+            graph_id,
+            result.expansions,
+            result.epochs,
+            result.size_frames,
+        )
+    finally:
+        jobs.release(graph_id)
+
+
+def send_to_workers(graph_id: int, expansions: int, *, renders: bool) -> None:
+    """One ``srg.grow_epoch`` of ``expansions``: a worker plans the epoch and fans it out."""
+    from app.tasks import growth
+
+    growth.grow_epoch.delay(graph_id, expansions, renders)
