@@ -12,6 +12,7 @@ from database_helpers import migrate
 from app.config import get_settings
 from app.core.bots import play_sessions
 from app.core.metrics import CheckpointReport, evaluate_checkpoint
+from app.core.player_models import robust_session_length
 from app.core.publication import Publication
 from app.core.strategies import Strategy
 from app.db import get_engine
@@ -41,11 +42,13 @@ def test_prediction_is_for_the_publication_played_from_earlier_traces(
     get_engine.cache_clear()
     migrate(get_settings().resolved_database_url)
     played: list[Publication] = []
+    sessions: list[list[np.ndarray]] = []
     predictions: list[np.ndarray] = []
 
     def recording_play(publication: Publication, *args: object, **kwargs: Any) -> list:
         played.append(publication)
-        return play_sessions(publication, *args, **kwargs)  # type: ignore[arg-type]
+        sessions.append(play_sessions(publication, *args, **kwargs))  # type: ignore[arg-type]
+        return sessions[-1]
 
     def recording_evaluate(
         traces: Any, err: Any, n: int, predicted: Any, *a: Any, **k: Any
@@ -76,7 +79,11 @@ def test_prediction_is_for_the_publication_played_from_earlier_traces(
         np.testing.assert_allclose(pi, (1.0 - rho) * inflow + restart, atol=1e-8)
         assert row["predicted_expected_error"] == pytest.approx(float(prob @ publication.edge_err))
     # the second prediction knows the first publication's sessions, not its own
-    assert rows[1]["predicted_session_steps"] == pytest.approx(rows[0]["observed_session_steps"])
+    settings = get_settings()
+    first = robust_session_length(
+        sessions[0], default=settings.restart_steps, ceiling=settings.max_session_steps
+    )
+    assert rows[1]["predicted_session_steps"] == pytest.approx(first)
     assert rows[1]["predicted_session_steps"] != pytest.approx(rows[1]["observed_session_steps"])
     assert rows[0]["predicted_mass_prior_only"] is None
     assert 0.0 <= float(rows[1]["predicted_mass_prior_only"]) <= 1.0  # type: ignore[arg-type]
