@@ -63,6 +63,9 @@ class Settings(BaseSettings):
         True, description="render clip and blend animations while growing (else at publish)"
     )
     occupancy_cache_ttl: int = Field(7 * 24 * 3600, description="Redis occupancy cache TTL (s)")
+    clip_cache_mb: int = Field(
+        256, ge=1, description="per-process memory for cached occupancy grids of a loaded graph"
+    )
     test_simulate_delay: float = Field(
         0.0, description="TEST ONLY: seconds `simulate` sleeps first, to kill a worker mid-task"
     )

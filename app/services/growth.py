@@ -128,7 +128,7 @@ def loaded_graph(session: Session, settings: Settings, row: Graph) -> LoadedGrap
         cached.row = row
         return cached
     artifacts = artifact_store(settings)
-    graph, bank = load_graph(session, row.id, artifacts)
+    graph, bank = load_graph(session, row.id, artifacts, settings.clip_cache_mb * 2**20)
     if settings.resolved_redis_url:
         cache = _shape_cache(settings.resolved_redis_url, settings.occupancy_cache_ttl)
         bank.use_shape_cache(cache)

@@ -4,13 +4,16 @@ Each saved clip has one ``.npz`` bundle (frames, end_state, occupancy, descripto
 small feature columns (control, energies, score) come from the loaded graph, so only the
 occupancy and descriptor are read to rebuild :class:`ClipFeatures`; both reads go through
 LRU caches because best-target searches compare the same popular clips again and again.
+The shape cache is bounded in bytes, not entries: an occupancy grid is 48 KB on ``tiny``
+and about 1 MB on ``paper``, so a count bound would let a 200k-frame graph's worker hold
+gigabytes.
 Clips put since the last save stay in memory until :func:`app.store.graphs.save_graph`
 writes their bundles and calls :meth:`StoredClipBank.mark_saved`.
 """
 
 from __future__ import annotations
 
-from collections.abc import Mapping
+from collections.abc import Callable, Mapping
 from functools import lru_cache
 from typing import Protocol
 
@@ -21,7 +24,9 @@ from app.core.dynamics import ClipFeatures, SimClip
 from app.core.graph import StateGraph
 from app.store.artifacts import ArtifactStore
 
-FEATURE_CACHE_SIZE = 4096
+#: default budget of the shape (occupancy, descriptor) cache, and its least entries
+SHAPE_CACHE_BYTES = 256 * 2**20
+MIN_SHAPE_ENTRIES = 128
 BUNDLE_CACHE_SIZE = 64
 
 
@@ -46,20 +51,25 @@ def clip_bundle(bank: ClipBank, clip: int) -> dict[str, np.ndarray]:
 
 class StoredClipBank:
     def __init__(
-        self, graph: StateGraph, artifacts: ArtifactStore, bundles: Mapping[int, str]
+        self,
+        graph: StateGraph,
+        artifacts: ArtifactStore,
+        bundles: Mapping[int, str],
+        shape_cache_bytes: int = SHAPE_CACHE_BYTES,
     ) -> None:
         self._graph = graph
         self._artifacts = artifacts
         self._bundles = dict(bundles)
         self._pending: dict[int, tuple[SimClip, ClipFeatures]] = {}
         self._shape_cache: ShapeCache | None = None
-        self._shape_members = lru_cache(maxsize=FEATURE_CACHE_SIZE)(self._read_shape)
+        self._shape_cache_bytes = shape_cache_bytes
+        self._shape_members: Callable[[int], tuple[np.ndarray, np.ndarray]] | None = None
         self._state_members = lru_cache(maxsize=BUNDLE_CACHE_SIZE)(self._read_state)
 
     def features(self, clip: int) -> ClipFeatures:
         if clip in self._pending:
             return self._pending[clip][1]
-        occupancy, descriptor = self._shape_members(clip)
+        occupancy, descriptor = self._shapes(clip)
         graph = self._graph
         return ClipFeatures(
             control=graph.clip_control[clip],
@@ -92,6 +102,16 @@ class StoredClipBank:
     def use_shape_cache(self, cache: ShapeCache) -> None:
         """Read occupancy grids through ``cache`` (Redis: the paper's animation cache)."""
         self._shape_cache = cache
+
+    def _shapes(self, clip: int) -> tuple[np.ndarray, np.ndarray]:
+        """Through the LRU cache, sized from the first grid read to fit the byte budget."""
+        if self._shape_members is None:
+            occupancy, descriptor = self._read_shape(clip)
+            entries = self._shape_cache_bytes // max(occupancy.nbytes + descriptor.nbytes, 1)
+            self._shape_members = lru_cache(maxsize=max(MIN_SHAPE_ENTRIES, entries))(
+                self._read_shape
+            )
+        return self._shape_members(clip)
 
     def _read_shape(self, clip: int) -> tuple[np.ndarray, np.ndarray]:
         digest = self._bundles[clip]

@@ -25,7 +25,7 @@ from app.core.graph import NO_TARGET, EdgeKind, StateGraph
 from app.models import Clip, Edge, Graph, Vertex
 from app.store._sql import bulk_insert
 from app.store.artifacts import NPZ_MEDIA_TYPE, ArtifactStore, encode_arrays
-from app.store.clipbank import StoredClipBank, clip_bundle
+from app.store.clipbank import SHAPE_CACHE_BYTES, StoredClipBank, clip_bundle
 
 #: "no clip" in vertex_clip (the start vertex) and in the placeholders of unfilled edges
 NO_CLIP = -1
@@ -196,7 +196,10 @@ def set_animations(
 
 
 def load_graph(
-    session: Session, graph_id: int, artifacts: ArtifactStore
+    session: Session,
+    graph_id: int,
+    artifacts: ArtifactStore,
+    shape_cache_bytes: int = SHAPE_CACHE_BYTES,
 ) -> tuple[StateGraph, StoredClipBank]:
     """The graph as last saved, with a bank that reads clip bundles lazily.
 
@@ -223,7 +226,7 @@ def load_graph(
         graph,
         _Persisted(graph_id, row.revision, graph.n_vertices, graph.n_clips, _edge_table(graph)),
     )
-    return graph, StoredClipBank(graph, artifacts, dict(enumerate(bundles)))
+    return graph, StoredClipBank(graph, artifacts, dict(enumerate(bundles)), shape_cache_bytes)
 
 
 def _load_clips(session: Session, graph_id: int, graph: StateGraph) -> list[str]:

@@ -16,6 +16,7 @@ from app.core.toy import ToyDynamics
 from app.models import Edge, Graph
 from app.services.bench_store import synthetic_graph
 from app.store.artifacts import ArtifactStore
+from app.store.clipbank import MIN_SHAPE_ENTRIES
 from app.store.graphs import (
     GraphNotFound,
     StaleGraph,
@@ -178,3 +179,18 @@ def test_100k_edge_round_trip_is_exact(session: Session, artifacts: ArtifactStor
 
 def _animation(session: Session, artifacts: ArtifactStore) -> str:
     return artifacts.put_bytes(b"\x00mp4", media_type="video/mp4", session=session)
+
+
+def test_the_shape_cache_holds_what_its_byte_budget_allows(
+    session: Session, artifacts: ArtifactStore, toy_graph: Toy
+) -> None:
+    _, graph, bank = toy_graph
+    graph_id = new_graph(session, graph)
+    save_graph(session, graph_id, graph, bank, artifacts)
+    shape = bank.features(0)
+    per_clip = shape.occupancy.nbytes + np.asarray(shape.descriptor).nbytes
+    for budget, entries in ((1_000 * per_clip, 1_000), (1, MIN_SHAPE_ENTRIES)):
+        _, stored = load_graph(session, graph_id, artifacts, shape_cache_bytes=budget)
+        assert_same_clips(stored, bank, range(graph.n_clips))
+        cache = stored._shape_members
+        assert cache is not None and cache.cache_info().maxsize == entries  # type: ignore[attr-defined]
