@@ -62,8 +62,9 @@ from app.store.traces import get_or_create_player, record_trace
 #: (the paper: about 0.5 and 0.1; our bar, set before any liquid run: 0.5 and 0.2)
 ERROR_RATIO_TARGET = 0.5
 HIGH_ERROR_RATIO_TARGET = 0.2
-#: figures that measure the machine, not the algorithm: left out of reproducibility checks
-TIMING_KEYS = ("grow_seconds", "checkpoint_seconds", "resident_mb")
+#: figures that depend on the machine or on the order processes created rows in: two
+#: runs of one plan agree on everything else (see :func:`comparable_figures`)
+UNCOMPARABLE_KEYS = ("grow_seconds", "checkpoint_seconds", "resident_mb", "publication_id")
 BOT_PLAYER = "bot-experiment"
 #: the high-error fraction is also reported at these multiples of the threshold, fixed
 #: beforehand like the visible-error criterion's own halved and doubled limits
@@ -524,11 +525,12 @@ def summarise(results: dict[str, dict[str, list[dict[str, Any]]]]) -> dict[str, 
     return summary
 
 
-def without_timings(result: dict[str, Any]) -> dict[str, Any]:
-    """The result's figures without what measures the machine (for comparing runs)."""
+def comparable_figures(result: dict[str, Any]) -> dict[str, Any]:
+    """The result's figures that any run of its plan reproduces exactly (resumed or not,
+    in processes or on workers): all but :data:`UNCOMPARABLE_KEYS`."""
     return {
         strategy: {
-            seed: [{k: v for k, v in row.items() if k not in TIMING_KEYS} for row in rows]
+            seed: [{k: v for k, v in row.items() if k not in UNCOMPARABLE_KEYS} for row in rows]
             for seed, rows in by_seed.items()
         }
         for strategy, by_seed in result["results"].items()

@@ -19,32 +19,19 @@ from cli_helpers import SRG, ok, one_line_error, srg
 from sqlalchemy import create_engine, func, select
 
 from app.models import ExperimentCheckpoint, GrowthEpoch
+from app.services.experiment import comparable_figures
 
 TOY_PLAN = ("--seeds", "0", "--checkpoints", "600,1500,2400", "--sessions", "10")
 LIQUID_PLAN = (
     "--dynamics", "liquid", "--preset", "tiny", "--strategies", "baseline,sr-crowd",
     "--seeds", "3", "--checkpoints", "120,240", "--sessions", "8",
 )  # fmt: skip
-#: figures that depend on the machine or on the order processes created rows in
-UNCOMPARABLE = ("grow_seconds", "checkpoint_seconds", "resident_mb", "publication_id")
-
-
-def comparable(result: dict[str, Any]) -> dict[str, Any]:
-    return {
-        strategy: {
-            seed: [{k: v for k, v in row.items() if k not in UNCOMPARABLE} for row in rows]
-            for seed, rows in by_seed.items()
-        }
-        for strategy, by_seed in result["results"].items()
-    }
-
-
 def differences(a: dict[str, Any], b: dict[str, Any]) -> list[str]:
     """(strategy, seed, checkpoint, figure) where two results' comparable figures differ."""
     found = []
-    for strategy, by_seed in comparable(a).items():
+    for strategy, by_seed in comparable_figures(a).items():
         for seed, rows in by_seed.items():
-            other = comparable(b)[strategy][seed]
+            other = comparable_figures(b)[strategy][seed]
             assert len(rows) == len(other)
             for index, (row, twin) in enumerate(zip(rows, other, strict=True)):
                 found += [f"{strategy}/{seed}/{index}/{k}" for k in row if row[k] != twin.get(k)]
@@ -129,7 +116,7 @@ def test_a_toy_experiment_reports_every_strategy_and_the_ratio_per_seed(tmp_path
     with engine.connect() as connection:
         assert connection.scalar(select(func.count()).select_from(GrowthEpoch)) == epochs
     engine.dispose()
-    assert comparable(again) == comparable(result)
+    assert comparable_figures(again) == comparable_figures(result)
 
 
 @pytest.mark.parametrize(

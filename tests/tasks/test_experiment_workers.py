@@ -18,6 +18,7 @@ from sqlalchemy import func, select
 from tasks_cluster import Cluster
 
 from app.models import ExperimentCheckpoint, GrowthEpoch
+from app.services.experiment import comparable_figures
 
 pytestmark = [pytest.mark.slow, pytest.mark.postgres, pytest.mark.redis]
 SRG = str(Path(sys.executable).with_name("srg"))
@@ -25,7 +26,6 @@ PLAN = (
     "--strategies", "baseline,sr-crowd", "--seeds", "4", "--checkpoints", "300,900",
     "--sessions", "6",
 )  # fmt: skip
-UNCOMPARABLE = ("grow_seconds", "checkpoint_seconds", "resident_mb", "publication_id")
 
 
 def experiment(env: dict[str, str], out: Path) -> dict[str, Any]:
@@ -38,16 +38,6 @@ def experiment(env: dict[str, str], out: Path) -> dict[str, Any]:
     )
     assert done.returncode == 0, done.stderr[-3000:]
     return dict(json.loads(out.read_text()))
-
-
-def comparable(result: dict[str, Any]) -> dict[str, Any]:
-    return {
-        strategy: {
-            seed: [{k: v for k, v in row.items() if k not in UNCOMPARABLE} for row in rows]
-            for seed, rows in by_seed.items()
-        }
-        for strategy, by_seed in result["results"].items()
-    }
 
 
 def test_the_experiment_grows_on_workers_to_the_embedded_numbers(
@@ -68,5 +58,5 @@ def test_the_experiment_grows_on_workers_to_the_embedded_numbers(
     embedded_env["SRG_VAR_DIR"] = str(tmp_path / "embedded")
     subprocess.run([SRG, "db", "upgrade"], env=embedded_env, check=True, capture_output=True)
     embedded = experiment(embedded_env, tmp_path / "embedded.json")
-    assert comparable(on_workers) == comparable(embedded)
+    assert comparable_figures(on_workers) == comparable_figures(embedded)
     assert on_workers["summary"] == embedded["summary"]
