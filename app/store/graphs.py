@@ -11,6 +11,7 @@ there first, or the transaction of the previous save rolled back) raises
 
 from __future__ import annotations
 
+import re
 import weakref
 from collections.abc import Iterable, Mapping
 from dataclasses import dataclass
@@ -67,11 +68,23 @@ def create_graph(
     return row.id
 
 
+#: the largest id an ``Integer`` primary key holds on every backend (PostgreSQL's int4)
+MAX_ROW_ID = 2**31 - 1
+_ASCII_DIGITS = re.compile(r"[0-9]+")
+
+
 def get_graph_row(session: Session, name_or_id: str | int) -> Graph:
-    """The graph row by id (an int, or a string of digits) or else by name."""
+    """The graph row by id (an int, or a string of the digits 0-9) or else by name.
+
+    An id outside the database's integer range names no graph (:class:`GraphNotFound`),
+    never an overflow; ``str.isdigit`` is not used because it accepts '²' and '٣'.
+    """
     row: Graph | None
-    if isinstance(name_or_id, int) or name_or_id.isdigit():
-        row = session.get(Graph, int(name_or_id))
+    if isinstance(name_or_id, int) or _ASCII_DIGITS.fullmatch(name_or_id):
+        graph_id = int(name_or_id)
+        row = session.get(Graph, graph_id) if 1 <= graph_id <= MAX_ROW_ID else None
+    elif "\x00" in name_or_id:  # PostgreSQL refuses NUL in text; no name holds one
+        row = None
     else:
         row = session.scalars(select(Graph).where(Graph.name == name_or_id)).one_or_none()
     if row is None:

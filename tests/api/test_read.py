@@ -5,11 +5,14 @@ from __future__ import annotations
 import io
 
 import numpy as np
+import pytest
 from api_helpers import ADMIN_TOKEN, Published
 from fastapi.testclient import TestClient
 from PIL import Image
 
 from app.render.animation import decode_strip
+
+ADMIN = {"Authorization": f"Bearer {ADMIN_TOKEN}"}
 
 
 def test_graphs_list_the_latest_publication(client: TestClient, published: Published) -> None:
@@ -131,3 +134,22 @@ def test_posters_are_the_first_frame_of_real_strips(
     assert client.get(f"/api/animations/{'0' * 64}/poster?frames={k}").status_code == 404
     fake = client.get(f"/api/animations/{published.animation}/poster?frames={k}")
     assert fake.status_code == 422
+
+
+@pytest.mark.parametrize(
+    "name", ["%C2%B2", "99999999999999999999", "2147483648", "%D9%A3", "0", "a%00b"]
+)
+def test_odd_graph_names_and_ids_are_404_not_500(
+    client: TestClient, published: Published, name: str
+) -> None:
+    """'²' and '٣' are str.isdigit() but no int; 10**20 overflows the database's integers."""
+    requests = [
+        ("GET", f"/api/graphs/{name}/publication", {}),
+        ("POST", f"/api/graphs/{name}/grow", {"headers": ADMIN}),
+        ("POST", f"/api/graphs/{name}/publish", {"headers": ADMIN}),
+        ("GET", f"/api/graphs/{name}/epochs", {"headers": ADMIN}),
+    ]
+    for method, url, extra in requests:
+        reply = client.request(method, url, **extra)
+        assert reply.status_code == 404, (method, url, reply.text)
+        assert reply.json()["error"].startswith("no graph"), reply.text
