@@ -93,7 +93,7 @@ class ArtifactStore:
     def _write(self, data: bytes) -> str:
         digest = hashlib.sha256(data).hexdigest()
         path = self.path_for(digest)
-        if digest in self._written or path.exists():
+        if digest in self._written or _touch(path):
             self._written.add(digest)
             return digest
         if path.parent not in self._directories:
@@ -109,6 +109,22 @@ class ArtifactStore:
             raise
         self._written.add(digest)
         return digest
+
+
+def _touch(path: Path) -> bool:
+    """Whether ``path`` exists; if so its mtime becomes now.
+
+    Storing content that is already there marks it as in use, so a collection of orphaned
+    artifacts (:mod:`app.store.artifact_gc`, which keeps recent files) cannot remove a file
+    that a running step is about to reference again.
+    """
+    try:
+        os.utime(path)
+    except FileNotFoundError:
+        return False
+    except OSError:  # not ours to touch (a read-only store): it exists all the same
+        return path.exists()
+    return True
 
 
 def encode_arrays(arrays: Mapping[str, np.ndarray]) -> bytes:
