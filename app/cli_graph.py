@@ -193,8 +193,11 @@ def status(
 
 
 def gc(
-    older_than: float = typer.Option(
-        3600.0, "--older-than", help="grace period in seconds: newer files and rows are kept"
+    older_than: float | None = typer.Option(
+        None,
+        "--older-than",
+        help="grace period in seconds: newer files and rows are kept "
+        "(default SRG_ARTIFACT_GC_GRACE, 3600)",
     ),
     dry_run: bool = typer.Option(False, "--dry-run", help="count what would go; delete nothing"),
     json_output: bool = typer.Option(False, "--json", help="print JSON"),
@@ -203,42 +206,22 @@ def gc(
 
     Only files last modified and rows created more than ``--older-than`` seconds ago are
     collected, so that what a running step (``srg grow``, a worker) wrote and is about to
-    reference survives: keep it above the longest step. Safe to run while graphs grow; a
-    periodic run is scheduled by ``srg beat`` (SRG_ARTIFACT_GC_INTERVAL).
+    reference survives: keep it above the longest step. Safe to run while graphs grow;
+    ``srg beat`` also runs it every SRG_ARTIFACT_GC_INTERVAL seconds.
     """
-    from sqlalchemy.exc import IntegrityError
-
     from app.cli import progress_bar
     from app.config import get_settings
+    from app.services.artifact_gc import collect_artifacts
     from app.services.graphs import artifact_store
-    from app.store.artifact_gc import (
-        collect_orphaned_artifacts,
-        count_fanout_directories,
-        remove_collected_files,
-        scan_artifact_files,
-    )
+    from app.store.artifact_gc import count_fanout_directories
 
-    if not older_than >= 0:
-        raise ValueError(f"--older-than must be a number of seconds >= 0, not {older_than}")
-    store = artifact_store(get_settings())
-    with progress_bar(count_fanout_directories(store), "artifact directories") as advance:
-        scan = scan_artifact_files(store, older_than=older_than, progress=advance)
-    try:
-        with transaction() as session:
-            collection = collect_orphaned_artifacts(session, scan, dry_run=dry_run)
-    except IntegrityError as exc:  # a step referenced one of them meanwhile (PostgreSQL)
-        raise ValueError("an artifact came into use while collecting; run srg gc again") from exc
-    remove_collected_files(collection)  # after the commit: see app.store.artifact_gc
-    emit(
-        {
-            "dry_run": dry_run,
-            "older_than_s": older_than,
-            "rows": collection.rows,
-            "files": collection.files_removed,
-            "bytes_freed": collection.bytes_freed,
-        },
-        json_output,
-    )
+    settings = get_settings()
+    directories = count_fanout_directories(artifact_store(settings))
+    with progress_bar(directories, "artifact directories") as advance:
+        result = collect_artifacts(
+            settings, older_than=older_than, dry_run=dry_run, progress=advance
+        )
+    emit(result, json_output)
 
 
 def register_graph_commands(app: typer.Typer) -> None:

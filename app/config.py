@@ -59,6 +59,12 @@ class Settings(BaseSettings):
     epoch_resend_after: float = Field(
         1800.0, description="seconds without progress after which a running epoch is re-sent"
     )
+    artifact_gc_interval: float = Field(
+        24 * 3600.0, ge=0, description="seconds between beat's `srg gc` runs; 0: never"
+    )
+    artifact_gc_grace: float = Field(
+        3600.0, ge=0, description="orphaned artifacts younger than this (s) are kept by gc"
+    )
     growth_renders: bool = Field(
         True, description="render clip and blend animations while growing (else at publish)"
     )

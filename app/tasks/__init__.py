@@ -1,4 +1,4 @@
-"""Celery: the app (``celery -A app.tasks worker``) and the growth tasks it runs."""
+"""Celery: the app (``celery -A app.tasks worker``), the growth and upkeep tasks it runs."""
 
 from app.tasks.celery_app import celery_app
 
@@ -6,5 +6,6 @@ app = celery_app
 
 # register the tasks on the app
 from app.tasks import growth as _growth  # noqa: E402,F401
+from app.tasks import maintenance as _maintenance  # noqa: E402,F401
 
 __all__ = ["app", "celery_app"]

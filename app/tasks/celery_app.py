@@ -50,10 +50,21 @@ def celery_config(settings: Settings) -> dict[str, Any]:
         "worker_send_task_events": True,
         "task_send_sent_event": True,
         "task_track_started": True,
-        "beat_schedule": {
-            "grow-graphs": {"task": "srg.schedule_growth", "schedule": settings.beat_interval}
-        },
+        "beat_schedule": beat_schedule(settings),
     }
+
+
+def beat_schedule(settings: Settings) -> dict[str, dict[str, Any]]:
+    """Growth ticks, and (unless its interval is 0) collection of orphaned artifacts."""
+    schedule: dict[str, dict[str, Any]] = {
+        "grow-graphs": {"task": "srg.schedule_growth", "schedule": settings.beat_interval}
+    }
+    if settings.artifact_gc_interval > 0:
+        schedule["collect-artifacts"] = {
+            "task": "srg.collect_artifacts",
+            "schedule": settings.artifact_gc_interval,
+        }
+    return schedule
 
 
 class BoundedTask(Task):

@@ -3,6 +3,8 @@
 from __future__ import annotations
 
 import logging
+import os
+import time
 from collections.abc import Iterator
 from dataclasses import replace
 from pathlib import Path
@@ -29,6 +31,7 @@ from app.store.occupancy_cache import RedisShapeCache
 from app.tasks import celery_app
 from app.tasks.celery_app import celery_config
 from app.tasks.growth import grow_epoch, integrate
+from app.tasks.maintenance import collect_artifacts
 
 
 @pytest.fixture
@@ -193,3 +196,30 @@ def test_redis_down_is_a_cache_miss() -> None:
 @pytest.fixture
 def redis_server_url(redis_server: RedisServer) -> str:
     return redis_server.url
+
+
+def test_beat_collects_orphaned_artifacts_unless_told_not_to() -> None:
+    conf = celery_config(Settings(artifact_gc_interval=600))
+    entry = conf["beat_schedule"]["collect-artifacts"]
+    assert entry == {"task": "srg.collect_artifacts", "schedule": 600}
+    assert "srg.collect_artifacts" in celery_app.tasks
+    never = celery_config(Settings(artifact_gc_interval=0))["beat_schedule"]
+    assert set(never) == {"grow-graphs"}
+
+
+def test_the_collect_artifacts_task_removes_old_orphans_only(settings: Settings) -> None:
+    graph_id = seed_graph(settings)
+    store = ArtifactStore(settings.resolved_artifact_dir)
+    kept = {path for path in store.root.rglob("*") if path.is_file()}
+    old = time.time() - settings.artifact_gc_grace - 60
+    for path in kept:
+        os.utime(path, (old, old))
+    orphan = store.root / "00" / "00" / ("0" * 64)
+    orphan.parent.mkdir(parents=True, exist_ok=True)
+    orphan.write_bytes(b"left by a killed worker")
+    os.utime(orphan, (old, old))
+    freed = collect_artifacts.delay().get()
+    assert (freed["rows"], freed["files"]) == (0, 1) and not orphan.exists()
+    assert {path for path in store.root.rglob("*") if path.is_file()} == kept
+    with session_factory()() as session:
+        load_graph(session, graph_id, store)  # every bundle it uses is still there

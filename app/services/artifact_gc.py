@@ -1,0 +1,63 @@
+"""Collecting orphaned artifacts: the one service ``srg gc`` and beat's task both call.
+
+See :mod:`app.store.artifact_gc` for what is collected and why the grace period
+(``older_than``) keeps what a running step is about to reference.
+"""
+
+from __future__ import annotations
+
+from collections.abc import Callable
+from dataclasses import dataclass
+
+from sqlalchemy.exc import IntegrityError
+
+from app.config import Settings
+from app.db import transaction
+from app.services.graphs import artifact_store
+from app.store.artifact_gc import (
+    collect_orphaned_artifacts,
+    remove_collected_files,
+    scan_artifact_files,
+)
+
+
+@dataclass(frozen=True)
+class ArtifactGcResult:
+    dry_run: bool
+    older_than_s: float
+    #: ``artifacts`` rows deleted (or, dry, that would be)
+    rows: int
+    #: files removed (or, dry, that would be)
+    files: int
+    bytes_freed: int
+
+
+def collect_artifacts(
+    settings: Settings,
+    *,
+    older_than: float | None = None,
+    dry_run: bool = False,
+    progress: Callable[[int], None] | None = None,
+) -> ArtifactGcResult:
+    """Scan the store, delete the orphaned rows in one transaction, then their files.
+
+    ``older_than`` defaults to ``settings.artifact_gc_grace``; ``progress(1)`` is called
+    per fan-out directory scanned (:func:`~app.store.artifact_gc.count_fanout_directories`).
+    """
+    grace = settings.artifact_gc_grace if older_than is None else older_than
+    if not grace >= 0:
+        raise ValueError(f"--older-than must be a number of seconds >= 0, not {grace}")
+    scan = scan_artifact_files(artifact_store(settings), older_than=grace, progress=progress)
+    try:
+        with transaction() as session:
+            collection = collect_orphaned_artifacts(session, scan, dry_run=dry_run)
+    except IntegrityError as exc:  # a step referenced one of them meanwhile (PostgreSQL)
+        raise ValueError("an artifact came into use while collecting; collect again") from exc
+    remove_collected_files(collection)  # only once the rows' deletion is committed
+    return ArtifactGcResult(
+        dry_run=dry_run,
+        older_than_s=grace,
+        rows=collection.rows,
+        files=collection.files_removed,
+        bytes_freed=collection.bytes_freed,
+    )
