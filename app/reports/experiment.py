@@ -221,7 +221,12 @@ def markdown(result: dict[str, Any], images: list[Path]) -> str:
         f"{plan['checkpoints']} frames; {plan['sessions']} goal-directed bot sessions of "
         f"mean {plan['mean_steps']} steps per checkpoint; {plan['batch_size']} expansions "
         f"per growth epoch. High-error threshold {_threshold(result):.4g}."
-        + (f" This invocation ran {seconds} s." if seconds is not None else ""),
+        + (
+            f" This invocation ran {seconds} s (a resume runs only what was not stored;"
+            " growth seconds per run are under Cost)."
+            if seconds is not None
+            else ""
+        ),
         "",
         "| strategy | frames | mean error/step | high-error fraction | steps on blends "
         "| error per blend step | predicted expected error | density corr. | density TV "
@@ -236,7 +241,7 @@ def markdown(result: dict[str, Any], images: list[Path]) -> str:
                 return f"{np.mean(values):.4g}" if values else "n/a"
 
             lines.append(
-                f"| {strategy} | {mean('size_frames')} | {mean('observed_mean_error')} "
+                f"| {strategy} | {rows[0]['size_frames']} | {mean('observed_mean_error')} "
                 f"| {mean('high_error_fraction')} | {mean('blend_step_fraction')} "
                 f"| {mean('mean_error_on_blend_steps')} | {mean('predicted_expected_error')} "
                 f"| {mean('density_correlation')} | {mean('density_tv_distance')} "
@@ -323,17 +328,21 @@ def _cost_section(result: dict[str, Any]) -> list[str]:
         "Growth seconds per checkpoint (wall, in the run's process; runs share the cores) "
         "and peak resident memory of that process.",
         "",
-        "| strategy | grow s (sum over checkpoints) | frames | peak resident MB | KB per frame |",
+        "| strategy | grow s (sum over checkpoints) | frames | peak resident MB, first "
+        "/ last checkpoint | KB per frame grown in between |",
         "|---|---|---|---|---|",
     ]
     for strategy, by_seed in result["results"].items():
         runs = list(by_seed.values())
         grow = np.mean([sum(float(r["grow_seconds"]) for r in rows) for rows in runs])
-        frames = np.mean([rows[-1]["size_frames"] for rows in runs])
-        resident = np.mean([rows[-1]["resident_mb"] for rows in runs])
+        first, last = (
+            np.mean([[rows[i]["size_frames"], rows[i]["resident_mb"]] for rows in runs], axis=0)
+            for i in (0, -1)
+        )
+        per_frame = 1024 * (last[1] - first[1]) / max(last[0] - first[0], 1)
         lines.append(
-            f"| {strategy} | {grow:.0f} | {frames:.0f} | {resident:.0f} "
-            f"| {1024 * resident / max(frames, 1):.1f} |"
+            f"| {strategy} | {grow:.0f} | {last[0]:.0f} | {first[1]:.0f} / {last[1]:.0f} "
+            f"| {per_frame:.1f} |"
         )
     return lines
 
