@@ -1,7 +1,7 @@
 #!/usr/bin/env bash
 # Sets up ./.venv and runs the main job (`srg demo`) on the embedded default:
 # a SQLite file under ./var, eager Celery (no broker), PoCL on the CPU.
-# Extra arguments go to `srg demo` (e.g. --rounds 5 --budget 600).
+# Extra arguments go to `srg demo` (e.g. --checkpoints 300,1000,3000 or --fluid high).
 set -euo pipefail
 cd "$(dirname "$0")/.."
 source infra/venv.sh
