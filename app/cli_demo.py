@@ -85,6 +85,6 @@ def demo(
         emit(json.loads(json.dumps(result, default=str)), json_path)
     typer.echo(f"report: {report}")
     typer.echo(
-        f"play it: srg serve, then open http://127.0.0.1:8000/ and pick {graph} "
+        f"play it: srg serve, then open http://127.0.0.1:8000/?graph={graph} "
         f"(publication {published.number}, {published.size_frames} frames)"
     )

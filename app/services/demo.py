@@ -150,7 +150,7 @@ def write_demo_report(
         Image.fromarray(contact).save(out / "contact-sheet.png")
         lines += [f"Frames of the edges bots visited most on `{graph}`:", ""]
         lines += ["![frames](contact-sheet.png)", ""]
-    lines += [f"`srg serve`, then open http://127.0.0.1:8000/ and pick `{graph}`.", ""]
+    lines += [f"`srg serve`, then open http://127.0.0.1:8000/?graph={graph}", ""]
     report.write_text(report.read_text() + "\n".join(lines))
     return report
 
