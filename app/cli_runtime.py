@@ -7,6 +7,7 @@ from Settings (``SRG_BROKER_URL``, ``SRG_DATABASE_URL``, ...); see docs/runtime.
 from __future__ import annotations
 
 import json
+from pathlib import Path
 
 import typer
 
@@ -30,13 +31,24 @@ def worker(
 
 def beat(
     loglevel: str = typer.Option("INFO"),
-    schedule: str = typer.Option("var/celerybeat-schedule", help="beat's state file"),
+    schedule: Path | None = typer.Option(
+        None, help="beat's state file (default SRG_VAR_DIR/celerybeat-schedule)"
+    ),
 ) -> None:
     """Run Celery beat: a growth tick every SRG_BEAT_INTERVAL seconds for growing graphs."""
+    from app.config import get_settings
     from app.tasks import celery_app
 
     _require_broker()
-    celery_app.start(["beat", f"--loglevel={loglevel}", f"--schedule={schedule}"])
+    state = beat_state_file(get_settings().var_dir, schedule)
+    celery_app.start(["beat", f"--loglevel={loglevel}", f"--schedule={state}"])
+
+
+def beat_state_file(var_dir: Path, schedule: Path | None) -> Path:
+    """Beat's state file, its directory made: beat fails on a missing one."""
+    path = schedule or var_dir / "celerybeat-schedule"
+    path.parent.mkdir(parents=True, exist_ok=True)
+    return path
 
 
 def flower(
