@@ -8,8 +8,8 @@ SQLAlchemy (not the pysqlite driver) begins, so SAVEPOINTs work.
 
 from __future__ import annotations
 
-from collections.abc import Iterator
-from contextlib import contextmanager
+from collections.abc import Callable, Iterator
+from contextlib import AbstractContextManager, contextmanager
 from functools import lru_cache
 from pathlib import Path
 from typing import Any
@@ -76,6 +76,11 @@ def get_engine() -> Engine:
 def session_factory(engine: Engine | None = None) -> sessionmaker[Session]:
     """Sessions that keep loaded objects usable after commit (callers own transactions)."""
     return sessionmaker(bind=engine or get_engine(), expire_on_commit=False)
+
+
+#: opens the unit of work of one step: :func:`transaction` (a fresh, durable one) or the
+#: caller's own (``app.services.growth.in_session``)
+Scope = Callable[[], AbstractContextManager[Session]]
 
 
 @contextmanager

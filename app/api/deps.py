@@ -8,20 +8,15 @@ exception rolls the session back here, so a rejected request writes nothing.
 from __future__ import annotations
 
 import secrets
-from collections.abc import Callable, Iterator
-from contextlib import AbstractContextManager
+from collections.abc import Iterator
 
 from fastapi import Depends, Request
 from sqlalchemy.orm import Session
 
 from app.api.errors import ApiError
 from app.config import Settings
-from app.db import transaction
+from app.db import Scope, transaction
 from app.store.traces import player_for_token
-
-#: a unit of work per growth step (:data:`app.services.growth.Scope`, not imported: the
-#: API loads growth only when it grows)
-GrowthScope = Callable[[], AbstractContextManager[Session]]
 
 BEARER_CHALLENGE = {"WWW-Authenticate": "Bearer"}
 ADMIN_ROUTES_OFF = "admin routes are off: set SRG_ADMIN_TOKEN"
@@ -79,7 +74,7 @@ def require_admin(request: Request, settings: Settings = Depends(get_settings)) 
         raise ApiError(403, "admin token required")
 
 
-def growth_scope(request: Request) -> GrowthScope:
+def growth_scope(request: Request) -> Scope:
     """The unit of work of growth run off the request: a transaction per step, on the
     app's database, so each finished step is kept whatever happens to the server."""
     factory = request.app.state.session_factory

@@ -15,8 +15,8 @@ from __future__ import annotations
 import logging
 import threading
 
-from app.api.deps import GrowthScope
 from app.config import Settings
+from app.db import Scope
 
 log = logging.getLogger(__name__)
 
@@ -46,7 +46,7 @@ class GrowthJobs:
 
 
 def grow_in_background(
-    jobs: GrowthJobs, scope: GrowthScope, settings: Settings, graph_id: int, expansions: int
+    jobs: GrowthJobs, scope: Scope, settings: Settings, graph_id: int, expansions: int
 ) -> None:
     """Grow a claimed graph by ``expansions``, then release it; failures are logged only
     (nobody waits on a background job to raise to)."""

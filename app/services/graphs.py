@@ -10,7 +10,6 @@ from __future__ import annotations
 
 import uuid
 from collections.abc import Callable
-from contextlib import AbstractContextManager
 from dataclasses import dataclass, field
 
 import numpy as np
@@ -27,18 +26,23 @@ from app.core.growth import initial_tree
 from app.core.metrics import high_error_fraction, observed_mean_error
 from app.core.refinement import Refiner, RefinerConfig
 from app.core.strategies import Strategy, parse_strategy
+from app.db import Scope
 from app.models import Clip, Edge, Graph, GrowthEpoch
 from app.models import Publication as PublicationRow
 from app.render.animation import STRIP_MEDIA_TYPE, encode_strip
 from app.services.dynamics import make_dynamics
 from app.store.artifacts import ArtifactStore
-from app.store.graphs import create_graph, get_graph_row, save_graph, set_animations
+from app.store.graphs import (
+    create_graph,
+    get_graph_row,
+    save_graph,
+    set_animations,
+    size_frames,
+)
 from app.store.publications import latest_publication, load_publication, publish
 from app.store.traces import get_or_create_player, load_traces, record_trace
 
 Progress = Callable[[int], None]
-#: the unit of work of one growth step (see :data:`app.services.growth.Scope`)
-Scope = Callable[[], AbstractContextManager[Session]]
 
 
 class GraphExists(ValueError):
@@ -206,9 +210,7 @@ def grow_graph(
         row = get_graph_row(session, name)
         graph_id, n_controls, frames_per_clip = row.id, row.n_controls, row.frames_per_clip
         chosen = parse_strategy(strategy) if strategy else parse_strategy(row.strategy)
-        size = (session.scalar(select(func.count()).where(Clip.graph_id == graph_id)) or 0) * (
-            frames_per_clip
-        )
+        size = size_frames(session, graph_id)
         interrupted = running_epoch(session, graph_id) if settings.eager else None
         interrupted_id = None if interrupted is None else interrupted.id
     result = GrowResult(graph=str(row.name), strategy=chosen.value)
@@ -431,9 +433,7 @@ def graph_summary(session: Session, name: str | int) -> dict[str, object]:
             select(Edge.kind, func.count()).where(Edge.graph_id == row.id).group_by(Edge.kind)
         )
     }
-    frames = (session.scalar(select(func.count()).where(Clip.graph_id == row.id)) or 0) * (
-        row.frames_per_clip
-    )
+    frames = size_frames(session, row.id)
     latest = latest_publication(session, row.id)
     epochs = session.scalar(select(func.count()).where(GrowthEpoch.graph_id == row.id)) or 0
     return {

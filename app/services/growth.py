@@ -23,7 +23,7 @@ from __future__ import annotations
 import logging
 import time
 from collections.abc import Callable
-from contextlib import AbstractContextManager, nullcontext
+from contextlib import nullcontext
 from dataclasses import dataclass
 from functools import lru_cache
 
@@ -37,7 +37,7 @@ from app.core.graph import EdgeKind
 from app.core.growth import integrate_expansion, relink_all, select_for_expansion
 from app.core.refinement import Refiner
 from app.core.strategies import EdgeWeights, Strategy, edge_weights
-from app.db import begin_immediate
+from app.db import Scope, begin_immediate
 from app.models import Clip, Edge, ExpansionClip, Graph, GrowthEpoch
 from app.render.animation import STRIP_MEDIA_TYPE, encode_strip
 from app.services.dynamics import make_dynamics
@@ -577,10 +577,6 @@ def blend_step(session: Session, settings: Settings, epoch_id: int) -> int:
 
 
 # ---- the whole epoch in-process ---------------------------------------------------------------
-#: opens the unit of work of one step: a fresh transaction (durable steps) or the caller's
-Scope = Callable[[], AbstractContextManager[Session]]
-
-
 def in_session(session: Session) -> Scope:
     """A scope that runs every step in ``session``, in one transaction the caller owns."""
     return lambda: nullcontext(session)

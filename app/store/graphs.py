@@ -18,7 +18,7 @@ from dataclasses import dataclass
 from typing import Any
 
 import numpy as np
-from sqlalchemy import select, update
+from sqlalchemy import func, select, update
 from sqlalchemy.orm import Session
 
 from app.core.clipbank import ClipBank
@@ -90,6 +90,12 @@ def get_graph_row(session: Session, name_or_id: str | int) -> Graph:
     if row is None:
         raise GraphNotFound(f"no graph {name_or_id!r}")
     return row
+
+
+def size_frames(session: Session, graph_id: int) -> int:
+    """The graph's size in simulated frames: every stored clip, dead ends included."""
+    clips = session.scalar(select(func.count()).where(Clip.graph_id == graph_id)) or 0
+    return int(clips) * get_graph_row(session, graph_id).frames_per_clip
 
 
 @dataclass(frozen=True)

@@ -23,13 +23,13 @@ from typing import Any
 from celery import chain, chord
 from celery.canvas import Signature
 from celery.utils.log import get_task_logger
-from sqlalchemy import func, select
+from sqlalchemy import select
 from sqlalchemy.exc import IntegrityError, OperationalError
 
 from app.config import get_settings
 from app.db import transaction
 from app.services import growth
-from app.store.graphs import StaleGraph, get_graph_row
+from app.store.graphs import StaleGraph, get_graph_row, size_frames
 from app.tasks.celery_app import celery_app
 
 log = get_task_logger(__name__)
@@ -232,11 +232,8 @@ def grow_on_workers(
 
 
 def _size_frames(graph_id: int) -> int:
-    from app.models import Clip, Graph
-
     with transaction() as session:
-        clips = session.scalar(select(func.count()).where(Clip.graph_id == graph_id)) or 0
-        return int(clips) * session.get_one(Graph, graph_id).frames_per_clip
+        return size_frames(session, graph_id)
 
 
 def _wait_for_epochs(graph_id: int, resend_after: float) -> None:

@@ -15,11 +15,12 @@ from fastapi import APIRouter, BackgroundTasks, Depends, Query, Request
 from fastapi.encoders import jsonable_encoder
 from sqlalchemy.orm import Session
 
-from app.api.deps import GrowthScope, get_session, growth_scope, require_admin
+from app.api.deps import get_session, growth_scope, require_admin
 from app.api.errors import ApiError
 from app.api.growth_jobs import GrowthJobs, grow_in_background, send_to_workers
 from app.api.schemas import INT32_MAX, AdminResult, EpochOut, GraphEpochs, GrowQueued, GrowRequest
 from app.config import Settings
+from app.db import Scope
 from app.store.epochs import epochs_after, last_epoch_number
 from app.store.graphs import get_graph_row
 
@@ -49,7 +50,7 @@ def grow(
     background: BackgroundTasks,
     body: GrowRequest | None = None,
     session: Session = Depends(get_session),
-    scope: GrowthScope = Depends(growth_scope),
+    scope: Scope = Depends(growth_scope),
 ) -> GrowQueued:
     """Queue growth by ``expansions`` and answer 202 at once, naming the epochs to poll.
 
