@@ -317,7 +317,6 @@ def run_one(
             figures["grow_seconds"] = round(grow_seconds, 3)
             figures["checkpoint_seconds"] = round(time.perf_counter() - started, 3)
             figures["resident_mb"] = round(_resident_mb(), 1)
-            artifacts = open_graph(session, settings, graph).artifacts
             session.add(
                 ExperimentCheckpoint(
                     experiment_id=experiment_id,
@@ -327,7 +326,7 @@ def run_one(
                     graph_id=figures.pop("graph_id"),
                     publication_id=figures["publication_id"],
                     figures=figures,
-                    arrays=artifacts.put_arrays(arrays, session=session),
+                    arrays=artifact_store(settings).put_arrays(arrays, session=session),
                     seconds=figures["checkpoint_seconds"],
                 )
             )
