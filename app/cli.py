@@ -102,7 +102,6 @@ def experiment(
 
     from app.config import get_settings
     from app.reports.experiment import write_report
-    from app.services.dynamics import make_dynamics
     from app.services.experiment import (
         create_experiment,
         grow_in_process,
@@ -121,7 +120,6 @@ def experiment(
         plan = stored_plan(name)
     else:
         plan = _experiment_plan(dynamics or "toy", quick, *options[1:])
-        make_dynamics(plan.dynamics, plan.preset, plan.fluid)  # unknown preset, fluid...
         plan = create_experiment(name, plan)
     settings = get_settings()
     if settings.eager:

@@ -177,13 +177,13 @@ def create_experiment(name: str, plan: ExperimentPlan) -> ExperimentPlan:
     """Store a new experiment's plan, its high-error threshold fixed; return that plan.
 
     The threshold is ``SRG_HIGH_ERROR_THRESHOLD``, else the dynamics' calibrated one.
-    :class:`ExperimentExists` if the name is taken.
+    Raises :class:`ExperimentExists` if the name is taken, and ``make_dynamics``'s errors
+    (an unknown preset or fluid, a missing calibration) before anything is stored.
     """
     _check_name(name)
+    dynamics = make_dynamics(plan.dynamics, plan.preset, plan.fluid)
     if plan.high_error_threshold is None:
-        threshold = get_settings().high_error_threshold or make_dynamics(
-            plan.dynamics, plan.preset, plan.fluid
-        ).high_error_threshold
+        threshold = get_settings().high_error_threshold or dynamics.high_error_threshold
         plan = replace(plan, high_error_threshold=threshold)
     with transaction() as session:
         if session.scalar(select(Experiment.id).where(Experiment.name == name)) is not None:
