@@ -56,7 +56,7 @@ from app.services.graphs import (
     refiner_for,
 )
 from app.store.publications import load_publication
-from app.store.traces import get_or_create_player, record_trace
+from app.store.traces import bot_player, record_trace
 
 #: sr-crowd must reach these fractions of baseline's figures at the last checkpoint
 #: (the paper: about 0.5 and 0.1; our bar, set before any liquid run: 0.5 and 0.2)
@@ -370,7 +370,7 @@ def checkpoint_figures(
             traces, publication.edge_dst, publication.start, fallback=model
         ),
     )
-    player_id, _ = get_or_create_player(session, BOT_PLAYER, "bot")
+    player_id = bot_player(session, BOT_PLAYER)
     key = f"{graph}.{index}"
     for number, trace in enumerate(traces):
         record_trace(

@@ -40,7 +40,7 @@ from app.store.graphs import (
     size_frames,
 )
 from app.store.publications import latest_publication, load_publication, publish
-from app.store.traces import get_or_create_player, load_traces, record_trace
+from app.store.traces import bot_player, load_traces, record_trace
 
 Progress = Callable[[int], None]
 
@@ -400,7 +400,7 @@ def play_graph(
     publication_id = latest_publication_id(session, row.id)
     publication = load_publication(session, publication_id)
     traces = play_sessions(publication, kind, sessions=sessions, mean_steps=mean_steps, seed=seed)
-    player_id, _ = get_or_create_player(session, f"bot-{kind.value}", "bot")
+    player_id = bot_player(session, f"bot-{kind.value}")
     run = uuid.uuid4().hex  # each play is new play data, as each browser session is
     for index, trace in enumerate(traces):
         key = f"local-{run}-{index}"

@@ -19,7 +19,7 @@ from sqlalchemy.orm import Session
 
 from app.core.publication import Publication
 from app.models import Player, Trace, TraceStep
-from app.store._sql import bulk_insert
+from app.store._sql import bulk_insert, insert_ignoring_duplicates
 from app.store.publications import load_publication
 
 PLAYER_KINDS = ("human", "bot")
@@ -55,6 +55,21 @@ def get_or_create_player(session: Session, name: str, kind: str) -> tuple[int, s
         player.token_hash = _token_hash(token)
     session.flush()
     return player.id, token
+
+
+def bot_player(session: Session, name: str) -> int:
+    """The id of the bot player ``name``, made if new; its token is never handed out.
+
+    Unlike :func:`get_or_create_player` nothing is rotated, and the insert ignores a
+    concurrent one of the same name: parallel experiment runs each record their bots'
+    traces under one player without racing on it or locking its row.
+    """
+    insert_ignoring_duplicates(
+        session,
+        Player,
+        [{"name": name, "kind": "bot", "token_hash": _token_hash(secrets.token_urlsafe(32))}],
+    )
+    return session.scalars(select(Player.id).where(Player.name == name)).one()
 
 
 def player_for_token(session: Session, token: str) -> int | None:

@@ -12,7 +12,7 @@ from app.core.graph import StateGraph
 from app.core.growth import expand_blend_edge
 from app.core.publication import freeze
 from app.core.toy import ToyDynamics
-from app.models import GrowthEpoch, PublicationEdge, Trace, TraceStep
+from app.models import GrowthEpoch, Player, PublicationEdge, Trace, TraceStep
 from app.store.artifacts import ArtifactStore
 from app.store.epochs import EpochStatus, finish_epoch, start_epoch
 from app.store.graphs import StaleGraph, create_graph, save_graph, set_animations
@@ -25,6 +25,7 @@ from app.store.publications import (
 from app.store.traces import (
     IdempotencyConflict,
     InvalidTrace,
+    bot_player,
     get_or_create_player,
     load_traces,
     player_for_token,
@@ -100,6 +101,15 @@ def test_player_tokens_are_hashed_and_rotated(session: Session) -> None:
     assert player_for_token(session, new_token) == player
     with pytest.raises(ValueError):
         get_or_create_player(session, "eve", "robot")
+
+
+def test_a_bot_player_is_made_once_and_keeps_its_token(session: Session) -> None:
+    bot = bot_player(session, "bot-x")
+    assert bot_player(session, "bot-x") == bot and count(session, Player) == 1
+    # a player that holds a token (through the API) keeps it when bots reuse its name
+    player, token = get_or_create_player(session, "ada", "bot")
+    assert bot_player(session, "ada") == player
+    assert player_for_token(session, token) == player
 
 
 def test_traces_round_trip_and_replays_write_nothing(
