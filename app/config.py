@@ -56,8 +56,16 @@ class Settings(BaseSettings):
         3, description="retries of a task that waits, and redeliveries of a lost one, at most"
     )
     beat_interval: float = Field(30.0, description="seconds between beat's growth ticks")
+    epoch_check_after: float = Field(
+        60.0,
+        ge=0,
+        description="seconds without progress after which workers and broker are asked "
+        "whether a running epoch's work is still alive (re-sent at once if not)",
+    )
     epoch_resend_after: float = Field(
-        1800.0, description="seconds without progress after which a running epoch is re-sent"
+        1800.0,
+        description="seconds without progress after which a running epoch is re-sent, "
+        "alive or not (the backstop)",
     )
     artifact_gc_interval: float = Field(
         24 * 3600.0, ge=0, description="seconds between beat's `srg gc` runs; 0: never"

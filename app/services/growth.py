@@ -192,19 +192,22 @@ def plan_epoch(
     *,
     count: int | None = None,
     strategy: Strategy | None = None,
+    work_lost: bool = False,
 ) -> EpochPlan | None:
     """Open the graph's next epoch, or re-send a stalled one; None if one is running.
 
-    An epoch whose last progress is older than ``settings.epoch_resend_after`` is
-    returned again (``resent=True``) for its missing work to be dispatched once more:
-    that is how work lost with a worker or with Redis is found. Two concurrent calls are
-    serialised by the graph's row lock, and the unique (graph, number) of epochs is the
-    backstop, so epochs of one graph never overlap.
+    A running epoch is returned again (``resent=True``) for its missing work to be
+    dispatched once more when it has made no progress for ``settings.epoch_check_after``
+    seconds and the caller found its work lost (``work_lost``: no worker or queue holds
+    any of it), or for ``settings.epoch_resend_after`` seconds whatever the caller
+    found. Two concurrent calls are serialised by the graph's row lock, and the unique
+    (graph, number) of epochs is the backstop, so epochs of one graph never overlap.
     """
     row = lock_graph(session, graph_id)
     running = running_epoch(session, graph_id)
     if running is not None:
-        if time.time() - (running.heartbeat or 0.0) < settings.epoch_resend_after:
+        quiet = time.time() - (running.heartbeat or 0.0)
+        if quiet < (settings.epoch_check_after if work_lost else settings.epoch_resend_after):
             return None
         running.heartbeat = time.time()
         session.flush()

@@ -10,8 +10,8 @@ flat (:func:`epoch_canvas`)::
 The integrating steps form a chain so that they run in the plan's order, the order the
 eager path integrates in (blend targets depend on it). Nothing relies on the chord to
 be safe: ``integrate`` re-checks completeness itself and is idempotent, and work lost
-on the way (a killed worker, a restarted Redis) is found and re-sent by the next
-``grow_epoch`` once the epoch has stalled for ``epoch_resend_after`` seconds.
+on the way (a killed worker, a restarted Redis) is found by the next ``grow_epoch``
+(:mod:`app.tasks.liveness`) and re-sent.
 """
 
 from __future__ import annotations
@@ -31,6 +31,7 @@ from app.db import transaction
 from app.services import growth
 from app.store.graphs import StaleGraph, get_graph_row, size_frames
 from app.tasks.celery_app import celery_app
+from app.tasks.liveness import epoch_work_alive
 
 log = get_task_logger(__name__)
 
@@ -141,9 +142,10 @@ def grow_epoch(
     """
     settings = get_settings()
     renders = settings.growth_renders if renders is None else renders
+    lost = _quiet_epoch_lost(graph_id, settings.epoch_check_after)
     try:
         with transaction() as session:
-            plan = growth.plan_epoch(session, settings, graph_id, count=count)
+            plan = growth.plan_epoch(session, settings, graph_id, count=count, work_lost=lost)
     except IntegrityError:  # another tick opened the same epoch number first
         return None
     if plan is None:
@@ -162,6 +164,23 @@ def grow_epoch(
             work = growth.epoch_work(session, plan.epoch_id)
         epoch_canvas(work, renders=renders).apply_async()
     return plan.epoch_id
+
+
+def _quiet_epoch_lost(graph_id: int, check_after: float) -> bool:
+    """Whether the graph's running epoch has been quiet a while and nothing holds its work.
+
+    Asked outside the planning transaction: the broadcast takes a second or more, and
+    the graph's row lock is not held meanwhile (plan_epoch checks the quiet time again).
+    """
+    with transaction() as session:
+        running = growth.running_epoch(session, graph_id)
+        if running is None or time.time() - (running.heartbeat or 0.0) < check_after:
+            return False
+        epoch_id = running.id
+    alive = epoch_work_alive(celery_app, epoch_id)
+    if not alive:
+        log.warning("graph %d epoch %d: no worker or queue holds its work", graph_id, epoch_id)
+    return not alive
 
 
 @celery_app.task(name="srg.schedule_growth")
@@ -211,7 +230,7 @@ def grow_on_workers(
 
     The same workflow beat drives, one epoch at a time and without renders: this only
     sends epochs and waits for them. An epoch that stalls (a lost worker or message) is
-    re-sent by ``grow_epoch`` itself once ``SRG_EPOCH_RESEND_AFTER`` has passed.
+    handed to ``grow_epoch`` again, which re-sends it once it finds the work lost.
     """
     settings = get_settings()
     with transaction() as session:
@@ -222,7 +241,7 @@ def grow_on_workers(
         epoch_id = grow_epoch.delay(graph_id, min(left, batch), False).get(
             timeout=settings.task_time_limit
         )
-        _wait_for_epochs(graph_id, settings.epoch_resend_after)
+        _wait_for_epochs(graph_id, settings.epoch_check_after)
         grown = _size_frames(graph_id)
         if progress is not None:
             progress(grown - size)
@@ -236,8 +255,8 @@ def _size_frames(graph_id: int) -> int:
         return size_frames(session, graph_id)
 
 
-def _wait_for_epochs(graph_id: int, resend_after: float) -> None:
-    """Until no epoch of the graph runs; a stalled one is handed to ``grow_epoch`` again."""
+def _wait_for_epochs(graph_id: int, check_after: float) -> None:
+    """Until no epoch of the graph runs; a quiet one is handed to ``grow_epoch`` again."""
     last_change = time.monotonic()
     seen: tuple[int, float | None] | None = None
     while True:
@@ -248,7 +267,7 @@ def _wait_for_epochs(graph_id: int, resend_after: float) -> None:
             return
         if state != seen:
             seen, last_change = state, time.monotonic()
-        elif time.monotonic() - last_change > resend_after:
+        elif time.monotonic() - last_change > check_after:
             grow_epoch.delay(graph_id, None, False)
             last_change = time.monotonic()
         time.sleep(EPOCH_POLL)

@@ -7,6 +7,7 @@ from collections.abc import Callable
 from pathlib import Path
 
 import pytest
+from celery import Celery
 from sqlalchemy import select
 from tasks_cluster import Cluster, RedisServer, wait_for
 from tasks_helpers import (
@@ -19,10 +20,12 @@ from tasks_helpers import (
     snapshot,
 )
 
+from app.core.toy import ToyDynamics
 from app.models import GrowthEpoch
 
 pytestmark = [pytest.mark.slow, pytest.mark.postgres, pytest.mark.redis]
 EPOCHS = 3
+N_CONTROLS = ToyDynamics().n_controls
 
 
 def _final(cluster: Cluster, graph_id: int) -> dict[str, list[object]]:
@@ -46,31 +49,72 @@ def test_workers_grow_the_same_graph_as_the_eager_run(
     assert final == eager_reference(tmp_path, EPOCHS)
 
 
+def _tick_until_finished(cluster: Cluster, app: Celery, graph_id: int, timeout: float) -> None:
+    """Beat's ticks, every second, until the graph's first epoch has finished."""
+    deadline = time.monotonic() + timeout
+    while finished_epochs(cluster, graph_id) < 1 and time.monotonic() < deadline:
+        app.send_task("srg.grow_epoch", args=[graph_id])
+        time.sleep(1)
+    assert finished_epochs(cluster, graph_id) == 1, cluster.log_text()
+
+
+def _wait_until_simulating(cluster: Cluster, worker: str) -> None:
+    def simulating() -> bool:
+        return "srg.simulate" in (cluster.logs / f"{worker}.log").read_text(errors="replace")
+
+    wait_for(simulating, 30, "a simulate task to start")
+    time.sleep(0.3)
+
+
+# SRG_EPOCH_RESEND_AFTER stays at its default (30 minutes) in these tests: what re-sends
+# the lost work within seconds is the check of workers and queue (app.tasks.liveness)
 def test_worker_killed_mid_simulate_loses_no_expansion(
     cluster_env: Callable[..., Cluster], tmp_path: Path
 ) -> None:
     # test_simulate_delay is the test-only setting that keeps `simulate` busy long enough
-    cluster = cluster_env(batch_size=2, test_simulate_delay=0.5, epoch_resend_after=3)
+    cluster = cluster_env(batch_size=2, test_simulate_delay=0.5, epoch_check_after=3)
     graph_id = seed_graph(cluster.settings)
     doomed = cluster.start_worker("doomed")
     app = client(cluster)
     app.send_task("srg.grow_epoch", args=[graph_id])
-
-    def simulating() -> bool:
-        return "srg.simulate" in (cluster.logs / "doomed.log").read_text(errors="replace")
-
-    wait_for(simulating, 30, "a simulate task to start")
-    time.sleep(0.3)
+    _wait_until_simulating(cluster, "doomed")
     cluster.kill(doomed)  # SIGKILL to the worker and its pool: mid-simulate
     cluster.start_worker("survivor")
-    # beat's next ticks: the stalled epoch is re-sent once it has made no progress for 3 s
-    deadline = time.monotonic() + 90
-    while finished_epochs(cluster, graph_id) < 1 and time.monotonic() < deadline:
-        app.send_task("srg.grow_epoch", args=[graph_id])
-        time.sleep(2)
-    assert finished_epochs(cluster, graph_id) == 1, cluster.log_text()
+    _tick_until_finished(cluster, app, graph_id, timeout=90)
     run_epoch(cluster, app, graph_id, timeout=90)
     assert _final(cluster, graph_id) == eager_reference(tmp_path, 2, batch=2)
+
+
+def test_redis_restarted_mid_epoch_loses_no_expansion(
+    cluster_env: Callable[..., Cluster], redis_server: RedisServer, tmp_path: Path
+) -> None:
+    cluster = cluster_env(batch_size=2, test_simulate_delay=0.5, epoch_check_after=3)
+    graph_id = seed_graph(cluster.settings)
+    cluster.start_worker("w1")
+    app = client(cluster)
+    app.send_task("srg.grow_epoch", args=[graph_id])
+    _wait_until_simulating(cluster, "w1")
+    redis_server.stop()
+    redis_server.start()  # same port, empty: the queued clips and the chord are gone
+    app = client(cluster)
+    _tick_until_finished(cluster, app, graph_id, timeout=90)
+    assert _final(cluster, graph_id) == eager_reference(tmp_path, 1, batch=2)
+
+
+def test_a_slow_epoch_whose_work_is_queued_or_running_is_not_resent(
+    cluster_env: Callable[..., Cluster], tmp_path: Path
+) -> None:
+    # each clip takes 2 s, one at a time: the epoch is quiet for longer than the check
+    cluster = cluster_env(batch_size=1, test_simulate_delay=2.0, epoch_check_after=1)
+    graph_id = seed_graph(cluster.settings)
+    cluster.start_worker("w1")
+    app = client(cluster)
+    _tick_until_finished(cluster, app, graph_id, timeout=60)
+    log = (cluster.logs / "w1.log").read_text(errors="replace")
+    assert "no worker or queue holds its work" not in log
+    simulated = log.count("Task srg.simulate[")  # "received" and "succeeded" of each clip
+    assert simulated == 2 * N_CONTROLS, log
+    assert _final(cluster, graph_id) == eager_reference(tmp_path, 1, batch=1)
 
 
 def test_redis_restarted_between_epochs(
