@@ -16,9 +16,7 @@ handler would poll with sleeps of up to 100 ms.
 
 from __future__ import annotations
 
-import random
 import threading
-import time
 from collections.abc import Callable
 from contextlib import nullcontext
 from typing import TypeVar
@@ -26,6 +24,12 @@ from typing import TypeVar
 from sqlalchemy import text
 from sqlalchemy.exc import OperationalError
 from sqlalchemy.orm import Session
+from tenacity import (
+    Retrying,
+    retry_if_exception,
+    stop_after_attempt,
+    wait_random_exponential,
+)
 
 T = TypeVar("T")
 ATTEMPTS = 8
@@ -35,10 +39,15 @@ TAKE_SQLITE_WRITE_LOCK = text("UPDATE players SET id = id WHERE 0 = 1")
 _sqlite_writer = threading.Lock()
 
 
+def _locked(exc: BaseException) -> bool:
+    return isinstance(exc, OperationalError) and "database is locked" in str(exc.orig)
+
+
 def in_transaction(session: Session, work: Callable[[], T]) -> T:
     """``work()`` then commit; on SQLite's lock error roll back and run it again."""
     sqlite = session.get_bind().dialect.name == "sqlite"
-    for attempt in range(1, ATTEMPTS + 1):
+
+    def attempt() -> T:
         try:
             with _sqlite_writer if sqlite else nullcontext():
                 if sqlite:
@@ -46,9 +55,14 @@ def in_transaction(session: Session, work: Callable[[], T]) -> T:
                 result = work()
                 session.commit()
             return result
-        except OperationalError as exc:
-            if attempt == ATTEMPTS or "database is locked" not in str(exc.orig):
-                raise
+        except OperationalError:
             session.rollback()
-            time.sleep(FIRST_BACKOFF_S * 2**attempt * random.random())
-    raise AssertionError("unreachable: the last attempt returns or raises")
+            raise
+
+    retrying = Retrying(
+        stop=stop_after_attempt(ATTEMPTS),
+        wait=wait_random_exponential(multiplier=FIRST_BACKOFF_S, max=1.0),
+        retry=retry_if_exception(_locked),
+        reraise=True,
+    )
+    return retrying(attempt)

@@ -34,6 +34,7 @@ from typing import Any
 import numpy as np
 from sqlalchemy import text
 from sqlalchemy.engine import make_url
+from tenacity import Retrying, retry_if_exception_type, stop_after_delay, wait_fixed
 
 from app.config import Settings
 from app.core.clipbank import MemoryClipBank
@@ -91,12 +92,12 @@ def _redis(directory: Path) -> Iterator[str]:
         stdout=subprocess.DEVNULL,
     )
     try:
-        for _ in range(50):
-            try:
-                redis.Redis(port=port).ping()
-                break
-            except redis.RedisError:
-                time.sleep(0.1)
+        Retrying(
+            stop=stop_after_delay(5),
+            wait=wait_fixed(0.1),
+            retry=retry_if_exception_type(redis.RedisError),
+            reraise=True,
+        )(redis.Redis(port=port).ping)
         yield f"redis://127.0.0.1:{port}/0"
     finally:
         process.terminate()

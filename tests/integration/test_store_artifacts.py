@@ -57,3 +57,8 @@ def test_missing_artifact_is_a_named_error(artifacts: ArtifactStore) -> None:
         artifacts.get_bytes("0" * 64)
     with pytest.raises(ArtifactNotFound):
         artifacts.get_arrays("0" * 64)
+
+
+def test_object_arrays_are_refused(artifacts: ArtifactStore, session: Session) -> None:
+    with pytest.raises(ValueError, match="pickle"):
+        artifacts.put_arrays({"rows": np.array([{"a": 1}], dtype=object)}, session=session)
