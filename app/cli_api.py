@@ -24,7 +24,9 @@ def serve(
 
     from app.api.app import create_app
 
-    uvicorn.run(create_app(), host=host, port=port)
+    # proxy_headers off: the app alone decides whose X-Forwarded-For to trust
+    # (SRG_TRUSTED_PROXIES); uvicorn would otherwise trust any from loopback
+    uvicorn.run(create_app(), host=host, port=port, proxy_headers=False)
 
 
 def analytics(

@@ -93,6 +93,30 @@ class Settings(BaseSettings):
         2_000, ge=1, description="steps per uploaded trace (the web client sends <= 1,800)"
     )
     uploads_per_minute: int = 60
+    max_body_bytes: int = Field(
+        16_384, ge=1, description="bodies of every request but trace uploads (413 beyond)"
+    )
+    address_upload_rate: str = Field(
+        "600/minute",
+        description="trace uploads per client address, in the `limits` notation "
+        "('600/minute', '10/second;600/minute'); IPv6 addresses count per /64",
+    )
+    registration_rate: str = Field(
+        "10/minute;100/day", description="player registrations per client address (`limits`)"
+    )
+    rate_limit_storage: str = Field(
+        "",
+        description="`limits` storage URI of the rate limits (redis://..., memory://); "
+        "'': the Redis of redis_url (or of the broker) when there is one, else memory://",
+    )
+    trusted_proxies: str = Field(
+        "",
+        description="comma-separated addresses or networks of the reverse proxies whose "
+        "X-Forwarded-For is honoured; '': none, the peer address is the client's",
+    )
+    cors_origins: str = Field(
+        "", description="comma-separated origins allowed by CORS ('*': any); '': CORS off"
+    )
 
     @property
     def admin_routes_on(self) -> bool:

@@ -1,4 +1,10 @@
-"""The FastAPI application factory: API routes under ``/api``, the web client at ``/``."""
+"""The FastAPI application factory: API routes under ``/api``, the web client at ``/``.
+
+Around the routes: every body bounded (:mod:`app.api.bodylimit`), CORS for third-party
+clients when ``cors_origins`` is set (off by default: the web client is same-origin),
+and a last ``/api`` route answering 404 or 405 with ``Allow`` (:func:`~app.api.errors.no_route`)
+so no API request falls through to the static files.
+"""
 
 from __future__ import annotations
 
@@ -7,15 +13,19 @@ from collections.abc import AsyncIterator
 from contextlib import asynccontextmanager
 from importlib.resources import files
 from pathlib import Path
+from typing import Any
 
 from fastapi import FastAPI
+from fastapi.middleware.cors import CORSMiddleware
 from fastapi.staticfiles import StaticFiles
 
+from app.api.bodylimit import BodyLimit
 from app.api.cache import FrozenCache
-from app.api.errors import install_error_handlers
+from app.api.encoding import EncodedJson
+from app.api.errors import ANY_METHOD, install_error_handlers, no_route
 from app.api.growth_jobs import GrowthJobs
-from app.api.ratelimit import TokenBucketLimiter
-from app.api.routes import admin, animations, graphs, players, traces
+from app.api.ratelimit import RateLimits
+from app.api.routes import admin, animations, graphs, health, players, traces
 from app.config import Settings, get_settings
 from app.core.publication import Publication
 from app.db import make_engine, session_factory
@@ -28,6 +38,10 @@ PUBLICATIONS_CACHED = 32
 PUBLICATION_JSON_CACHED = 8
 #: sync routes run on anyio's thread pool (40 threads): one connection each, none waits
 POOL_SIZE, POOL_OVERFLOW = 10, 30
+#: what third-party clients may send and read across origins
+CORS_METHODS = ["GET", "HEAD", "POST"]
+CORS_REQUEST_HEADERS = ["Authorization", "Content-Type", "If-None-Match"]
+CORS_EXPOSED_HEADERS = ["ETag", "Retry-After"]
 
 
 def create_app(settings: Settings | None = None) -> FastAPI:
@@ -48,12 +62,46 @@ def create_app(settings: Settings | None = None) -> FastAPI:
     app.state.settings = settings
     app.state.session_factory = session_factory(engine)
     app.state.artifacts = ArtifactStore(settings.resolved_artifact_dir)
-    app.state.limiter = TokenBucketLimiter(settings.uploads_per_minute)
+    app.state.rate_limits = RateLimits(settings)
     app.state.publications = FrozenCache[Publication](PUBLICATIONS_CACHED)
-    app.state.publication_json = FrozenCache[bytes](PUBLICATION_JSON_CACHED)
+    app.state.publication_json = FrozenCache[EncodedJson](PUBLICATION_JSON_CACHED)
     app.state.growth_jobs = GrowthJobs()
     install_error_handlers(app)
-    for module in (graphs, animations, players, traces, admin):
+    for module in (graphs, animations, players, traces, admin, health):
         app.include_router(module.router)
+    app.add_route("/api/{path:path}", no_route, methods=ANY_METHOD, include_in_schema=False)
     app.mount("/", StaticFiles(directory=STATIC_DIR, html=True), name="client")
+    app.add_middleware(
+        BodyLimit,
+        default=settings.max_body_bytes,
+        per_path={traces.router.prefix: settings.max_trace_bytes},
+    )
+    origins = [origin.strip() for origin in settings.cors_origins.split(",") if origin.strip()]
+    if origins:  # added last: outermost, so refusals (413, 429) carry CORS headers too
+        app.add_middleware(
+            CORSMiddleware,
+            allow_origins=origins,
+            allow_methods=CORS_METHODS,
+            allow_headers=CORS_REQUEST_HEADERS,
+            expose_headers=CORS_EXPOSED_HEADERS,
+            max_age=600,
+        )
+    app.openapi = lambda: _declared_errors_only(app)  # type: ignore[method-assign]
     return app
+
+
+def _declared_errors_only(app: FastAPI) -> dict[str, Any]:
+    """The OpenAPI document minus FastAPI's default 422 (``HTTPValidationError``, a body
+    the API never sends): where a route can answer 422 it declares the ``ErrorBody`` one."""
+    if app.openapi_schema is None:
+        document = FastAPI.openapi(app)
+        default = {"$ref": "#/components/schemas/HTTPValidationError"}
+        for operations in document["paths"].values():
+            for operation in operations.values():
+                declared = operation["responses"].get("422", {})
+                if declared.get("content", {}).get("application/json", {}).get("schema") == default:
+                    del operation["responses"]["422"]
+        for name in ("HTTPValidationError", "ValidationError"):
+            document.get("components", {}).get("schemas", {}).pop(name, None)
+        app.openapi_schema = document
+    return app.openapi_schema

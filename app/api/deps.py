@@ -1,5 +1,9 @@
-"""Request dependencies: the database session, settings, bearer tokens, the trace body,
+"""Request dependencies: the database session, settings, bearer tokens, the raw body,
 the unit of work of background growth.
+
+The two bearer tokens (a player's, the admin's) are declared as the OpenAPI security
+schemes ``playerToken`` and ``adminToken``; their absence is answered here, in the API's
+error shape (401 with ``WWW-Authenticate: Bearer``), not by FastAPI's own.
 
 Routes own their transaction (STYLE habit 7): they call ``session.commit()`` once; any
 exception rolls the session back here, so a rejected request writes nothing.
@@ -10,7 +14,8 @@ from __future__ import annotations
 import secrets
 from collections.abc import Iterator
 
-from fastapi import Depends, Request
+from fastapi import Depends, Request, Security
+from fastapi.security import HTTPAuthorizationCredentials, HTTPBearer
 from sqlalchemy.orm import Session
 
 from app.api.errors import ApiError
@@ -20,6 +25,16 @@ from app.store.traces import player_for_token
 
 BEARER_CHALLENGE = {"WWW-Authenticate": "Bearer"}
 ADMIN_ROUTES_OFF = "admin routes are off: set SRG_ADMIN_TOKEN"
+PLAYER_TOKEN = HTTPBearer(
+    scheme_name="playerToken",
+    description="the token of POST /api/players",
+    auto_error=False,
+)
+ADMIN_TOKEN = HTTPBearer(
+    scheme_name="adminToken",
+    description="the server's SRG_ADMIN_TOKEN (admin routes answer 403 while it is unset)",
+    auto_error=False,
+)
 
 
 def get_settings(request: Request) -> Settings:
@@ -38,20 +53,22 @@ def get_session(request: Request) -> Iterator[Session]:
         session.close()
 
 
-def bearer_token(request: Request) -> str:
+def bearer_token(credentials: HTTPAuthorizationCredentials | None) -> str:
     """The token of ``Authorization: Bearer <token>``; 401 when absent or malformed."""
-    scheme, _, token = request.headers.get("authorization", "").partition(" ")
-    if scheme.lower() != "bearer" or not token.strip():
+    token = credentials.credentials.strip() if credentials is not None else ""
+    if not token:
         raise ApiError(
             401, "missing bearer token (Authorization: Bearer <token>)", headers=BEARER_CHALLENGE
         )
-    return token.strip()
+    return token
 
 
 def current_player(
-    token: str = Depends(bearer_token), session: Session = Depends(get_session)
+    credentials: HTTPAuthorizationCredentials | None = Security(PLAYER_TOKEN),
+    session: Session = Depends(get_session),
 ) -> int:
     """The id of the player holding the token; 403 for a token no player holds."""
+    token = bearer_token(credentials)
     player_id = player_for_token(session, token)
     # End the read transaction: its connection goes back to the pool instead of being
     # held while the request waits for a worker thread to run the route itself.
@@ -61,7 +78,10 @@ def current_player(
     return player_id
 
 
-def require_admin(request: Request, settings: Settings = Depends(get_settings)) -> None:
+def require_admin(
+    credentials: HTTPAuthorizationCredentials | None = Security(ADMIN_TOKEN),
+    settings: Settings = Depends(get_settings),
+) -> None:
     """``Authorization: Bearer <admin_token>``, compared in constant time.
 
     With no token configured the admin routes are off: 403 for every request, whatever
@@ -69,7 +89,7 @@ def require_admin(request: Request, settings: Settings = Depends(get_settings)) 
     """
     if not settings.admin_routes_on:
         raise ApiError(403, ADMIN_ROUTES_OFF)
-    token = bearer_token(request)
+    token = bearer_token(credentials)
     if not secrets.compare_digest(token.encode(), settings.admin_token.encode()):
         raise ApiError(403, "admin token required")
 
@@ -81,22 +101,6 @@ def growth_scope(request: Request) -> Scope:
     return lambda: transaction(factory)
 
 
-async def limited_body(request: Request) -> bytes:
-    """The raw request body, refused with 413 as soon as it exceeds ``max_trace_bytes``.
-
-    A declared ``Content-Length`` over the limit is refused before reading anything; a
-    body without one (chunked) is counted while it streams in and never parsed.
-    """
-    limit: int = request.app.state.settings.max_trace_bytes
-    declared = request.headers.get("content-length")
-    too_large = ApiError(413, f"body larger than {limit} bytes", max_bytes=limit)
-    if declared is not None and declared.isdigit() and int(declared) > limit:
-        raise too_large
-    chunks: list[bytes] = []
-    size = 0
-    async for chunk in request.stream():
-        size += len(chunk)
-        if size > limit:
-            raise too_large
-        chunks.append(chunk)
-    return b"".join(chunks)
+async def raw_body(request: Request) -> bytes:
+    """The raw request body, bounded by :class:`~app.api.bodylimit.BodyLimit` as it streams."""
+    return await request.body()

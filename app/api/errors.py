@@ -1,9 +1,14 @@
-"""Every error the API returns is a JSON object ``{"error": "...", ...}``.
+"""Every error the API returns is a JSON object ``{"error": "...", "details": ...}``.
 
 Routes raise :class:`ApiError`; the handlers installed by :func:`install_error_handlers`
-turn it, FastAPI's request validation errors, Starlette's own HTTP errors (unknown route,
-wrong method) and the store's not-found errors (404) into that one shape, so a client
-needs one code path for failures.
+turn it, FastAPI's request validation errors, Starlette's own HTTP errors and the
+store's not-found errors (404) into that one shape (:class:`~app.api.schemas.ErrorBody`),
+so a client needs one code path for failures. :func:`error_responses` declares the same
+shape in the OpenAPI document for each status a route can answer.
+
+Under ``/api`` a path no route serves is a 404, and a method no route of that path takes
+is a 405 whose ``Allow`` lists every method the path's routes take (:func:`no_route`):
+such requests never fall through to the web client's static files.
 """
 
 from __future__ import annotations
@@ -17,8 +22,10 @@ from fastapi.exceptions import RequestValidationError
 from fastapi.responses import JSONResponse
 from pydantic import ValidationError
 from starlette.exceptions import HTTPException as StarletteHTTPException
+from starlette.routing import Match, Mount, Route
 
 from app.api.queries import NoPublication
+from app.api.schemas import ErrorBody
 from app.store.graphs import GraphNotFound
 from app.store.publications import PublicationNotFound
 
@@ -26,10 +33,34 @@ log = logging.getLogger(__name__)
 
 #: store lookups that fail because the client named something that does not exist
 NOT_FOUND = (GraphNotFound, PublicationNotFound, NoPublication)
+#: the methods a path is tried with to list its ``Allow``
+ANY_METHOD = ["GET", "HEAD", "POST", "PUT", "PATCH", "DELETE", "OPTIONS", "TRACE", "CONNECT"]
+
+#: what each status means, as the OpenAPI document says it
+ERROR_DESCRIPTIONS = {
+    400: "a body that cannot be read as JSON text (not UTF-8)",
+    401: "no bearer token (Authorization: Bearer <token>)",
+    403: "a token that is not accepted here",
+    404: "no such graph, publication or animation",
+    409: "conflicts with the current state",
+    413: "body or trace too large",
+    422: "invalid request",
+    429: "over a rate limit: retry after Retry-After seconds",
+    503: "a service the API needs is unreachable",
+}
+_HEADER_OF = {
+    401: {"WWW-Authenticate": {"description": "Bearer", "schema": {"type": "string"}}},
+    429: {
+        "Retry-After": {
+            "description": "whole seconds to wait",
+            "schema": {"type": "string", "pattern": "^[0-9]+$"},
+        }
+    },
+}
 
 
 class ApiError(Exception):
-    """An error with an HTTP status, a message, extra JSON fields and response headers."""
+    """An error with an HTTP status, a message, JSON details and response headers."""
 
     def __init__(
         self,
@@ -37,19 +68,34 @@ class ApiError(Exception):
         message: str,
         *,
         headers: Mapping[str, str] | None = None,
-        **fields: Any,
+        details: Any = None,
     ) -> None:
         super().__init__(message)
         self.status = status
         self.message = message
         self.headers = dict(headers or {})
-        self.fields = fields
+        self.details = details
 
 
 def error_response(
-    status: int, message: str, headers: Mapping[str, str] | None = None, **fields: Any
+    status: int, message: str, headers: Mapping[str, str] | None = None, details: Any = None
 ) -> JSONResponse:
-    return JSONResponse({"error": message, **fields}, status_code=status, headers=headers)
+    return JSONResponse({"error": message, "details": details}, status_code=status, headers=headers)
+
+
+def error_responses(*statuses: int, **descriptions: str) -> dict[int | str, dict[str, Any]]:
+    """OpenAPI ``responses`` declaring ``ErrorBody`` for each status.
+
+    ``descriptions`` overrides the generic one, keyed ``s409`` for status 409.
+    """
+    return {
+        status: {
+            "model": ErrorBody,
+            "description": descriptions.get(f"s{status}", ERROR_DESCRIPTIONS[status]),
+            **({"headers": _HEADER_OF[status]} if status in _HEADER_OF else {}),
+        }
+        for status in statuses
+    }
 
 
 def validation_details(exc: ValidationError | RequestValidationError) -> list[dict[str, Any]]:
@@ -60,10 +106,38 @@ def validation_details(exc: ValidationError | RequestValidationError) -> list[di
     ]
 
 
+def allowed_methods(request: Request) -> list[str]:
+    """Every method some route of the request's path takes (the last route and the
+    static files aside): each is tried against the app's routes, as the router would."""
+    routes = [
+        route
+        for route in request.app.router.routes
+        if not isinstance(route, Mount)
+        and not (isinstance(route, Route) and route.endpoint is no_route)
+    ]
+    return [
+        method
+        for method in ANY_METHOD
+        if any(
+            route.matches({**request.scope, "method": method})[0] is Match.FULL for route in routes
+        )
+    ]
+
+
+async def no_route(request: Request) -> JSONResponse:
+    """The last ``/api`` route: 405 with the path's methods in ``Allow``, else 404."""
+    path = request.scope["path"]
+    allowed = allowed_methods(request)
+    if allowed:
+        message = f"{request.method} is not allowed on {path}"
+        return error_response(405, message, {"Allow": ", ".join(allowed)})
+    return error_response(404, f"no route {path}")
+
+
 def install_error_handlers(app: FastAPI) -> None:
     async def api_error(_: Request, exc: Exception) -> JSONResponse:
         assert isinstance(exc, ApiError)
-        return error_response(exc.status, exc.message, exc.headers, **exc.fields)
+        return error_response(exc.status, exc.message, exc.headers, exc.details)
 
     async def invalid_request(_: Request, exc: Exception) -> JSONResponse:
         assert isinstance(exc, RequestValidationError)
@@ -71,7 +145,8 @@ def install_error_handlers(app: FastAPI) -> None:
 
     async def http_error(_: Request, exc: Exception) -> JSONResponse:
         assert isinstance(exc, StarletteHTTPException)
-        return error_response(exc.status_code, str(exc.detail), exc.headers)
+        details = getattr(exc, "details", None)
+        return error_response(exc.status_code, str(exc.detail), exc.headers, details)
 
     async def not_found(_: Request, exc: Exception) -> JSONResponse:
         return error_response(404, str(exc.args[0]) if exc.args else "not found")

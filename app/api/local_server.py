@@ -24,7 +24,9 @@ def serve_in_thread(app: FastAPI, *, startup_timeout: float = 15.0) -> Iterator[
     sock = socket.socket(socket.AF_INET, socket.SOCK_STREAM)
     sock.bind((LOOPBACK, 0))
     port = sock.getsockname()[1]
-    server = uvicorn.Server(uvicorn.Config(app, log_level="warning", access_log=False))
+    # proxy_headers off: the app alone decides whom to trust (SRG_TRUSTED_PROXIES)
+    config = uvicorn.Config(app, log_level="warning", access_log=False, proxy_headers=False)
+    server = uvicorn.Server(config)
     thread = threading.Thread(target=server.run, kwargs={"sockets": [sock]}, daemon=True)
     thread.start()
     try:

@@ -1,66 +1,188 @@
-"""Per-player upload rate limit: an in-process token bucket.
+"""Rate limits per player and per client address, with the ``limits`` library.
 
-Each player's bucket holds up to ``per_minute`` tokens and refills continuously at
-``per_minute / 60`` tokens a second; an upload takes one token. In-process means the
-limit holds per server process: behind several workers a player gets that many
-uploads a minute from each (documented in docs/play.md); a shared limit would live in
-Redis. Full buckets carry no information, so they are dropped when the table grows.
+Three limits, each a moving window (``limits``' exact strategy): trace uploads per player
+(``uploads_per_minute``), trace uploads per client address (``address_upload_rate``) and
+player registrations per client address (``registration_rate``), so that registering
+fresh players neither bypasses the upload limit nor grows the players table without
+bound. The windows live in Redis when one is configured (``rate_limit_storage``, else
+``redis_url`` or a Redis broker), so every server process shares them; else in memory,
+per process. Should that Redis fail, each process falls back to its own in-memory
+windows until it answers again: the limits then hold per process, never not at all.
+
+The client address is the peer's, unless the peer is one of ``trusted_proxies``: then
+``X-Forwarded-For`` is read from the right, and the right-most address that is not a
+trusted proxy is the client (addresses to its left are whatever the client sent).
+IPv6 clients are counted per /64, the block one subscriber usually holds.
 """
 
 from __future__ import annotations
 
+import ipaddress
+import logging
 import math
-import threading
 import time
-from collections.abc import Callable
-from dataclasses import dataclass
+from collections.abc import Sequence
+from typing import Literal
 
-#: prune full buckets once this many players are tracked
-PRUNE_AT = 10_000
+from fastapi import Depends, Request
+from limits import RateLimitItem, RateLimitItemPerMinute, parse_many
+from limits.errors import StorageError
+from limits.storage import MemoryStorage, MovingWindowSupport, Storage, storage_from_string
+from limits.strategies import MovingWindowRateLimiter
+
+from app.api.deps import current_player
+from app.api.errors import ApiError
+from app.config import Settings
+
+log = logging.getLogger(__name__)
+
+Network = ipaddress.IPv4Network | ipaddress.IPv6Network
+#: seconds a request waits at most for the shared storage before it counts as down
+STORAGE_TIMEOUT_S = 1.0
+IPV6_CLIENT_PREFIX = 64
 
 
-@dataclass
-class _Bucket:
-    tokens: float
-    stamp: float
+class RateLimits:
+    """The API's rate limits and the storage of their windows."""
 
-
-class TokenBucketLimiter:
-    def __init__(self, per_minute: int, *, clock: Callable[[], float] = time.monotonic) -> None:
-        if per_minute < 1:
-            raise ValueError(f"per_minute must be at least 1, got {per_minute}")
-        self.capacity = float(per_minute)
-        self.rate = per_minute / 60.0
-        self._clock = clock
-        self._buckets: dict[int, _Bucket] = {}
-        self._lock = threading.Lock()
-
-    def acquire(self, key: int) -> float:
-        """Take a token for ``key``; return 0 on success, else the seconds until one is due."""
-        with self._lock:
-            now = self._clock()
-            bucket = self._buckets.get(key)
-            if bucket is None:
-                if len(self._buckets) >= PRUNE_AT:
-                    self._prune(now)
-                bucket = self._buckets[key] = _Bucket(self.capacity, now)
-            bucket.tokens = min(self.capacity, bucket.tokens + (now - bucket.stamp) * self.rate)
-            bucket.stamp = now
-            if bucket.tokens >= 1.0:
-                bucket.tokens -= 1.0
-                return 0.0
-            return (1.0 - bucket.tokens) / self.rate
-
-    def _prune(self, now: float) -> None:
-        full = [
-            key
-            for key, b in self._buckets.items()
-            if b.tokens + (now - b.stamp) * self.rate >= self.capacity
+    def __init__(self, settings: Settings) -> None:
+        self.player_uploads: list[RateLimitItem] = [
+            RateLimitItemPerMinute(settings.uploads_per_minute)
         ]
-        for key in full:
-            del self._buckets[key]
+        self.address_uploads = parse_many(settings.address_upload_rate)
+        self.registrations = parse_many(settings.registration_rate)
+        self.trusted_proxies = parse_networks(settings.trusted_proxies)
+        uri = settings.rate_limit_storage or settings.resolved_redis_url or "memory://"
+        self.storage = _storage(uri)
+        self.shared = not isinstance(self.storage, MemoryStorage)
+        self._limiter = MovingWindowRateLimiter(self.storage)
+        self._fallback = MovingWindowRateLimiter(MemoryStorage())
+        self._storage_down = False
+
+    def wait(self, items: Sequence[RateLimitItem], *identifiers: str) -> float:
+        """Take one hit of each limit; 0 if all allow it, else the seconds until one does."""
+        for item in items:
+            # After a failure the shared storage is tried again on each request: recovering
+            # costs what failing does (a refused connection, or STORAGE_TIMEOUT_S at worst).
+            try:
+                allowed = self._limiter.hit(item, *identifiers)
+                reset = 0.0 if allowed else self._window_reset(self._limiter, item, identifiers)
+            except StorageError as exc:
+                self._went_down(exc)
+                allowed = self._fallback.hit(item, *identifiers)
+                reset = 0.0 if allowed else self._window_reset(self._fallback, item, identifiers)
+            if not allowed:
+                return max(reset - time.time(), 0.001)
+        return 0.0
+
+    def storage_state(self) -> Literal["shared", "per-process"]:
+        """Where the windows are now: ``shared`` only while the shared storage answers."""
+        if self.shared and self.storage.check():
+            self._storage_down = False
+            return "shared"
+        return "per-process"
+
+    @staticmethod
+    def _window_reset(
+        limiter: MovingWindowRateLimiter, item: RateLimitItem, identifiers: tuple[str, ...]
+    ) -> float:
+        """When the oldest hit of the full window leaves it (epoch seconds)."""
+        return limiter.get_window_stats(item, *identifiers).reset_time
+
+    def _went_down(self, exc: StorageError) -> None:
+        if not self._storage_down:
+            log.warning(
+                "rate limit storage unreachable, limits hold per process: %s", exc.storage_error
+            )
+        self._storage_down = True
+
+
+def _storage(uri: str) -> Storage:
+    options: dict[str, float | str | bool] = {"wrap_exceptions": True}
+    if uri.startswith(("redis://", "rediss://", "redis+unix://")):
+        options |= {
+            "socket_timeout": STORAGE_TIMEOUT_S,
+            "socket_connect_timeout": STORAGE_TIMEOUT_S,
+        }
+    storage = storage_from_string(uri, **options)
+    if not isinstance(storage, Storage) or not isinstance(storage, MovingWindowSupport):
+        raise ValueError(f"rate limit storage {uri!r} has no moving windows")
+    return storage
+
+
+def parse_networks(spec: str) -> tuple[Network, ...]:
+    """``"10.0.0.0/8, 127.0.0.1"`` as networks; a bad entry is a ValueError at startup."""
+    return tuple(
+        ipaddress.ip_network(part.strip(), strict=False) for part in spec.split(",") if part.strip()
+    )
+
+
+def client_address(request: Request, trusted_proxies: Sequence[Network]) -> str:
+    """The client's address: the peer's, or what trusted proxies say in X-Forwarded-For."""
+    peer = request.client.host if request.client else ""
+    if not _is_trusted(peer, trusted_proxies):
+        return peer
+    forwarded = [
+        hop.strip()
+        for header in request.headers.getlist("x-forwarded-for")
+        for hop in header.split(",")
+        if hop.strip()
+    ]
+    for hop in reversed(forwarded):
+        if not _is_trusted(hop, trusted_proxies):
+            return hop
+    return forwarded[0] if forwarded else peer
+
+
+def address_key(address: str) -> str:
+    """The key an address is counted under: itself, or its /64 for IPv6."""
+    try:
+        parsed = ipaddress.ip_address(address)
+    except ValueError:
+        return address
+    if isinstance(parsed, ipaddress.IPv6Address):
+        if parsed.ipv4_mapped is not None:
+            return str(parsed.ipv4_mapped)
+        return str(ipaddress.ip_network(f"{parsed}/{IPV6_CLIENT_PREFIX}", strict=False))
+    return str(parsed)
+
+
+def _is_trusted(address: str, trusted_proxies: Sequence[Network]) -> bool:
+    try:
+        parsed = ipaddress.ip_address(address)
+    except ValueError:
+        return False
+    return any(parsed in network for network in trusted_proxies)
 
 
 def retry_after_header(wait_seconds: float) -> str:
     """``Retry-After`` takes whole seconds; round up so a client that waits succeeds."""
     return str(max(1, math.ceil(wait_seconds)))
+
+
+def _refuse_if_waiting(wait: float, what: str) -> None:
+    if wait > 0:
+        raise ApiError(
+            429,
+            f"too many {what}; retry later",
+            headers={"Retry-After": retry_after_header(wait)},
+            details={"retry_after_seconds": round(wait, 3)},
+        )
+
+
+def limited_registration(request: Request) -> None:
+    """A registration within the client address's rate; 429 beyond."""
+    limits: RateLimits = request.app.state.rate_limits
+    address = address_key(client_address(request, limits.trusted_proxies))
+    _refuse_if_waiting(limits.wait(limits.registrations, "registrations", address), "registrations")
+
+
+def limited_uploader(request: Request, player_id: int = Depends(current_player)) -> int:
+    """The uploading player, within its own rate and its client address's; 429 beyond."""
+    limits: RateLimits = request.app.state.rate_limits
+    address = address_key(client_address(request, limits.trusted_proxies))
+    _refuse_if_waiting(limits.wait(limits.address_uploads, "uploads", address), "uploads")
+    _refuse_if_waiting(
+        limits.wait(limits.player_uploads, "player-uploads", str(player_id)), "uploads"
+    )
+    return player_id

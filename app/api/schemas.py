@@ -130,3 +130,31 @@ class GraphEpochs(BaseModel):
     running: bool
     #: oldest first, at most 100 (ask again with ``after`` the last number)
     epochs: list[EpochOut]
+
+
+class FieldError(BaseModel):
+    #: where in the request: e.g. ["body", "steps", 3, 1] as strings
+    loc: list[str]
+    msg: str
+
+
+class ErrorBody(BaseModel):
+    """Every error the API answers (4xx and 5xx): a message, and details where there are any.
+
+    ``details`` is a list of :class:`FieldError` for a 422 of the request's shape, an
+    object for the others that carry figures (413 ``max_bytes`` or ``max_steps``; 429
+    ``retry_after_seconds``; 409 ``poll``; 422 of a trace: the ``step`` that failed and
+    why), else null.
+    """
+
+    error: str
+    details: list[FieldError] | dict[str, object] | None
+
+
+class Health(BaseModel):
+    status: Literal["ok"]
+    #: the database dialect answering ``SELECT 1``: sqlite or postgresql
+    database: str
+    #: "shared": rate limit windows in Redis, shared by every server process (and it
+    #: answers); "per-process": in this process's memory
+    rate_limits: Literal["shared", "per-process"]

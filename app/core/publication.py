@@ -38,6 +38,32 @@ class Publication:
             return False
         return bool(np.all(self.edge_dst[v[:-1] * self.n_controls + c[:-1]] == v[1:]))
 
+    def stray_step(self, steps: np.ndarray) -> tuple[int, str] | None:
+        """The index of a trace's first step that is not a valid edge, and why; None if all are.
+
+        ``steps`` is an (n, 2) integer array of (vertex, control) rows, n >= 1. Step i is
+        wrong when its vertex or control is out of range, or when it does not start where
+        step i - 1's edge leads.
+        """
+        v, c = steps[:, 0], steps[:, 1]
+        out_of_range = (v < 0) | (v >= self.n_vertices) | (c < 0) | (c >= self.n_controls)
+        leads_to = np.full(len(steps), -1, dtype=np.int64)
+        valid = ~out_of_range[:-1]
+        leads_to[1:][valid] = self.edge_dst[v[:-1][valid] * self.n_controls + c[:-1][valid]]
+        off_path = np.zeros(len(steps), dtype=bool)
+        off_path[1:] = valid & (leads_to[1:] != v[1:])
+        wrong = out_of_range | off_path
+        if not wrong.any():
+            return None
+        i = int(np.argmax(wrong))
+        vertex, control = int(v[i]), int(c[i])
+        if not 0 <= vertex < self.n_vertices:
+            return i, f"vertex {vertex} is not in 0..{self.n_vertices - 1}"
+        if not 0 <= control < self.n_controls:
+            return i, f"control {control} is not in 0..{self.n_controls - 1}"
+        previous = (int(v[i - 1]), int(c[i - 1]))
+        return i, f"step {i - 1}'s edge {previous} leads to vertex {leads_to[i]}, not {vertex}"
+
 
 def freeze(graph: StateGraph) -> Publication:
     return Publication(

@@ -142,6 +142,10 @@ def bench_ingest(
             database_url=url,
             artifact_dir=Path(tmp) / "data",
             uploads_per_minute=max(60, 2 * uploads),
+            # every client plays from loopback: the per-address limits would measure themselves
+            registration_rate=f"{clients}/minute",
+            address_upload_rate=f"{4 * clients * uploads}/minute",
+            rate_limit_storage="memory://",
         )
         engine = make_engine(url)
         try:

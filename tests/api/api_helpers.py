@@ -15,7 +15,7 @@ from app.api.app import create_app
 from app.api.deps import get_session, growth_scope
 from app.config import Settings
 from app.core.publication import Publication
-from app.models import Trace, TraceStep
+from app.models import Player, Trace, TraceStep
 from app.services.growth import in_session
 
 ADMIN_TOKEN = "test-admin-token"
@@ -33,11 +33,24 @@ class Published:
     bundle: str
 
 
-def make_client(session: Session, db_url: str, artifact_dir: Path, **settings: Any) -> TestClient:
+def make_client(
+    session: Session,
+    db_url: str,
+    artifact_dir: Path,
+    *,
+    peer: str = "testclient",
+    **settings: Any,
+) -> TestClient:
+    """A client of an app on the test's session; requests come from the address ``peer``.
+
+    Rate limits are kept in the app's memory unless ``rate_limit_storage`` says otherwise,
+    so no test shares its windows with another (or with another run on the same Redis).
+    """
     values: dict[str, Any] = {
         "database_url": db_url,
         "artifact_dir": artifact_dir,
         "admin_token": ADMIN_TOKEN,
+        "rate_limit_storage": "memory://",
         **settings,
     }
     app = create_app(Settings(**values))
@@ -52,7 +65,7 @@ def make_client(session: Session, db_url: str, artifact_dir: Path, **settings: A
     app.dependency_overrides[get_session] = joined_session
     # background growth in the test's session too (the test client runs it before answering)
     app.dependency_overrides[growth_scope] = lambda: in_session(session)
-    return TestClient(app)
+    return TestClient(app, client=(peer, 50000))
 
 
 def register(client: TestClient, kind: str = "human") -> dict[str, str]:
@@ -77,3 +90,7 @@ def row_counts(session: Session) -> tuple[int, int, int]:
     steps = session.scalar(select(func.count()).select_from(TraceStep)) or 0
     declared = session.scalar(select(func.coalesce(func.sum(Trace.n_steps), 0))) or 0
     return int(traces), int(steps), int(declared)
+
+
+def player_count(session: Session) -> int:
+    return int(session.scalar(select(func.count()).select_from(Player)) or 0)

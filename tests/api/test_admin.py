@@ -29,7 +29,7 @@ from app.services.graphs import init_graph
 from app.store.epochs import start_epoch
 
 ADMIN = {"Authorization": f"Bearer {ADMIN_TOKEN}"}
-OFF = {"error": "admin routes are off: set SRG_ADMIN_TOKEN"}
+OFF = {"error": "admin routes are off: set SRG_ADMIN_TOKEN", "details": None}
 
 
 def admin_requests(name: str) -> list[tuple[str, str]]:
@@ -140,7 +140,7 @@ def test_with_a_broker_admin_grow_sends_grow_epoch_to_the_workers(
         busy = workers.post(grow, headers=ADMIN)
         assert busy.status_code == 409
         assert busy.json()["error"].startswith("epoch 1 of graph 'api-toy' is running")
-        assert busy.json()["poll"] == f"/api/graphs/{published.name}/epochs?after=1"
+        assert busy.json()["details"]["poll"] == f"/api/graphs/{published.name}/epochs?after=1"
     assert len(sent) == 1
 
 

@@ -44,8 +44,11 @@ def test_unknown_graphs_and_unpublished_graphs_are_404(
     client: TestClient, published: Published
 ) -> None:
     reply = client.get("/api/graphs/nope/publication")
-    assert reply.status_code == 404 and reply.json() == {"error": "no graph 'nope'"}
-    assert client.get("/api/nowhere").json() == {"error": "Not Found"}
+    assert reply.status_code == 404 and reply.json() == {
+        "error": "no graph 'nope'",
+        "details": None,
+    }
+    assert client.get("/api/nowhere").json() == {"error": "no route /api/nowhere", "details": None}
 
 
 def test_animations_are_served_immutable_by_hash(client: TestClient, published: Published) -> None:

@@ -92,10 +92,24 @@ def test_a_step_off_the_edges_is_a_422_and_writes_nothing(
     wrong_next = (steps[1][0] + 1) % published.publication.n_vertices
     steps[1][0] = wrong_next
     reply = client.post("/api/traces", json=body(published, steps), headers=player)
-    assert reply.status_code == 422 and "does not follow" in reply.json()["error"]
-    for off_graph in ([[published.publication.n_vertices, 0]], [[0, 3]]):
+    assert reply.status_code == 422
+    led_to = published.publication.destination(*steps[0])
+    assert reply.json() == {  # which step failed, and why
+        "error": f"step 1 does not follow the edges of publication {published.publication_id}: "
+        f"step 0's edge ({steps[0][0]}, {steps[0][1]}) leads to vertex {led_to}, not {wrong_next}",
+        "details": {"step": 1, "vertex": wrong_next, "control": steps[1][1]},
+    }
+    n = published.publication.n_vertices
+    for off_graph, why in (
+        ([[0, 0], [n, 0]], f"vertex {n} is not in 0..{n - 1}"),
+        ([[0, 3]], "control 3 is not in 0..2"),
+    ):
         reply = client.post("/api/traces", json=body(published, off_graph), headers=player)
         assert reply.status_code == 422
+        step = len(off_graph) - 1
+        assert reply.json()["error"].startswith(f"step {step} does not follow")
+        assert reply.json()["error"].endswith(why)
+        assert reply.json()["details"]["step"] == step
     assert row_counts(session) == (0, 0, 0)
 
 
@@ -147,7 +161,10 @@ def test_a_too_large_body_is_a_413_before_parsing(
         steps = walk(published.publication, [0, 1, 2] * 20)
         reply = small.post("/api/traces", json=body(published, steps), headers=headers)
         assert reply.status_code == 413
-        assert reply.json() == {"error": "body larger than 200 bytes", "max_bytes": 200}
+        assert reply.json() == {
+            "error": "body larger than 200 bytes",
+            "details": {"max_bytes": 200},
+        }
         # No Content-Length (chunked): counted while it streams in, refused all the same.
         chunks = (b"x" * 64 for _ in range(10))
         streamed = small.post("/api/traces", content=chunks, headers=headers)
@@ -167,7 +184,7 @@ def test_two_traces_longer_than_a_session_are_refused_and_write_nothing(
         assert reply.status_code == 413, reply.text
         assert reply.json() == {
             "error": "a trace of 85000 steps; at most 2000 are accepted per trace",
-            "max_steps": 2000,
+            "details": {"max_steps": 2000},
         }
     assert row_counts(session) == (0, 0, 0)
 
@@ -197,7 +214,7 @@ def test_traces_up_to_the_step_limit_are_stored(
         assert limited.post("/api/traces", json=at_limit, headers=headers).status_code == 201
         over = body(published, walk(published.publication, [1] * 6), key="six")
         reply = limited.post("/api/traces", json=over, headers=headers)
-        assert reply.status_code == 413 and reply.json()["max_steps"] == 5
+        assert reply.status_code == 413 and reply.json()["details"] == {"max_steps": 5}
     assert row_counts(session) == (1, 5, 5)
 
 

@@ -16,7 +16,7 @@ from fastapi.encoders import jsonable_encoder
 from sqlalchemy.orm import Session
 
 from app.api.deps import get_session, growth_scope, require_admin
-from app.api.errors import ApiError
+from app.api.errors import ApiError, error_responses
 from app.api.growth_jobs import GrowthJobs, grow_in_background, send_to_workers
 from app.api.schemas import INT32_MAX, AdminResult, EpochOut, GraphEpochs, GrowQueued, GrowRequest
 from app.config import Settings
@@ -24,13 +24,23 @@ from app.db import Scope
 from app.store.epochs import epochs_after, last_epoch_number
 from app.store.graphs import get_graph_row
 
-router = APIRouter(prefix="/api/graphs", tags=["admin"], dependencies=[Depends(require_admin)])
+router = APIRouter(
+    prefix="/api/graphs",
+    tags=["admin"],
+    dependencies=[Depends(require_admin)],
+    responses=error_responses(
+        401, 403, s403="admin routes off (SRG_ADMIN_TOKEN unset), or not the admin token"
+    ),
+)
 
 #: epochs listed per poll
 EPOCHS_LISTED = 100
 
 
-@router.post("/{name}/publish")
+@router.post(
+    "/{name}/publish",
+    responses=error_responses(404, 413, s404="no such graph", s413="a body over max_body_bytes"),
+)
 def publish(name: str, request: Request, session: Session = Depends(get_session)) -> AdminResult:
     from app.services.graphs import publish_graph
 
@@ -42,7 +52,15 @@ def publish(name: str, request: Request, session: Session = Depends(get_session)
 @router.post(
     "/{name}/grow",
     status_code=202,
-    responses={409: {"description": "the graph is growing already: poll it, then grow"}},
+    responses=error_responses(
+        400,
+        404,
+        409,
+        413,
+        422,
+        s404="no such graph",
+        s409="the graph is growing already: poll it (details.poll), then grow",
+    ),
 )
 def grow(
     name: str,
@@ -74,17 +92,19 @@ def grow(
                 409,
                 f"epoch {running} of graph {graph_name!r} is running on the workers; "
                 "grow once it has finished",
-                poll=poll,
+                details={"poll": poll},
             )
         send_to_workers(graph_id, expansions, renders=settings.growth_renders)
         return GrowQueued(runs_on="workers", **queued)
     if not jobs.claim(graph_id):
-        raise ApiError(409, f"graph {graph_name!r} is already growing in this server", poll=poll)
+        raise ApiError(
+            409, f"graph {graph_name!r} is already growing in this server", details={"poll": poll}
+        )
     background.add_task(grow_in_background, jobs, scope, settings, graph_id, expansions)
     return GrowQueued(runs_on="server", **queued)
 
 
-@router.get("/{name}/epochs")
+@router.get("/{name}/epochs", responses=error_responses(404, 422, s404="no such graph"))
 def epochs(
     name: str,
     request: Request,

@@ -4,7 +4,8 @@ The URL names the bytes (sha256), so a response can be cached forever: ``immutab
 and a year's ``max-age``; the hash is also the strong ``ETag``. Only image artifacts
 are served: clip bundles are internal data. A poster (the strip's first frame, for a
 first paint before strips are decoded) is cut from the strip on request rather than
-stored: it is derived data, small, and as cacheable as the strip it comes from.
+stored: it is derived data, small, and as cacheable as the strip it comes from. Both
+answer HEAD as GET, without the body.
 """
 
 from __future__ import annotations
@@ -18,7 +19,8 @@ from fastapi.responses import FileResponse
 from sqlalchemy.orm import Session
 
 from app.api.deps import get_session
-from app.api.errors import ApiError
+from app.api.encoding import etag_matches
+from app.api.errors import ApiError, error_responses
 from app.api.queries import animation_media_type
 from app.render.animation import POSTER_MEDIA_TYPE, decode_strip, encode_poster
 from app.store.artifacts import ArtifactStore
@@ -41,12 +43,42 @@ def _stored(session: Session, request: Request, digest: str) -> tuple[Path, str]
 
 def _not_modified(request: Request, etag: str) -> Response | None:
     headers = {"ETag": etag, "Cache-Control": IMMUTABLE}
-    if etag in request.headers.get("if-none-match", ""):
+    if etag_matches(request.headers.get("if-none-match", ""), etag):
         return Response(status_code=304, headers=headers)
     return None
 
 
-@router.get("/{digest}", response_class=FileResponse)
+_CACHING_HEADERS = {
+    "ETag": {"description": "strong; send it back in If-None-Match", "schema": {"type": "string"}},
+    "Cache-Control": {"description": IMMUTABLE, "schema": {"type": "string"}},
+}
+_NOT_MODIFIED: dict[int | str, dict[str, object]] = {
+    304: {"description": "If-None-Match names the ETag", "headers": _CACHING_HEADERS}
+}
+_IMAGE = {"schema": {"type": "string", "format": "binary"}}
+ANIMATION_RESPONSES: dict[int | str, dict[str, object]] = {
+    200: {
+        "description": "the strip, in the media type stored with it (WebP today)",
+        "content": {"image/webp": _IMAGE, "image/*": _IMAGE},
+        "headers": _CACHING_HEADERS,
+    },
+    **_NOT_MODIFIED,
+    **error_responses(404, s404="no animation of that hash"),
+}
+POSTER_RESPONSES: dict[int | str, dict[str, object]] = {
+    200: {
+        "description": "the strip's first frame",
+        "content": {POSTER_MEDIA_TYPE: _IMAGE},
+        "headers": _CACHING_HEADERS,
+    },
+    **_NOT_MODIFIED,
+    **error_responses(
+        404, 422, s404="no animation of that hash", s422="not a strip of that many frames"
+    ),
+}
+
+
+@router.get("/{digest}", response_class=Response, responses=ANIMATION_RESPONSES)
 def animation(digest: str, request: Request, session: Session = Depends(get_session)) -> Response:
     path, media_type = _stored(session, request, digest)
     etag = f'"{digest}"'
@@ -56,7 +88,15 @@ def animation(digest: str, request: Request, session: Session = Depends(get_sess
     )
 
 
-@router.get("/{digest}/poster")
+@router.head("/{digest}", response_class=Response, responses=ANIMATION_RESPONSES)
+def animation_head(
+    digest: str, request: Request, session: Session = Depends(get_session)
+) -> Response:
+    """The strip's headers (length, type, ETag), without the strip."""
+    return animation(digest, request, session)
+
+
+@router.get("/{digest}/poster", response_class=Response, responses=POSTER_RESPONSES)
 def poster(
     digest: str,
     frames: Annotated[int, Query(ge=1, le=1000, description="frames in the strip (k)")],
@@ -77,3 +117,14 @@ def poster(
         ) from None
     headers = {"ETag": etag, "Cache-Control": IMMUTABLE}
     return Response(encode_poster(images), media_type=POSTER_MEDIA_TYPE, headers=headers)
+
+
+@router.head("/{digest}/poster", response_class=Response, responses=POSTER_RESPONSES)
+def poster_head(
+    digest: str,
+    frames: Annotated[int, Query(ge=1, le=1000, description="frames in the strip (k)")],
+    request: Request,
+    session: Session = Depends(get_session),
+) -> Response:
+    """The poster's headers, without the image."""
+    return poster(digest, frames, request, session)

@@ -1,7 +1,9 @@
 """Player registration: a fresh player and its bearer token.
 
 The server picks the name: registering under a chosen name would let anyone take over
-an existing player by re-issuing its token.
+an existing player by re-issuing its token. Registrations are rate-limited per client
+address (``registration_rate``), so fresh players cannot multiply the upload limit nor
+grow the players table without bound.
 """
 
 from __future__ import annotations
@@ -12,6 +14,8 @@ from fastapi import APIRouter, Depends
 from sqlalchemy.orm import Session
 
 from app.api.deps import get_session
+from app.api.errors import error_responses
+from app.api.ratelimit import limited_registration
 from app.api.retry import in_transaction
 from app.api.schemas import PlayerCreated, PlayerRequest
 from app.store.traces import get_or_create_player
@@ -19,7 +23,12 @@ from app.store.traces import get_or_create_player
 router = APIRouter(prefix="/api/players", tags=["players"])
 
 
-@router.post("", status_code=201)
+@router.post(
+    "",
+    status_code=201,
+    dependencies=[Depends(limited_registration)],
+    responses=error_responses(400, 413, 422, 429, s429="over the address's registration rate"),
+)
 def register_player(
     body: PlayerRequest | None = None, session: Session = Depends(get_session)
 ) -> PlayerCreated:

@@ -1,10 +1,11 @@
 """Trace upload: validated, size-limited, rate-limited, idempotent.
 
 Every check runs before anything is written: body size (413, before parsing; a declared
-Content-Length over the limit is refused unread), bearer token (401/403), rate limit
-(429), schema (422), steps per trace (413, ``max_trace_steps``: longer than any session),
-publication (404), every step following an edge (422), key reuse for another trace
-(409). The first upload of a key answers 201; a replay of it answers 200 with the same
+Content-Length over the limit is refused unread: :mod:`app.api.bodylimit`), bearer token
+(401/403), rate limits of the client address and of the player (429), schema (422),
+steps per trace (413, ``max_trace_steps``: longer than any session), publication (404),
+every step following an edge (422, naming the first step that does not), key reuse for
+another trace (409). The first upload of a key answers 201; a replay of it answers 200 with the same
 trace id.
 """
 
@@ -16,9 +17,9 @@ from pydantic import ValidationError
 from sqlalchemy.orm import Session
 
 from app.api.cache import FrozenCache
-from app.api.deps import current_player, get_session, limited_body
-from app.api.errors import ApiError, validation_details
-from app.api.ratelimit import TokenBucketLimiter, retry_after_header
+from app.api.deps import get_session, raw_body
+from app.api.errors import ApiError, error_responses, validation_details
+from app.api.ratelimit import limited_uploader
 from app.api.retry import in_transaction
 from app.api.schemas import TraceStored, TraceUpload
 from app.core.publication import Publication
@@ -35,30 +36,33 @@ _BODY_SCHEMA = {
 }
 
 
-def rate_limited_player(request: Request, player_id: int = Depends(current_player)) -> int:
-    limiter: TokenBucketLimiter = request.app.state.limiter
-    wait = limiter.acquire(player_id)
-    if wait > 0:
-        raise ApiError(
-            429,
-            "too many uploads; retry later",
-            headers={"Retry-After": retry_after_header(wait)},
-            retry_after_seconds=round(wait, 3),
-        )
-    return player_id
-
-
 @router.post(
     "",
     status_code=201,
     openapi_extra=_BODY_SCHEMA,
-    responses={200: {"description": "a replay of an idempotency key already stored"}},
+    responses={
+        200: {"description": "a replay of an idempotency key already stored"},
+        **error_responses(
+            401,
+            403,
+            404,
+            409,
+            413,
+            422,
+            429,
+            s403="a token no player holds",
+            s404="no such publication",
+            s409="the idempotency key names another trace of this player",
+            s413="body over max_trace_bytes, or more steps than max_trace_steps",
+            s422="not a trace upload, or a step that does not follow an edge",
+        ),
+    },
 )
 def upload_trace(
     request: Request,
     response: Response,
-    body: bytes = Depends(limited_body),  # read first: no connection held while it streams
-    player_id: int = Depends(rate_limited_player),
+    body: bytes = Depends(raw_body),  # read first: no connection held while it streams
+    player_id: int = Depends(limited_uploader),
     session: Session = Depends(get_session),
 ) -> TraceStored:
     try:
@@ -70,13 +74,21 @@ def upload_trace(
         raise ApiError(
             413,
             f"a trace of {len(upload.steps)} steps; at most {max_steps} are accepted per trace",
-            max_steps=max_steps,
+            details={"max_steps": max_steps},
         )
     publications: FrozenCache[Publication] = request.app.state.publications
     publication = publications.get_or_load(
         upload.publication_id, lambda: load_publication(session, upload.publication_id)
     )
     steps = np.asarray(upload.steps, dtype=np.int64).reshape(len(upload.steps), 2)
+    stray = publication.stray_step(steps)
+    if stray is not None:
+        step, why = stray
+        raise ApiError(
+            422,
+            f"step {step} does not follow the edges of publication {upload.publication_id}: {why}",
+            details={"step": step, "vertex": int(steps[step, 0]), "control": int(steps[step, 1])},
+        )
     try:
         trace_id, created = in_transaction(
             session,

@@ -1,0 +1,63 @@
+"""Every request body bounded: 413 before it is parsed, whatever the route.
+
+An ASGI middleware, because FastAPI reads a route's JSON body before any dependency
+runs. A declared ``Content-Length`` over the limit is answered 413 at once, unread; a
+body without one (chunked) is counted while the route reads it, and reading past the
+limit raises :class:`BodyTooLarge` (an HTTP exception, which FastAPI lets through as
+it is rather than as "error parsing the body"), answered 413 by the error handlers.
+Trace uploads have their own limit (``max_trace_bytes``); every other body has
+``max_body_bytes``.
+"""
+
+from __future__ import annotations
+
+from collections.abc import Mapping
+
+from starlette.exceptions import HTTPException as StarletteHTTPException
+from starlette.types import ASGIApp, Message, Receive, Scope, Send
+
+from app.api.errors import error_response
+
+
+class BodyTooLarge(StarletteHTTPException):
+    def __init__(self, limit: int) -> None:
+        super().__init__(413, f"body larger than {limit} bytes")
+        self.details = {"max_bytes": limit}
+
+
+class BodyLimit:
+    def __init__(self, app: ASGIApp, *, default: int, per_path: Mapping[str, int]) -> None:
+        self.app = app
+        self.default = default
+        self.per_path = dict(per_path)
+
+    async def __call__(self, scope: Scope, receive: Receive, send: Send) -> None:
+        if scope["type"] != "http":
+            await self.app(scope, receive, send)
+            return
+        limit = self.per_path.get(scope["path"].rstrip("/"), self.default)
+        declared = _content_length(scope)
+        if declared is not None and declared > limit:
+            too_large = BodyTooLarge(limit)
+            response = error_response(413, str(too_large.detail), details=too_large.details)
+            await response(scope, receive, send)
+            return
+        received = 0
+
+        async def bounded_receive() -> Message:
+            nonlocal received
+            message = await receive()
+            if message["type"] == "http.request":
+                received += len(message.get("body", b""))
+                if received > limit:
+                    raise BodyTooLarge(limit)
+            return message
+
+        await self.app(scope, bounded_receive, send)
+
+
+def _content_length(scope: Scope) -> int | None:
+    for name, value in scope["headers"]:
+        if name == b"content-length":
+            return int(value) if value.isdigit() else None
+    return None
