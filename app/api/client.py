@@ -8,12 +8,18 @@ reuses its key, so the server stores it once).
 
 from __future__ import annotations
 
-import time
 import uuid
 from typing import Any
 
 import httpx
 import numpy as np
+from tenacity import (
+    RetryCallState,
+    Retrying,
+    retry_if_exception_type,
+    retry_if_result,
+    stop_after_attempt,
+)
 
 from app.core.bots import BotKind, play_sessions
 from app.core.graph import EdgeKind
@@ -84,20 +90,31 @@ def play_over_http(
 
 
 def _upload(http: httpx.Client, body: dict[str, Any]) -> httpx.Response:
-    attempt = 1
-    while True:
-        last = attempt >= UPLOAD_ATTEMPTS
-        try:
-            response = http.post("/api/traces", json=body)
-        except httpx.TransportError:
-            if last:
-                raise
-        else:
-            if response.status_code != 429 or last:
-                _checked(response)
-                return response
-            time.sleep(float(response.headers.get("Retry-After", "1")))
-        attempt += 1
+    """POST one trace; a transport error or a 429 is retried (after Retry-After)."""
+    retrying = Retrying(
+        stop=stop_after_attempt(UPLOAD_ATTEMPTS),
+        wait=_retry_after,
+        retry=retry_if_exception_type(httpx.TransportError)
+        | retry_if_result(lambda response: response.status_code == 429),
+        retry_error_callback=_last_outcome,
+    )
+    response: httpx.Response = retrying(http.post, "/api/traces", json=body)
+    _checked(response)
+    return response
+
+
+def _last_outcome(state: RetryCallState) -> Any:
+    """Out of attempts: the last response (a 429, for :func:`_checked`), or its error."""
+    assert state.outcome is not None
+    return state.outcome.result()
+
+
+def _retry_after(state: RetryCallState) -> float:
+    """A 429's Retry-After; a transport error is retried at once."""
+    outcome = state.outcome
+    if outcome is None or outcome.failed:
+        return 0.0
+    return float(outcome.result().headers.get("Retry-After", "1"))
 
 
 def _checked(response: httpx.Response) -> Any:
