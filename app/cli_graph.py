@@ -141,7 +141,9 @@ def publish(
 
 def play(
     name: str = typer.Argument(..., help="graph name or id"),
-    bot: str = typer.Option("goal-directed", help="goal-directed, heuristic or random"),
+    bot: str = typer.Option(
+        "goal-directed", help="goal-directed, heuristic, random, hesitant or avoider"
+    ),
     sessions: int = typer.Option(20, help="sessions to play"),
     mean_steps: int = typer.Option(90, help="mean session length in steps"),
     seed: int = typer.Option(0),

@@ -5,7 +5,7 @@ from __future__ import annotations
 import numpy as np
 import pytest
 
-from app.core.bots import BotKind, play_sessions
+from app.core.bots import LEVEL_CONTROL, AvoiderBot, BotKind, HesitantBot, play_sessions
 from app.core.clipbank import MemoryClipBank
 from app.core.growth import initial_tree
 from app.core.publication import Publication
@@ -130,3 +130,64 @@ def test_growth_proceeds_when_staterank_never_converges() -> None:
     epochs = stuck.grow(expansions=8)
     assert [len(e.expanded) for e in epochs] == [4, 4]
     assert graph.n_vertices == before + 8
+
+
+# ---- bots unlike the goal-directed one ------------------------------------------------------
+def mean_score_per_step(publication: Publication, traces: list[np.ndarray]) -> float:
+    steps = np.concatenate(traces)
+    return float(publication.edge_score[steps[:, 0] * 3 + steps[:, 1]].mean())
+
+
+def level_fraction(traces: list[np.ndarray]) -> float:
+    return float(np.mean(np.concatenate(traces)[:, 1] == LEVEL_CONTROL))
+
+
+def best_choice_share(best: np.ndarray, traces: list[np.ndarray], lag: int) -> float:
+    """How often a control at step t is a best choice at the vertex of step t - lag
+    (tilts only: level is what a hesitant player plays whatever the state)."""
+    hits = [
+        best[t[: len(t) - lag, 0], t[lag:, 1]][t[lag:, 1] != LEVEL_CONTROL]
+        for t in traces
+        if len(t) > lag
+    ]
+    return float(np.concatenate(hits).mean())
+
+
+def test_hesitant_bots_let_the_tank_go_level_far_more_than_goal_directed_ones(publication) -> None:  # type: ignore[no-untyped-def]
+    hesitant = play_sessions(publication, BotKind.HESITANT, sessions=40, mean_steps=40, seed=1)
+    aiming = play_sessions(publication, BotKind.GOAL_DIRECTED, sessions=40, mean_steps=40, seed=1)
+    assert level_fraction(hesitant) > HesitantBot().level_rate - 0.05
+    assert level_fraction(hesitant) > 5 * level_fraction(aiming)
+
+
+def test_hesitant_bots_play_goal_directed_decisions_late(publication) -> None:  # type: ignore[no-untyped-def]
+    # no letting go and a near-greedy choice: every tilt is decided `delay` steps earlier
+    sure = HesitantBot(temperature=0.01, level_rate=0.0)
+    table = sure.policy(publication)
+    best = table == table.max(axis=1, keepdims=True)
+    traces = play_sessions(
+        publication, BotKind.HESITANT, sessions=20, mean_steps=40, seed=3, hesitant=sure
+    )
+    for t in traces:
+        assert np.all(t[: sure.delay, 1] == LEVEL_CONTROL)  # nothing decided yet
+        assert np.all(best[t[: -sure.delay, 0], t[sure.delay :, 1]])
+    assert best_choice_share(best, traces, lag=0) < 0.6
+    # the default hesitant bot: its tilts follow the state of 3 steps ago, not the present
+    default = HesitantBot()
+    aim = HesitantBot(level_rate=0.0).policy(publication)
+    traces = play_sessions(publication, BotKind.HESITANT, sessions=40, mean_steps=40, seed=1)
+    best = aim == aim.max(axis=1, keepdims=True)
+    late = best_choice_share(best, traces, lag=default.delay)
+    assert late > best_choice_share(best, traces, lag=0) + 0.15
+
+
+def test_avoiders_score_less_than_random_bots_and_goal_directed_ones_more(publication) -> None:  # type: ignore[no-untyped-def]
+    def score(kind: BotKind, **bots: AvoiderBot) -> float:
+        traces = play_sessions(publication, kind, sessions=40, mean_steps=40, seed=1, **bots)
+        return mean_score_per_step(publication, traces)
+
+    random = score(BotKind.RANDOM)
+    assert score(BotKind.AVOIDER) < 0.9 * random
+    assert score(BotKind.GOAL_DIRECTED) > 1.5 * random
+    # without a reaction delay the avoider keeps the target window almost dry
+    assert score(BotKind.AVOIDER, avoider=AvoiderBot(delay=0)) < 0.01 * random
