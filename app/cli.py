@@ -25,6 +25,8 @@ from app.cli_liquid import register_liquid_commands
 from app.cli_runtime import register_runtime_commands
 
 if TYPE_CHECKING:
+    from sqlalchemy.exc import DBAPIError
+
     from app.services.experiment import ExperimentPlan
 
 app = typer.Typer(
@@ -47,11 +49,23 @@ class UserError(Exception):
 
 @contextmanager
 def progress_bar(total: int, label: str) -> Iterator[Callable[[int], None]]:
-    """A progress bar on stderr; yields the ``advance(n)`` callback services take."""
+    """A progress bar on stderr; yields the ``advance(n)`` callback services take.
+
+    What it shows stays within 0 and ``total`` (itself at least 0): a service may count
+    past its estimate (a frame budget is grown in whole expansions), never below 0.
+    """
+    total = max(total, 0)
+    done = 0
     columns = (TextColumn(label), BarColumn(), MofNCompleteColumn(), TimeElapsedColumn())
     with Progress(*columns, console=Console(stderr=True), transient=False) as bar:
         task = bar.add_task(label, total=total)
-        yield lambda n: bar.advance(task, n)
+
+        def advance(n: int) -> None:
+            nonlocal done
+            done = min(max(done + n, 0), total)
+            bar.update(task, completed=done)
+
+        yield advance
 
 
 def emit(data: dict[str, Any], json_path: str | None) -> None:
@@ -173,15 +187,21 @@ def _experiment_plan(
 
 def main() -> None:
     import httpx
-    from sqlalchemy.exc import OperationalError
+    from sqlalchemy.exc import DBAPIError, OperationalError
 
     from app.api.client import ServerError
 
     try:
-        app()
+        try:
+            app()
+        except DBAPIError as exc:
+            mapped = database_user_error(exc)
+            if mapped is exc:
+                raise
+            raise mapped from exc
     except (UserError, ValueError, LookupError, ServerError) as exc:
         message = exc.args[0] if exc.args else exc
-        typer.echo(f"srg: error: {message}", err=True)
+        typer.echo(f"srg: error: {message}".splitlines()[0], err=True)
         sys.exit(2)
     except OperationalError as exc:
         typer.echo(f"srg: error: cannot use the database: {exc.orig}".splitlines()[0], err=True)
@@ -189,3 +209,32 @@ def main() -> None:
     except httpx.TransportError as exc:
         typer.echo(f"srg: error: cannot reach the server: {exc}".splitlines()[0], err=True)
         sys.exit(2)
+
+
+def database_user_error(exc: DBAPIError) -> Exception:
+    """What a database error means to the user, when it is theirs to fix; else ``exc``.
+
+    A database without srg's tables (never upgraded: "no such table", undefined_table)
+    and a file that is no database are; a constraint violated or a wrong statement is a
+    bug and keeps its traceback.
+    """
+    from app.config import get_settings
+    from app.db import (
+        UPGRADE_HINT,
+        DatabaseNotReady,
+        parse_database_url,
+        raise_if_unusable,
+        schema_missing,
+    )
+
+    url = parse_database_url(get_settings().resolved_database_url)
+    shown = url.render_as_string(hide_password=True)
+    if schema_missing(exc):
+        return DatabaseNotReady(
+            f"the database {shown} has no srg schema (or an older one): {UPGRADE_HINT}"
+        )
+    try:
+        raise_if_unusable(exc, url.database if url.get_backend_name() == "sqlite" else shown)
+    except ValueError as unusable:
+        return unusable
+    return exc

@@ -20,10 +20,14 @@ def serve(
     port: int = typer.Option(8000, help="TCP port"),
 ) -> None:
     """Serve the HTTP API and the browser client (open http://HOST:PORT/)."""
+    if not 0 < port < 65536:
+        raise ValueError(f"--port must be a TCP port, 1 to 65535, got {port}")
     import uvicorn
 
     from app.api.app import create_app
+    from app.db import get_engine
 
+    get_engine()  # the embedded default migrated on first use; a missing database in one line
     # proxy_headers off: the app alone decides whose X-Forwarded-For to trust
     # (SRG_TRUSTED_PROXIES); uvicorn would otherwise trust any from loopback
     uvicorn.run(create_app(), host=host, port=port, proxy_headers=False)

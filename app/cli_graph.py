@@ -9,7 +9,6 @@ from __future__ import annotations
 import json
 from collections.abc import Callable
 from dataclasses import asdict, is_dataclass
-from pathlib import Path
 from typing import Any
 
 import typer
@@ -17,7 +16,6 @@ import typer
 from app.db import transaction
 
 db_app = typer.Typer(help="The database schema (Alembic migrations).", no_args_is_help=True)
-ROOT = Path(__file__).resolve().parents[1]
 
 
 def emit(result: Any, as_json: bool) -> None:
@@ -28,23 +26,33 @@ def emit(result: Any, as_json: bool) -> None:
         typer.echo(" ".join(f"{k}={v}" for k, v in data.items()))
 
 
-def alembic_config() -> Any:
-    from alembic.config import Config
+class RevisionError(ValueError):
+    """Alembic refused the revision asked for (unknown, or not reachable that way)."""
 
-    ini = ROOT / "alembic.ini"
-    if not ini.exists():
-        raise LookupError(f"alembic.ini not found at {ini}: run srg from a source checkout")
-    return Config(str(ini))
+
+def migrate(direction: str, revision: str) -> None:
+    """``alembic upgrade|downgrade revision`` on the configured database, errors in one line."""
+    from alembic.util import CommandError
+
+    from alembic import command
+    from app.config import get_settings
+    from app.db import alembic_config, parse_database_url
+
+    parse_database_url(get_settings().resolved_database_url)  # one line, before Alembic
+    try:
+        getattr(command, direction)(alembic_config(), revision)
+    except CommandError as exc:
+        raise RevisionError(f"cannot {direction} to {revision!r}: {exc}".splitlines()[0]) from None
 
 
 @db_app.command("upgrade")
 def db_upgrade(revision: str = typer.Argument("head", help="target revision")) -> None:
     """Migrate the configured database up to ``revision`` (default: the latest)."""
-    from alembic import command
     from app.config import get_settings
 
-    command.upgrade(alembic_config(), revision)
-    typer.echo(f"database at {revision}: {get_settings().resolved_database_url}", err=True)
+    migrate("upgrade", revision)
+    url = parse_url_for_display(get_settings().resolved_database_url)
+    typer.echo(f"database at {revision}: {url}", err=True)
 
 
 @db_app.command("downgrade")
@@ -52,9 +60,13 @@ def db_downgrade(
     revision: str = typer.Argument(..., help="target revision ('base': empty)"),
 ) -> None:
     """Migrate the configured database down to ``revision``."""
-    from alembic import command
+    migrate("downgrade", revision)
 
-    command.downgrade(alembic_config(), revision)
+
+def parse_url_for_display(url: str) -> str:
+    from app.db import parse_database_url
+
+    return parse_database_url(url).render_as_string(hide_password=True)
 
 
 def init(
@@ -104,6 +116,9 @@ def grow(
 
     if frames is not None and expansions is not None:
         raise ValueError("give --frames or --expansions, not both")
+    for option, budget in (("--frames", frames), ("--expansions", expansions)):
+        if budget is not None and budget <= 0:  # before the bar: it never shows 0/-5
+            raise ValueError(f"{option} must be positive, got {budget}")
     if strategy is not None:
         parse_strategy(strategy)
     settings = get_settings()
@@ -180,7 +195,7 @@ def status(
     name: str | None = typer.Argument(None, help="graph name or id (default: all graphs)"),
     json_output: bool = typer.Option(False, "--json", help="print JSON"),
 ) -> None:
-    """Sizes, publications and epochs of one graph or of all."""
+    """Sizes, publications, epochs and play (traces, players, last upload) of one graph or all."""
     from app.services.graphs import graph_summary, list_graphs
 
     with transaction() as session:
@@ -191,7 +206,9 @@ def status(
     if not rows:
         typer.echo("no graphs yet: srg init NAME")
     for row in rows:
-        emit(row, False)
+        play = row.pop("play")
+        assert isinstance(play, dict)
+        emit({**row, **play}, False)
 
 
 def gc(

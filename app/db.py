@@ -4,38 +4,84 @@ SQLite is the embedded default, so its connections are set up to behave like a s
 database as far as the store needs: foreign keys on, WAL so readers do not block the
 writer, a busy timeout instead of instant "database is locked", and transactions that
 SQLAlchemy (not the pysqlite driver) begins, so SAVEPOINTs work.
+
+The embedded default is also migrated on first use (:func:`get_engine`), as a user of an
+embedded database expects; a configured database is the operator's, so for one that does
+not exist or has no tables the CLI says to run ``srg db upgrade`` instead, and nothing
+(not even an empty SQLite file) is made.
 """
 
 from __future__ import annotations
 
+import sqlite3
 from collections.abc import Callable, Iterator
 from contextlib import AbstractContextManager, contextmanager
 from functools import lru_cache
 from pathlib import Path
 from typing import Any
 
-from sqlalchemy import Engine, create_engine, event
-from sqlalchemy.engine import make_url
+from sqlalchemy import Engine, create_engine, event, inspect
+from sqlalchemy.engine import URL, make_url
+from sqlalchemy.exc import ArgumentError, DBAPIError, NoSuchModuleError
 from sqlalchemy.orm import Session, sessionmaker
 
 from app.config import get_settings
+
+ROOT = Path(__file__).resolve().parents[1]
 
 #: how long a SQLite writer waits for another's transaction: embedded runs share one file,
 #: and a checkpoint of a 20k-frame experiment graph holds the lock for tens of seconds
 SQLITE_BUSY_TIMEOUT_MS = 600_000
 
 
+#: the one line that says what to do about a database without srg's tables
+UPGRADE_HINT = "run `srg db upgrade`"
+
+
+class InvalidDatabaseURL(ValueError):
+    """The database URL cannot be parsed, or names a database SQLAlchemy does not know."""
+
+
+class DatabaseNotReady(LookupError):
+    """The configured database does not exist yet, or has no srg schema: upgrade it."""
+
+
+class DatabaseUnusable(ValueError):
+    """The database file is not a database (corrupted, or some other file)."""
+
+
 def make_engine(url: str, **kwargs: Any) -> Engine:
-    """An engine for ``url``; SQLite files get their parent directory and pragmas."""
-    parsed = make_url(url)
-    if parsed.get_backend_name() != "sqlite":
-        return create_engine(url, pool_pre_ping=True, **kwargs)
-    if parsed.database and parsed.database != ":memory:":
-        Path(parsed.database).parent.mkdir(parents=True, exist_ok=True)
-    engine = create_engine(url, **kwargs)
+    """An engine for ``url``; SQLite files get their parent directory and pragmas.
+
+    Raises :class:`InvalidDatabaseURL` (one line, without echoing the URL, which may hold
+    a password) for a URL that is not one.
+    """
+    parsed = parse_database_url(url)
+    try:
+        if parsed.get_backend_name() != "sqlite":
+            return create_engine(parsed, pool_pre_ping=True, **kwargs)
+        if parsed.database and parsed.database != ":memory:":
+            Path(parsed.database).parent.mkdir(parents=True, exist_ok=True)
+        engine = create_engine(parsed, **kwargs)
+    except NoSuchModuleError:
+        raise InvalidDatabaseURL(
+            f"the database URL (SRG_DATABASE_URL) names an unknown database "
+            f"{parsed.drivername!r}: use postgresql+psycopg:// or sqlite:///"
+        ) from None
     event.listen(engine, "connect", _configure_sqlite)
     event.listen(engine, "begin", _begin_sqlite)
     return engine
+
+
+def parse_database_url(url: str) -> URL:
+    """``url`` parsed, or :class:`InvalidDatabaseURL` (the URL not echoed: a password)."""
+    try:
+        return make_url(url)
+    except ArgumentError:
+        raise InvalidDatabaseURL(
+            "the database URL (SRG_DATABASE_URL) is not one: expected dialect+driver://..., "
+            "e.g. postgresql+psycopg://user@host:5432/srg or sqlite:///var/srg.sqlite3"
+        ) from None
 
 
 def _configure_sqlite(dbapi_connection: Any, _record: Any) -> None:
@@ -70,7 +116,95 @@ def begin_immediate(session: Session) -> None:
 
 @lru_cache(maxsize=1)
 def get_engine() -> Engine:
-    return make_engine(get_settings().resolved_database_url)
+    """The engine of the configured database, made ready for use where that is ours to do.
+
+    The embedded default (no ``SRG_DATABASE_URL``) is migrated to the latest schema on
+    first use: a fresh checkout needs no ``srg db upgrade``. A configured SQLite file
+    that does not exist is not made (that would leave an empty file behind a failing
+    command): :class:`DatabaseNotReady` says to run ``srg db upgrade``, as the CLI does
+    for a configured database without tables.
+    """
+    settings = get_settings()
+    url = settings.resolved_database_url
+    file = sqlite_file(url)
+    if settings.database_url and file is not None and not file.exists():
+        raise DatabaseNotReady(f"no database file at {file}: {UPGRADE_HINT} to create it")
+    engine = make_engine(url)
+    if not settings.database_url:
+        try:
+            create_embedded_schema(engine)
+        except BaseException:
+            engine.dispose()
+            raise
+    return engine
+
+
+def sqlite_file(url: str) -> Path | None:
+    """The file of a SQLite URL (``None`` for other databases and in-memory SQLite)."""
+    parsed = parse_database_url(url)
+    if parsed.get_backend_name() != "sqlite" or parsed.database in (None, "", ":memory:"):
+        return None
+    return Path(parsed.database)
+
+
+def create_embedded_schema(engine: Engine) -> bool:
+    """Migrate a database without any table to the latest schema; ``True`` if it did.
+
+    A database with tables is left alone, whatever their revision (``srg db upgrade``
+    moves it). The check and the migration share one writer's transaction (BEGIN
+    IMMEDIATE on SQLite), so two commands started at once on a fresh checkout migrate
+    it once.
+    """
+    from alembic import command
+
+    try:
+        writer = engine.connect().execution_options(**{SQLITE_BEGIN: "IMMEDIATE"})
+        with writer as connection, connection.begin():
+            if inspect(connection).get_table_names():
+                return False
+            command.upgrade(alembic_config(connection), "head")
+    except DBAPIError as exc:
+        raise_if_unusable(exc, engine.url.database)
+        raise
+    return True
+
+
+def alembic_config(connection: Any = None) -> Any:
+    """Alembic's Config of this checkout, optionally bound to an open ``connection``."""
+    from alembic.config import Config
+
+    ini = ROOT / "alembic.ini"
+    if not ini.exists():
+        raise LookupError(f"alembic.ini not found at {ini}: run srg from a source checkout")
+    config = Config(str(ini))
+    if connection is not None:
+        config.attributes["connection"] = connection
+        config.attributes["configure_logger"] = False
+    return config
+
+
+def schema_missing(exc: DBAPIError) -> bool:
+    """Whether ``exc`` says a table or column of srg's schema is not there (not migrated).
+
+    SQLite says "no such table/column"; PostgreSQL raises undefined_table (42P01) or
+    undefined_column (42703).
+    """
+    orig = exc.orig
+    if getattr(orig, "sqlstate", None) in ("42P01", "42703"):
+        return True
+    return str(orig).startswith(("no such table", "no such column"))
+
+
+def raise_if_unusable(exc: DBAPIError, where: str | None = None) -> None:
+    """Raise :class:`DatabaseUnusable` if ``exc`` is SQLite finding no database in its file.
+
+    SQLite raises a bare ``DatabaseError`` ("file is not a database", "database disk
+    image is malformed") for a file it cannot read as one; any other database error is
+    left to its caller (a real bug must show as one).
+    """
+    if type(exc.orig) is sqlite3.DatabaseError:
+        at = f" ({where})" if where else ""
+        raise DatabaseUnusable(f"cannot use the database{at}: {exc.orig}") from None
 
 
 def session_factory(engine: Engine | None = None) -> sessionmaker[Session]:

@@ -39,6 +39,7 @@ from app.core.metrics import (
     predicted_edge_probabilities,
     relative_difference,
 )
+from app.core.names import check_name
 from app.core.player_models import kernel_support, mean_session_length, observed_control_counts
 from app.core.publication import Publication
 from app.core.refinement import Refiner
@@ -555,10 +556,8 @@ def _resident_mb() -> float:
 
 
 def _check_name(name: str) -> None:
-    if not name or len(name) > 120 or "/" in name or name.isdigit():
-        raise ValueError(
-            f"an experiment name needs 1-120 characters, no '/', not all digits; got {name!r}"
-        )
+    # 120, not the column's 200: the run graphs' names add ".<strategy>.<seed>"
+    check_name(name, what="experiment", max_length=120)
 
 
 def _check_checkpoints(values: Sequence[int]) -> None:

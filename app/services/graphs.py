@@ -13,7 +13,7 @@ from collections.abc import Callable
 from dataclasses import dataclass, field
 
 import numpy as np
-from sqlalchemy import func, select
+from sqlalchemy import String, func, select
 from sqlalchemy.exc import IntegrityError
 from sqlalchemy.orm import Session
 
@@ -24,6 +24,7 @@ from app.core.dynamics import Dynamics
 from app.core.graph import EdgeKind, StateGraph
 from app.core.growth import initial_tree
 from app.core.metrics import high_error_fraction, observed_mean_error
+from app.core.names import check_name
 from app.core.refinement import Refiner, RefinerConfig
 from app.core.strategies import Strategy, parse_strategy
 from app.db import Scope
@@ -40,9 +41,14 @@ from app.store.graphs import (
     size_frames,
 )
 from app.store.publications import latest_publication, load_publication, publish
-from app.store.traces import bot_player, load_traces, record_trace
+from app.store.traces import bot_player, load_traces, play_summary, record_trace
 
 Progress = Callable[[int], None]
+
+
+#: the most simulated clips ``srg init --depth`` may ask of the initial tree; past it the
+#: tree grows as N^depth and a typo would run for ever (growth refines from there)
+MAX_INITIAL_CLIPS = 1_000
 
 
 class GraphExists(ValueError):
@@ -51,6 +57,10 @@ class GraphExists(ValueError):
 
 class NothingPublished(LookupError):
     """The graph has no publication to play yet."""
+
+
+class ArtifactDirectoryError(ValueError):
+    """The artifact directory (SRG_ARTIFACT_DIR, else SRG_VAR_DIR/data) cannot be one."""
 
 
 @dataclass
@@ -65,7 +75,39 @@ class LoadedGraph:
 
 
 def artifact_store(settings: Settings) -> ArtifactStore:
-    return ArtifactStore(settings.resolved_artifact_dir)
+    """The artifact store of ``settings``; :class:`ArtifactDirectoryError` if a file is in
+    the way of its directory (checked before anything is written, not at the first file)."""
+    root = settings.resolved_artifact_dir
+    existing = next((path for path in (root, *root.parents) if path.exists()), None)
+    if existing is not None and not existing.is_dir():
+        raise ArtifactDirectoryError(
+            f"the artifact directory {root} is not a directory: {existing} is a file "
+            "(set SRG_ARTIFACT_DIR or SRG_VAR_DIR)"
+        )
+    return ArtifactStore(root)
+
+
+def graph_name_length() -> int:
+    """The length of the graphs' name column: the longest name every backend stores."""
+    column = Graph.__table__.c.name.type
+    assert isinstance(column, String) and column.length is not None
+    return column.length
+
+
+def check_initial_depth(depth: int, n_controls: int) -> None:
+    """Refuse an initial tree too shallow to blend (depth < 2) or past MAX_INITIAL_CLIPS."""
+    if depth < 2:
+        raise ValueError("the initial tree needs depth >= 2 so that leaves have SIM targets")
+    clips, level, deepest = 0, 1, 1
+    for _ in range(1, depth):
+        level *= n_controls
+        clips += level
+        if clips > MAX_INITIAL_CLIPS:
+            raise ValueError(
+                f"depth {depth} makes an initial tree of more than {MAX_INITIAL_CLIPS} "
+                f"simulated clips for {n_controls} controls: at most depth {deepest}"
+            )
+        deepest += 1
 
 
 def refiner_config(settings: Settings, dynamics: Dynamics) -> RefinerConfig:
@@ -123,13 +165,21 @@ def init_graph(
     depth: int = 2,
     seed: int = 0,
 ) -> dict[str, object]:
-    """Store the initial tree (paper Fig. 3) of a new graph; return its summary."""
+    """Store the initial tree (paper Fig. 3) of a new graph; return its summary.
+
+    Everything is checked before anything is written: the name (:func:`check_name`, the
+    same on every backend), the strategy, the dynamics with its preset and fluid (the
+    toy has neither), the depth and the artifact directory.
+    """
+    check_name(name, what="graph", max_length=graph_name_length())
     chosen = parse_strategy(strategy)
-    if not name or name.isdigit():
-        raise ValueError("a graph name must be non-empty and not all digits (ids are)")
+    if dynamics == "toy" and preset is not None:
+        raise ValueError(f"the toy has no preset (got {preset!r}); presets are the liquid's")
     if session.scalar(select(Graph.id).where(Graph.name == name)) is not None:
         raise GraphExists(f"a graph named {name!r} already exists")
     model = make_dynamics(dynamics, preset, fluid)
+    check_initial_depth(depth, model.n_controls)
+    artifacts = artifact_store(settings)
     bank = MemoryClipBank()
     graph = initial_tree(model, bank, depth=depth, prefilter_k=settings.prefilter_k)
     scene: dict[str, object] = {"fps": model.fps}
@@ -150,7 +200,7 @@ def init_graph(
         )
     except IntegrityError:
         raise GraphExists(f"a graph named {name!r} already exists") from None
-    save_graph(session, graph_id, graph, bank, artifact_store(settings))
+    save_graph(session, graph_id, graph, bank, artifacts)
     return graph_summary(session, graph_id)
 
 
@@ -425,7 +475,7 @@ def play_graph(
 
 # ---- report -----------------------------------------------------------------------------
 def graph_summary(session: Session, name: str | int) -> dict[str, object]:
-    """What `srg status` shows: sizes from the stored rows, publications and epochs."""
+    """What `srg status` shows: sizes from the stored rows, publications, epochs, play."""
     row = get_graph_row(session, name)
     kinds: dict[int, int] = {
         kind: count
@@ -449,6 +499,7 @@ def graph_summary(session: Session, name: str | int) -> dict[str, object]:
         "epochs": int(epochs),
         "latest_publication": None if latest is None else latest.number,
         "unrendered_edges": count_missing_animations(session, row.id),
+        "play": play_summary(session, row.id),
     }
 
 

@@ -13,12 +13,13 @@ import secrets
 from collections.abc import Sequence
 
 import numpy as np
-from sqlalchemy import select
+from sqlalchemy import distinct, func, select
 from sqlalchemy.exc import IntegrityError
 from sqlalchemy.orm import Session
 
 from app.core.publication import Publication
 from app.models import Player, Trace, TraceStep
+from app.models import Publication as PublicationRow
 from app.store._sql import bulk_insert, insert_ignoring_duplicates
 from app.store.publications import load_publication
 
@@ -129,6 +130,28 @@ def record_trace(
         ],
     )
     return trace.id, True
+
+
+def play_summary(session: Session, graph_id: int) -> dict[str, object]:
+    """How much the graph was played, over all its publications: traces (one per played
+    session), their steps, distinct players, and when the last trace was uploaded
+    (ISO 8601, ``None`` before any)."""
+    traces, steps, players, last = session.execute(
+        select(
+            func.count(Trace.id),
+            func.coalesce(func.sum(Trace.n_steps), 0),
+            func.count(distinct(Trace.player_id)),
+            func.max(Trace.created_at),
+        )
+        .join(PublicationRow, PublicationRow.id == Trace.publication_id)
+        .where(PublicationRow.graph_id == graph_id)
+    ).one()
+    return {
+        "traces": int(traces),
+        "steps": int(steps),
+        "players": int(players),
+        "last_upload": None if last is None else last.isoformat(),
+    }
 
 
 def load_traces(session: Session, publication_ids: Sequence[int]) -> list[np.ndarray]:

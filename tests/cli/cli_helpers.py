@@ -34,7 +34,8 @@ def srg(var: Path, *args: str, **env: str) -> subprocess.CompletedProcess[str]:
         except SystemExit as exit_:
             code = exit_.code if isinstance(exit_.code, int) else 1
         finally:
-            get_engine().dispose()
+            if get_engine.cache_info().currsize:  # made by the command: not made here
+                get_engine().dispose()
             get_settings.cache_clear()
             get_engine.cache_clear()
     return subprocess.CompletedProcess(args, code, out.getvalue(), err.getvalue())

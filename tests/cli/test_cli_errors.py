@@ -1,0 +1,313 @@
+"""Bad input, bad configuration and broken files: one ``srg: error:`` line, exit 2.
+
+Each test re-tries a finding that used to print a traceback (or a half-truth) and checks
+that it is one line on stderr now and that nothing was written, on SQLite (names also on
+PostgreSQL, whose bounded columns used to fail where SQLite stored anything).
+"""
+
+from __future__ import annotations
+
+import json
+from collections.abc import Iterator
+from pathlib import Path
+
+import numpy as np
+import pytest
+from cli_helpers import ok, one_line_error, srg
+from database_helpers import postgres_base_url, postgres_database
+from sqlalchemy import select
+
+from app.cli import progress_bar
+from app.config import Settings
+from app.core.publication import Publication
+from app.db import make_engine, session_factory
+from app.models import Graph
+from app.store.publications import latest_publication, load_publication
+from app.store.traces import bot_player, record_trace
+
+HUGE_ID = "99999999999999999999"
+
+
+@pytest.fixture(scope="module")
+def var(tmp_path_factory: pytest.TempPathFactory) -> Path:
+    """The embedded default with one toy graph."""
+    var = tmp_path_factory.mktemp("var")
+    ok(var, "init", "toy1")
+    return var
+
+
+def graph_names(url: str) -> list[str]:
+    engine = make_engine(url)
+    try:
+        with engine.connect() as connection:
+            return list(connection.scalars(select(Graph.name).order_by(Graph.id)))
+    finally:
+        engine.dispose()
+
+
+def embedded_url(var: Path) -> str:
+    return Settings(var_dir=var).resolved_database_url
+
+
+# ---- the database ----------------------------------------------------------------------
+def test_a_fresh_var_directory_gets_its_embedded_database_on_first_use(tmp_path: Path) -> None:
+    """It used to fail with "no such table: graphs" and leave an empty database file."""
+    var = tmp_path / "fresh"
+    assert "no graphs yet" in ok(var, "status")
+    ok(var, "init", "first")
+    assert graph_names(embedded_url(var)) == ["first"]
+
+
+def test_a_configured_sqlite_file_that_does_not_exist_is_neither_made_nor_used(
+    tmp_path: Path,
+) -> None:
+    path = tmp_path / "elsewhere" / "srg.sqlite3"
+    done = srg(tmp_path / "var", "status", SRG_DATABASE_URL=f"sqlite:///{path}")
+    one_line_error(done, "run `srg db upgrade`")
+    assert not path.exists()
+    done = srg(tmp_path / "var", "db", "upgrade", SRG_DATABASE_URL=f"sqlite:///{path}")
+    assert done.returncode == 0, done.stderr
+    ok_status = srg(tmp_path / "var", "status", SRG_DATABASE_URL=f"sqlite:///{path}")
+    assert "no graphs yet" in ok_status.stdout
+
+
+def test_a_configured_database_without_tables_says_to_upgrade(tmp_path: Path) -> None:
+    path = tmp_path / "empty.sqlite3"
+    make_engine(f"sqlite:///{path}").dispose()
+    engine = make_engine(f"sqlite:///{path}")
+    with engine.begin() as connection:  # a database, but not srg's: no tables
+        connection.exec_driver_sql("CREATE TABLE other (x INTEGER)")
+    engine.dispose()
+    for command in (["status"], ["init", "g"], ["analytics", "g"]):
+        done = srg(tmp_path / "var", *command, SRG_DATABASE_URL=f"sqlite:///{path}")
+        one_line_error(done, "run `srg db upgrade`")
+
+
+@pytest.mark.postgres
+def test_a_postgresql_database_without_tables_says_to_upgrade(tmp_path: Path) -> None:
+    for url in postgres_database(postgres_base_url()):
+        one_line_error(srg(tmp_path, "status", SRG_DATABASE_URL=url), "run `srg db upgrade`")
+
+
+@pytest.mark.parametrize(
+    ("url", "fragment"),
+    [
+        ("garbage", "SRG_DATABASE_URL"),
+        ("nosuchdialect://user@host/db", "SRG_DATABASE_URL"),
+    ],
+)
+def test_a_garbage_database_url_is_one_line(tmp_path: Path, url: str, fragment: str) -> None:
+    for command in (["status"], ["init", "g"], ["db", "upgrade"]):
+        one_line_error(srg(tmp_path, *command, SRG_DATABASE_URL=url), fragment)
+
+
+def test_a_corrupted_sqlite_file_is_one_line_and_left_as_it_was(tmp_path: Path) -> None:
+    path = tmp_path / "var" / "srg.sqlite3"
+    path.parent.mkdir()
+    garbage = b"SQLite format 3\x00" + bytes(range(256)) * 20
+    path.write_bytes(garbage)
+    for command in (["status"], ["init", "g"], ["status", "--json"]):
+        one_line_error(srg(tmp_path / "var", *command), "not a database")
+    assert path.read_bytes() == garbage
+
+
+def test_an_unknown_revision_is_one_line(var: Path) -> None:
+    one_line_error(srg(var, "db", "downgrade", "bogus"), "bogus")
+    one_line_error(srg(var, "db", "upgrade", "bogus"), "bogus")
+    assert graph_names(embedded_url(var)) == ["toy1"]
+
+
+@pytest.mark.parametrize("command", ["status", "analytics", "grow", "publish", "play"])
+def test_an_id_past_the_integer_range_names_no_graph(var: Path, command: str) -> None:
+    one_line_error(srg(var, command, HUGE_ID), f"no graph '{HUGE_ID}'")
+
+
+# ---- files and ports -------------------------------------------------------------------
+def test_an_artifact_directory_that_is_a_file_is_one_line_and_writes_nothing(
+    tmp_path: Path,
+) -> None:
+    var = tmp_path / "var"
+    ok(var, "init", "kept")
+    blocker = tmp_path / "not-a-directory"
+    blocker.write_text("a file where the artifacts would go\n")
+    for command in (["init", "g"], ["grow", "kept"], ["publish", "kept"], ["gc"]):
+        done = srg(var, *command, SRG_ARTIFACT_DIR=str(blocker))
+        one_line_error(done, "is not a directory")
+    assert graph_names(embedded_url(var)) == ["kept"]
+    assert json.loads(ok(var, "status", "kept", "--json"))["epochs"] == 0
+
+
+@pytest.mark.parametrize("port", ["-1", "65536", "100000"])
+def test_serve_refuses_a_port_out_of_range(tmp_path: Path, port: str) -> None:
+    one_line_error(srg(tmp_path, "serve", "--port", port), "--port")
+
+
+# ---- names -----------------------------------------------------------------------------
+BAD_NAMES = [
+    ("x" * 201, "at most 200 characters"),
+    ("x" * 300, "at most 200 characters"),
+    ("a/b", "no '/'"),
+    ("../up", "no '/'"),
+    ("two words", "no spaces"),
+    (".hidden", "starts with a letter or a digit"),
+    ("-flag-like", "starts with a letter or a digit"),
+    ("12345", "all digits"),
+    ("", "cannot be empty"),
+]
+
+
+@pytest.fixture(
+    scope="module", params=["sqlite", pytest.param("postgresql", marks=pytest.mark.postgres)]
+)
+def backend_url(
+    request: pytest.FixtureRequest, tmp_path_factory: pytest.TempPathFactory
+) -> Iterator[str]:
+    """A migrated database of each backend, for names."""
+    if request.param == "sqlite":
+        var = tmp_path_factory.mktemp("names")
+        yield f"sqlite:///{var / 'srg.sqlite3'}"
+    else:
+        yield from postgres_database(postgres_base_url(), migrated=True)
+
+
+@pytest.mark.parametrize(("name", "fragment"), BAD_NAMES)
+def test_bad_graph_names_are_refused_alike_on_every_backend(
+    backend_url: str, tmp_path: Path, name: str, fragment: str
+) -> None:
+    ok_upgrade = srg(tmp_path, "db", "upgrade", SRG_DATABASE_URL=backend_url)
+    assert ok_upgrade.returncode == 0, ok_upgrade.stderr
+    done = srg(tmp_path, "init", "--", name, SRG_DATABASE_URL=backend_url)
+    one_line_error(done, fragment)
+    assert name not in graph_names(backend_url)
+
+
+def test_the_longest_name_and_every_allowed_character_are_taken(
+    backend_url: str, tmp_path: Path
+) -> None:
+    srg(tmp_path, "db", "upgrade", SRG_DATABASE_URL=backend_url)
+    for name in ("y" * 200, "Tank_2.low-viscosity"):
+        done = srg(tmp_path, "init", name, SRG_DATABASE_URL=backend_url)
+        assert done.returncode == 0, done.stderr
+    assert {"y" * 200, "Tank_2.low-viscosity"} <= set(graph_names(backend_url))
+
+
+@pytest.mark.parametrize(("name", "fragment"), BAD_NAMES[2:5])
+def test_bad_experiment_names_are_refused_by_the_same_rule(
+    tmp_path: Path, name: str, fragment: str
+) -> None:
+    one_line_error(srg(tmp_path, "experiment", "--quick", f"--name={name}"), fragment)
+
+
+# ---- init options ----------------------------------------------------------------------
+@pytest.mark.parametrize(
+    ("args", "fragment"),
+    [
+        (["--depth", "50"], "at most depth 6"),
+        (["--depth", "99999999999999999999"], "at most depth 6"),
+        (["--depth", "1"], "depth >= 2"),
+        (["--depth", "-3"], "depth >= 2"),
+        (["--preset", "tiny"], "preset"),
+        (["--dynamics", "toy", "--preset", "paper"], "preset"),
+    ],
+)
+def test_init_refuses_a_deep_tree_and_a_preset_for_the_toy(
+    var: Path, args: list[str], fragment: str
+) -> None:
+    one_line_error(srg(var, "init", "refused", *args), fragment)
+    assert graph_names(embedded_url(var)) == ["toy1"]
+
+
+def test_init_takes_a_deeper_tree_within_the_bound(tmp_path: Path) -> None:
+    summary = json.loads(ok(tmp_path, "init", "deep", "--depth", "3", "--json"))
+    assert summary["sim_edges"] == 3 + 9 and summary["blend_edges"] == 27
+
+
+# ---- progress bars ---------------------------------------------------------------------
+def test_a_frame_budget_that_is_not_a_whole_expansion_never_overshoots_its_bar(
+    tmp_path: Path,
+) -> None:
+    ok(tmp_path, "init", "g")
+    done = srg(tmp_path, "grow", "g", "--frames", "27")
+    assert done.returncode == 0, done.stderr
+    assert "27/27" in done.stderr and "30/27" not in done.stderr
+
+
+@pytest.mark.parametrize("budget", [["--frames", "-5"], ["--expansions", "-5"], ["--frames", "0"]])
+def test_a_negative_budget_is_refused_before_any_bar(tmp_path: Path, budget: list[str]) -> None:
+    ok(tmp_path, "init", "g")
+    done = srg(tmp_path, "grow", "g", *budget)
+    one_line_error(done, "must be positive")
+    assert "/-5" not in done.stderr and "0/0" not in done.stderr
+
+
+def test_the_progress_bar_stays_within_zero_and_its_total(
+    capsys: pytest.CaptureFixture[str],
+) -> None:
+    with progress_bar(-5, "negative") as advance:
+        advance(3)
+    with progress_bar(27, "over") as advance:
+        for _ in range(4):
+            advance(10)
+    with progress_bar(10, "backwards") as advance:
+        advance(-4)
+    err = capsys.readouterr().err
+    assert "0/0" in err and "27/27" in err and "0/10" in err
+    assert "-5" not in err and "40/27" not in err and "-4/10" not in err
+
+
+# ---- growth after huge traces (STATERANK's non-convergence) ---------------------------
+def looping_trace(publication: Publication, control: int, steps: int) -> np.ndarray:
+    """A session holding one control for ``steps`` steps: it ends up circling a loop."""
+    trace = np.empty((steps, 2), dtype=np.int64)
+    vertex = publication.start
+    for step in range(steps):
+        trace[step] = vertex, control
+        vertex = publication.destination(vertex, control)
+    return trace
+
+
+def test_grow_goes_on_after_two_huge_looping_traces(tmp_path: Path) -> None:
+    """The graph that stalled STATERANK: two 85,000-step looping sessions of one player."""
+    ok(tmp_path, "init", "looped", "--strategy", "sr-crowd")
+    ok(tmp_path, "grow", "looped", "--expansions", "2")
+    ok(tmp_path, "publish", "looped")
+    engine = make_engine(embedded_url(tmp_path))
+    try:
+        with session_factory(engine)() as session:
+            graph_id = session.scalars(select(Graph.id).where(Graph.name == "looped")).one()
+            row = latest_publication(session, graph_id)
+            assert row is not None
+            publication = load_publication(session, row.id)
+            player = bot_player(session, "looper")
+            for key in ("a", "b"):
+                trace = looping_trace(publication, 1, 85_000)
+                record_trace(session, row.id, player, key, trace, publication=publication)
+            session.commit()
+    finally:
+        engine.dispose()
+    grown = json.loads(ok(tmp_path, "grow", "looped", "--expansions", "4", "--json"))
+    assert grown["expansions"] == 4
+    status = json.loads(ok(tmp_path, "status", "looped", "--json"))
+    assert status["play"]["traces"] == 2 and status["play"]["steps"] == 170_000
+
+
+# ---- status shows play -----------------------------------------------------------------
+def test_status_shows_play_traces_players_and_the_last_upload(tmp_path: Path) -> None:
+    ok(tmp_path, "init", "played")
+    fresh = json.loads(ok(tmp_path, "status", "played", "--json"))
+    assert fresh["play"] == {"traces": 0, "steps": 0, "players": 0, "last_upload": None}
+    ok(tmp_path, "publish", "played")
+    ok(tmp_path, "play", "played", "--sessions", "3")
+    ok(tmp_path, "play", "played", "--sessions", "2", "--bot", "random")
+    play = json.loads(ok(tmp_path, "status", "played", "--json"))["play"]
+    assert play["traces"] == 5 and play["players"] == 2 and play["steps"] >= 5
+    assert play["last_upload"] is not None
+    engine = make_engine(embedded_url(tmp_path))
+    try:
+        with engine.connect() as connection:
+            steps = connection.exec_driver_sql("SELECT count(*) FROM trace_steps").scalar()
+    finally:
+        engine.dispose()
+    assert play["steps"] == steps
+    line = ok(tmp_path, "status", "played")
+    assert "traces=5" in line and "players=2" in line and "last_upload=" in line
