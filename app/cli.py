@@ -200,8 +200,7 @@ def main() -> None:
                 raise
             raise mapped from exc
     except (UserError, ValueError, LookupError, ServerError) as exc:
-        message = exc.args[0] if exc.args else exc
-        typer.echo(f"srg: error: {message}".splitlines()[0], err=True)
+        typer.echo(f"srg: error: {error_line(exc)}".splitlines()[0], err=True)
         sys.exit(2)
     except OperationalError as exc:
         typer.echo(f"srg: error: cannot use the database: {exc.orig}".splitlines()[0], err=True)
@@ -209,6 +208,18 @@ def main() -> None:
     except httpx.TransportError as exc:
         typer.echo(f"srg: error: cannot reach the server: {exc}".splitlines()[0], err=True)
         sys.exit(2)
+
+
+def error_line(exc: Exception) -> str:
+    """The message of a user error; a setting pydantic refused is named by its variable."""
+    from pydantic import ValidationError
+
+    if isinstance(exc, ValidationError):
+        return "; ".join(
+            f"SRG_{'_'.join(str(part) for part in error['loc']).upper()}: {error['msg']}"
+            for error in exc.errors()
+        )
+    return str(exc.args[0] if exc.args else exc)
 
 
 def database_user_error(exc: DBAPIError) -> Exception:

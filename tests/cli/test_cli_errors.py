@@ -311,3 +311,8 @@ def test_status_shows_play_traces_players_and_the_last_upload(tmp_path: Path) ->
     assert play["steps"] == steps
     line = ok(tmp_path, "status", "played")
     assert "traces=5" in line and "players=2" in line and "last_upload=" in line
+
+
+def test_a_setting_of_the_wrong_type_is_named_in_one_line(tmp_path: Path) -> None:
+    done = srg(tmp_path, "status", SRG_BATCH_SIZE="abc")
+    one_line_error(done, "SRG_BATCH_SIZE: Input should be a valid integer")
