@@ -56,6 +56,9 @@ class Settings(BaseSettings):
         3, description="retries of a task that waits, and redeliveries of a lost one, at most"
     )
     beat_interval: float = Field(30.0, description="seconds between beat's growth ticks")
+    player_model: str = Field(
+        "eq2", description="crowd model of new sr-crowd graphs: eq2 (the paper's) or logit"
+    )
     epoch_check_after: float = Field(
         60.0,
         ge=0,

@@ -8,6 +8,7 @@ graph; the crowd model is learned from traces, each a sequence of (vertex, contr
 from __future__ import annotations
 
 from collections.abc import Iterable, Sequence
+from enum import StrEnum
 
 import numpy as np
 import scipy.sparse as sp
@@ -15,6 +16,24 @@ from scipy.spatial import cKDTree
 
 #: One step of a trace: the vertex the player was at and the control they took there.
 Trace = Sequence[tuple[int, int]] | np.ndarray
+
+
+class PlayerModelKind(StrEnum):
+    """The crowd model sr-crowd learns (docs/player-models.md)."""
+
+    #: the paper's kernel density estimate, with its eps prior (:func:`crowd_player_model`)
+    EQ2 = "eq2"
+    #: eq. 2's kernel counts under a logit prior over goal features (app.core.choice_model)
+    LOGIT = "logit"
+
+
+def parse_player_model(name: str) -> PlayerModelKind:
+    """The player model called ``name``; ValueError naming the known ones otherwise."""
+    try:
+        return PlayerModelKind(name)
+    except ValueError:
+        known = ", ".join(k.value for k in PlayerModelKind)
+        raise ValueError(f"unknown player model {name!r}; choose one of: {known}") from None
 
 
 def heuristic_player_model(vertex_control: np.ndarray, n_controls: int, alpha: float) -> np.ndarray:
@@ -125,15 +144,41 @@ def crowd_player_model(
     if eps < 0.0:
         raise ValueError(f"eps must be non-negative, got {eps}")
 
+    scores = kernel_counts(descriptors, vertex_control, counts, radius)
+    for group in range(n_controls):
+        in_group = vertex_control == group
+        group_counts = counts[in_group].sum(axis=0)
+        if group_counts.sum() > 0.0:
+            scores[in_group] += eps * group_counts
+
+    totals = scores.sum(axis=1)
+    supported = totals > 0.0
+    model = fallback.copy()
+    model[supported] = scores[supported] / totals[supported, None]
+    return model
+
+
+def kernel_counts(
+    descriptors: np.ndarray, vertex_control: np.ndarray, control_counts: np.ndarray, radius: float
+) -> np.ndarray:
+    r"""Eq. 2's evidence without its prior: :math:`\sum_{u,\ c_u = c_v} k_{tri}(r, \lVert
+    d_u - d_v \rVert) \, n(u, c)` for every vertex v and control c, shape (V, N).
+
+    Per control group, one KD-tree ball query between the group's vertices and its visited
+    vertices. A vertex's own visits count fully (distance 0); a row of zeros means no
+    visited vertex of its group lies within ``radius``.
+    """
+    descriptors = np.asarray(descriptors, dtype=np.float64)
+    counts = np.asarray(control_counts, dtype=np.float64)
+    vertex_control = np.asarray(vertex_control)
     scores = np.zeros_like(counts)
     visited = counts.sum(axis=1) > 0.0
-    for group in range(n_controls):
+    for group in range(counts.shape[1]):
         in_group = vertex_control == group
         members = np.flatnonzero(in_group)
         sources = np.flatnonzero(in_group & visited)
         if sources.size == 0:
             continue
-        source_counts = counts[sources]
         pairs = cKDTree(descriptors[members]).sparse_distance_matrix(
             cKDTree(descriptors[sources]), radius, output_type="ndarray"
         )
@@ -141,13 +186,8 @@ def crowd_player_model(
             (1.0 - pairs["v"] / radius, (pairs["i"], pairs["j"])),
             shape=(members.size, sources.size),
         )
-        scores[members] = kernel @ source_counts + eps * source_counts.sum(axis=0)
-
-    totals = scores.sum(axis=1)
-    supported = totals > 0.0
-    model = fallback.copy()
-    model[supported] = scores[supported] / totals[supported, None]
-    return model
+        scores[members] = kernel @ counts[sources]
+    return scores
 
 
 def observed_player_model(control_counts: np.ndarray, *, fallback: np.ndarray) -> np.ndarray:

@@ -12,6 +12,7 @@ from dataclasses import dataclass, field
 
 import numpy as np
 
+from app.core.choice_model import ChoiceGraph, ChoiceModel, Kernel, PlayedGraph, fit_choice_model
 from app.core.clipbank import ClipBank
 from app.core.dynamics import Dynamics
 from app.core.graph import StateGraph
@@ -24,6 +25,7 @@ from app.core.growth import (
     select_for_expansion,
 )
 from app.core.player_models import (
+    PlayerModelKind,
     crowd_player_model,
     heuristic_player_model,
     observed_control_counts,
@@ -48,6 +50,8 @@ class RefinerConfig:
     staterank_max_iter: int = STATERANK_MAX_ITER
     prefilter_k: int = 100
     batch_size: int = 4
+    #: the crowd model sr-crowd learns: the paper's eq. 2, or eq. 2 under a logit prior
+    player_model: PlayerModelKind = PlayerModelKind.EQ2
 
 
 @dataclass
@@ -57,8 +61,14 @@ class Refiner:
     dynamics: Dynamics
     strategy: Strategy
     config: RefinerConfig = RefinerConfig()
-    traces: list[Trace] = field(default_factory=list)
+    #: the sessions learnt from, each with the publication it was played on
+    played: list[tuple[Publication, list[Trace]]] = field(default_factory=list)
     _pi: np.ndarray | None = None
+    _choice: ChoiceModel | None = None
+
+    @property
+    def traces(self) -> list[Trace]:
+        return [trace for _, traces in self.played for trace in traces]
 
     # ---- player model and ranking -------------------------------------------------
     def heuristic_model(self) -> np.ndarray:
@@ -66,20 +76,53 @@ class Refiner:
             np.asarray(self.graph.vertex_control), self.graph.n_controls, self.config.alpha
         )
 
-    def player_model(self) -> np.ndarray:
-        """P(c|v) for every vertex: the crowd model once sr-crowd has traces, else P_h."""
-        heuristic = self.heuristic_model()
-        if not (self.strategy.learns_from_traces and self.traces):
+    def player_model(self, on: Publication | None = None) -> np.ndarray:
+        """P(c|v) for every vertex: the crowd model once sr-crowd has traces, else P_h.
+
+        ``on`` is a publication of this graph to answer for (its vertices are the graph's
+        first ones; its edges are the ones its players saw); default: the graph now.
+        """
+        vertices = self.graph.n_vertices if on is None else on.n_vertices
+        heuristic = self.heuristic_model()[:vertices]
+        traces = self.traces
+        if not (self.strategy.learns_from_traces and traces):
             return heuristic
-        counts = observed_control_counts(self.traces, self.graph.n_vertices, self.graph.n_controls)
+        counts = observed_control_counts(traces, self.graph.n_vertices, self.graph.n_controls)
+        if self.config.player_model is PlayerModelKind.LOGIT:
+            graph = ChoiceGraph.of(
+                freeze(self.graph) if on is None else on,
+                np.asarray(self.graph.vertex_control),
+                self.graph.vertex_parents(),
+            )
+            evidence = self.kernel().counts(counts)[:vertices]
+            return self.choice_model().probabilities(graph, evidence)
         return crowd_player_model(
-            self.graph.vertex_descriptors(),
+            self.kernel().descriptors,
             np.asarray(self.graph.vertex_control),
             counts,
             self.config.crowd_radius,
             self.config.crowd_eps,
-            fallback=heuristic,
+            fallback=self.heuristic_model(),
+        )[:vertices]
+
+    def kernel(self) -> Kernel:
+        """Eq. 2's kernel over this graph's vertices."""
+        return Kernel(
+            self.graph.vertex_descriptors(),
+            np.asarray(self.graph.vertex_control),
+            self.config.crowd_radius,
         )
+
+    def choice_model(self) -> ChoiceModel:
+        """The logit-prior model fitted to the sessions learnt so far (fitted once)."""
+        if self._choice is None:
+            control, parents = np.asarray(self.graph.vertex_control), self.graph.vertex_parents()
+            played = [
+                PlayedGraph(ChoiceGraph.of(publication, control, parents), traces)
+                for publication, traces in self.played
+            ]
+            self._choice = fit_choice_model(played, self.kernel())
+        return self._choice
 
     @property
     def restart(self) -> float:
@@ -171,5 +214,7 @@ class Refiner:
         )
         return freeze(self.graph), relinked
 
-    def learn(self, traces: Sequence[Trace]) -> None:
-        self.traces.extend(np.asarray(t, dtype=np.int64) for t in traces)
+    def learn(self, traces: Sequence[Trace], publication: Publication) -> None:
+        """Take sessions played on ``publication`` (a version of this graph) into account."""
+        self.played.append((publication, [np.asarray(t, dtype=np.int64) for t in traces]))
+        self._choice = None

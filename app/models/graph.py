@@ -51,6 +51,8 @@ class Graph(Base):
     frames_per_clip: Mapped[int] = mapped_column(Integer)
     seed: Mapped[int] = mapped_column(Integer)
     strategy: Mapped[str] = mapped_column(String(32))
+    #: the crowd model sr-crowd learns (app.core.player_models.PlayerModelKind)
+    player_model: Mapped[str] = mapped_column(String(16), default="eq2", server_default="eq2")
     growing: Mapped[bool] = mapped_column(Boolean, default=False)
     #: bumped by every save; a save that finds another revision lost a race or a rollback
     revision: Mapped[int] = mapped_column(Integer, default=0)

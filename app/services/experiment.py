@@ -40,7 +40,13 @@ from app.core.metrics import (
     relative_difference,
 )
 from app.core.names import check_name
-from app.core.player_models import kernel_support, mean_session_length, observed_control_counts
+from app.core.player_models import (
+    PlayerModelKind,
+    kernel_support,
+    mean_session_length,
+    observed_control_counts,
+    parse_player_model,
+)
 from app.core.publication import Publication
 from app.core.refinement import Refiner
 from app.core.strategies import Strategy, parse_strategy
@@ -56,6 +62,7 @@ from app.services.graphs import (
     publish_graph,
     refiner_for,
 )
+from app.services.prediction import fixed_graph_prediction, model_fit
 from app.store.publications import load_publication
 from app.store.traces import bot_player, record_trace
 
@@ -79,6 +86,16 @@ RATIOS = {
         for label in THRESHOLD_SENSITIVITY
     },
 }
+#: the prediction figures of both settings in the summary (app.core.prediction)
+PREDICTION_KEYS = (
+    "expected_error_relative_difference",
+    "density_correlation",
+    "density_tv_distance",
+    "per_vertex_bound_relative_difference",
+    "predicted_mass_unvisited",
+)
+#: added to a run's seed for the bots of the fixed-graph setting (checkpoints use 0, 1, ...)
+FIXED_GRAPH_SEED = 5_000
 #: seconds between two looks at the run processes (and the frames they grew)
 PROGRESS_POLL = 1.0
 
@@ -111,6 +128,11 @@ class ExperimentPlan:
     sessions: int = 30
     mean_steps: int = 60
     batch_size: int = 8
+    #: the crowd model sr-crowd learns, and the bots that play every checkpoint
+    player_model: PlayerModelKind = PlayerModelKind.EQ2
+    bot: BotKind = BotKind.GOAL_DIRECTED
+    #: sessions per half of the fixed-graph setting (Fig. 8), on baseline's last checkpoint
+    fixed_graph_sessions: int = 100
     #: fixed when the experiment is created (the calibration's, unless set), so that every
     #: checkpoint, resumed or not, counts high-error steps against one threshold
     high_error_threshold: float | None = None
@@ -124,8 +146,10 @@ class ExperimentPlan:
             raise ValueError("give one or more distinct strategies")
         if not self.seeds or len(set(self.seeds)) != len(self.seeds):
             raise ValueError("give one or more distinct seeds")
-        if self.sessions < 1 or self.mean_steps < 2 or self.batch_size < 1:
-            raise ValueError("sessions and batch size must be positive, mean steps >= 2")
+        if min(self.sessions, self.batch_size, self.fixed_graph_sessions) < 1:
+            raise ValueError("sessions and batch size must be positive")
+        if self.mean_steps < 2:
+            raise ValueError("mean steps must be at least 2")
         if self.high_error_threshold is not None and not self.high_error_threshold > 0:
             raise ValueError("the high-error threshold must be positive")
         _check_checkpoints(self.checkpoints)
@@ -143,6 +167,7 @@ class ExperimentPlan:
         data = asdict(self)
         data["strategies"] = [s.value for s in self.strategies]
         data["seeds"], data["checkpoints"] = list(self.seeds), list(self.checkpoints)
+        data["player_model"], data["bot"] = self.player_model.value, self.bot.value
         return data
 
     @classmethod
@@ -152,6 +177,10 @@ class ExperimentPlan:
         values["strategies"] = tuple(parse_strategy(s) for s in values["strategies"])
         values["seeds"] = tuple(int(s) for s in values["seeds"])
         values["checkpoints"] = tuple(int(c) for c in values["checkpoints"])
+        if "player_model" in values:
+            values["player_model"] = parse_player_model(values["player_model"])
+        if "bot" in values:
+            values["bot"] = BotKind(values["bot"])
         return cls(**values)
 
 
@@ -302,6 +331,7 @@ def run_one(
                 fluid=plan.fluid,
                 strategy=strategy.value,
                 seed=seed,
+                player_model=plan.player_model.value,
             )
         if progress is not None:
             progress(int(summary["size_frames"]))  # type: ignore[call-overload]
@@ -355,7 +385,7 @@ def checkpoint_figures(
     context = _prediction_context(refiner, publication, predicted)
     traces = play_sessions(
         publication,
-        BotKind.GOAL_DIRECTED,
+        plan.bot,
         sessions=plan.sessions,
         mean_steps=plan.mean_steps,
         seed=seed * 10_000 + index,
@@ -396,7 +426,19 @@ def checkpoint_figures(
         "observed_session_steps": mean_session_length(traces),
         **context,
         **report.to_dict(),
+        "model_fit": model_fit(refiner),
     }
+    if strategy is Strategy.BASELINE and index == len(plan.checkpoints) - 1:
+        figures["fixed_graph"] = fixed_graph_prediction(
+            settings,
+            loaded,
+            publication,
+            model=plan.player_model,
+            bot=plan.bot,
+            sessions=plan.fixed_graph_sessions,
+            mean_steps=plan.mean_steps,
+            seed=seed * 10_000 + FIXED_GRAPH_SEED,
+        )
     arrays = {
         "step_errors": observed_step_errors(traces, publication.edge_err, n),
         "predicted_density": predicted,
@@ -503,7 +545,10 @@ def summarise(results: dict[str, dict[str, list[dict[str, Any]]]]) -> dict[str, 
         ):
             # of the seed means, so that one seed's tiny observed error does not dominate
             last[strategy][key] = relative_difference(last[strategy][source], observed)
-    summary: dict[str, object] = {"last_checkpoint_mean_over_seeds": last}
+    summary: dict[str, object] = {
+        "last_checkpoint_mean_over_seeds": last,
+        "prediction": prediction_summary(results),
+    }
     if "baseline" in results and "sr-crowd" in results:
         per_seed: list[dict[str, Any]] = []
         for seed, rows in results["sr-crowd"].items():
@@ -523,6 +568,28 @@ def summarise(results: dict[str, dict[str, list[dict[str, Any]]]]) -> dict[str, 
             ),
         }
     return summary
+
+
+def prediction_summary(results: dict[str, dict[str, list[dict[str, Any]]]]) -> dict[str, Any]:
+    """Per setting and strategy, the last checkpoint's prediction figures, a list per key
+    with one entry per seed (in ``seeds``' order): ``fixed_graph`` (Fig. 8, baseline's
+    graph) and ``grown_graph`` (Fig. 9, every strategy's own model on its own graph)."""
+    settings: dict[str, dict[str, Any]] = {"fixed_graph": {}, "grown_graph": {}}
+    for strategy, by_seed in results.items():
+        seeds = list(by_seed)
+        finals = [by_seed[seed][-1] for seed in seeds]
+        settings["grown_graph"][strategy] = {
+            "seeds": seeds,
+            **{key: [row.get(key) for row in finals] for key in PREDICTION_KEYS},
+        }
+        fixed = [row["fixed_graph"] for row in finals if "fixed_graph" in row]
+        if len(fixed) == len(finals):
+            keys = (*PREDICTION_KEYS, "observed_split_half_correlation")
+            settings["fixed_graph"][strategy] = {
+                "seeds": seeds,
+                **{key: [row[key] for row in fixed] for key in keys},
+            }
+    return settings
 
 
 def comparable_figures(result: dict[str, Any]) -> dict[str, Any]:

@@ -25,6 +25,8 @@ from app.core.graph import EdgeKind, StateGraph
 from app.core.growth import initial_tree
 from app.core.metrics import high_error_fraction, observed_mean_error
 from app.core.names import check_name
+from app.core.player_models import PlayerModelKind, parse_player_model
+from app.core.publication import Publication
 from app.core.refinement import Refiner, RefinerConfig
 from app.core.strategies import Strategy, parse_strategy
 from app.db import Scope
@@ -41,7 +43,13 @@ from app.store.graphs import (
     size_frames,
 )
 from app.store.publications import latest_publication, load_publication, publish
-from app.store.traces import bot_player, load_traces, play_summary, record_trace
+from app.store.traces import (
+    bot_player,
+    load_traces,
+    play_summary,
+    played_publications,
+    record_trace,
+)
 
 Progress = Callable[[int], None]
 
@@ -110,7 +118,9 @@ def check_initial_depth(depth: int, n_controls: int) -> None:
         deepest += 1
 
 
-def refiner_config(settings: Settings, dynamics: Dynamics) -> RefinerConfig:
+def refiner_config(
+    settings: Settings, dynamics: Dynamics, player_model: PlayerModelKind = PlayerModelKind.EQ2
+) -> RefinerConfig:
     return RefinerConfig(
         alpha=settings.alpha,
         crowd_radius=settings.crowd_radius or dynamics.crowd_radius,
@@ -119,6 +129,7 @@ def refiner_config(settings: Settings, dynamics: Dynamics) -> RefinerConfig:
         max_session_steps=settings.max_session_steps,
         prefilter_k=settings.prefilter_k,
         batch_size=settings.batch_size,
+        player_model=player_model,
     )
 
 
@@ -129,10 +140,16 @@ def open_graph(session: Session, settings: Settings, name: str | int) -> LoadedG
     return loaded_graph(session, settings, get_graph_row(session, name))
 
 
-def graph_traces(session: Session, graph_id: int) -> list[np.ndarray]:
-    """Every trace played on any publication of the graph (vertex ids are stable)."""
-    ids = session.scalars(select(PublicationRow.id).where(PublicationRow.graph_id == graph_id))
-    return load_traces(session, list(ids))
+def graph_play(session: Session, graph_id: int) -> list[tuple[Publication, list[np.ndarray]]]:
+    """Every publication of the graph that was played, with its traces, oldest first.
+
+    Vertex ids are stable across publications (vertices are only appended), so traces of
+    any of them read on the graph as it is now; the publication says what players saw.
+    """
+    return [
+        (load_publication(session, publication_id), load_traces(session, [publication_id]))
+        for publication_id in played_publications(session, graph_id)
+    ]
 
 
 def refiner_for(
@@ -145,10 +162,11 @@ def refiner_for(
         loaded.bank,
         loaded.dynamics,
         strategy,
-        refiner_config(settings, loaded.dynamics),
+        refiner_config(settings, loaded.dynamics, parse_player_model(loaded.row.player_model)),
     )
     if strategy.learns_from_traces:
-        refiner.learn(graph_traces(session, loaded.row.id))
+        for publication, traces in graph_play(session, loaded.row.id):
+            refiner.learn(traces, publication)
     return refiner
 
 
@@ -164,8 +182,11 @@ def init_graph(
     strategy: str = "sr-crowd",
     depth: int = 2,
     seed: int = 0,
+    player_model: str | None = None,
 ) -> dict[str, object]:
     """Store the initial tree (paper Fig. 3) of a new graph; return its summary.
+
+    ``player_model`` is the crowd model sr-crowd learns (default ``SRG_PLAYER_MODEL``).
 
     Everything is checked before anything is written: the name (:func:`check_name`, the
     same on every backend), the strategy, the dynamics with its preset and fluid (the
@@ -173,6 +194,7 @@ def init_graph(
     """
     check_name(name, what="graph", max_length=graph_name_length())
     chosen = parse_strategy(strategy)
+    crowd_model = parse_player_model(player_model or settings.player_model)
     if dynamics == "toy" and preset is not None:
         raise ValueError(f"the toy has no preset (got {preset!r}); presets are the liquid's")
     if session.scalar(select(Graph.id).where(Graph.name == name)) is not None:
@@ -197,6 +219,7 @@ def init_graph(
             scene=scene,
             seed=seed,
             strategy=chosen.value,
+            player_model=crowd_model.value,
         )
     except IntegrityError:
         raise GraphExists(f"a graph named {name!r} already exists") from None
@@ -492,6 +515,7 @@ def graph_summary(session: Session, name: str | int) -> dict[str, object]:
         "dynamics": row.dynamics,
         "preset": row.scene.get("preset"),
         "strategy": row.strategy,
+        "player_model": row.player_model,
         "growing": row.growing,
         "size_frames": int(frames),
         "sim_edges": int(kinds.get(int(EdgeKind.SIM), 0)),

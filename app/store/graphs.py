@@ -50,6 +50,7 @@ def create_graph(
     scene: Mapping[str, Any] | None = None,
     seed: int = 0,
     strategy: str = "sr-crowd",
+    player_model: str = "eq2",
 ) -> int:
     """Add an empty graph row and return its id; :func:`save_graph` fills it."""
     row = Graph(
@@ -60,6 +61,7 @@ def create_graph(
         frames_per_clip=frames_per_clip,
         seed=seed,
         strategy=strategy,
+        player_model=player_model,
         growing=False,
         revision=0,
     )

@@ -197,3 +197,15 @@ def _replay(
     ):
         raise IdempotencyConflict(f"idempotency key {key!r} was used for a different trace")
     return trace.id
+
+
+def played_publications(session: Session, graph_id: int) -> list[int]:
+    """Ids of the graph's publications that have at least one trace, oldest first."""
+    return list(
+        session.scalars(
+            select(PublicationRow.id)
+            .where(PublicationRow.graph_id == graph_id)
+            .where(select(Trace.id).where(Trace.publication_id == PublicationRow.id).exists())
+            .order_by(PublicationRow.id)
+        )
+    )

@@ -77,7 +77,7 @@ def test_sr_crowd_learns_from_traces_and_others_ignore_them(publication) -> None
     for r in (crowd, heuristic):
         r.grow(expansions=20)
         pub = r.publish()[0]
-        r.learn(play_sessions(pub, BotKind.GOAL_DIRECTED, sessions=10, mean_steps=30, seed=2))
+        r.learn(play_sessions(pub, BotKind.GOAL_DIRECTED, sessions=10, mean_steps=30, seed=2), pub)
     assert not np.allclose(crowd.player_model(), crowd.heuristic_model())
     assert np.array_equal(heuristic.player_model(), heuristic.heuristic_model())
     assert crowd.restart != pytest.approx(1 / 90)
@@ -98,7 +98,7 @@ def test_two_huge_looping_traces_of_one_player_do_not_stop_growth() -> None:
     r = refiner(Strategy.SR_CROWD)
     r.grow(expansions=2)
     publication = r.publish()[0]
-    r.learn([looping_trace(publication, 1, 85_000) for _ in range(2)])
+    r.learn([looping_trace(publication, 1, 85_000) for _ in range(2)], publication)
     before = r.graph.n_vertices
     epochs = r.grow(expansions=4)
     assert r.graph.n_vertices == before + 4

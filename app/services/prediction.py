@@ -1,0 +1,102 @@
+"""How well a player model predicts play, on stored graphs (docs/player-models.md).
+
+Two uses: the experiment's fixed-graph setting (paper Fig. 8: one publication, one crowd
+of bots split in halves, a model learned from one half predicting the other), and
+``srg analytics``, which tells an operator how well the graph's model predicted the play
+of its latest publication from the play of the earlier ones (paper Fig. 9's setting, on
+real players' traces).
+"""
+
+from __future__ import annotations
+
+from typing import Any
+
+from sqlalchemy.orm import Session
+
+from app.config import Settings
+from app.core.bots import BotKind, play_sessions
+from app.core.player_models import PlayerModelKind, parse_player_model
+from app.core.prediction import prediction_figures, split_half_correlation
+from app.core.publication import Publication
+from app.core.refinement import Refiner
+from app.core.strategies import Strategy
+from app.services.graphs import LoadedGraph, graph_play, open_graph, refiner_config
+
+
+def crowd_refiner(settings: Settings, loaded: LoadedGraph, model: PlayerModelKind) -> Refiner:
+    """A refiner of the graph that learns the crowd model ``model``, whatever its strategy."""
+    config = refiner_config(settings, loaded.dynamics, model)
+    return Refiner(loaded.graph, loaded.bank, loaded.dynamics, Strategy.SR_CROWD, config)
+
+
+def model_fit(refiner: Refiner) -> dict[str, Any] | None:
+    """What cross-validation chose for the logit-prior model (None for eq. 2)."""
+    if refiner.config.player_model is not PlayerModelKind.LOGIT or not refiner.played:
+        return None
+    fitted = refiner.choice_model()
+    return {
+        "horizon": fitted.horizon,
+        "discount": fitted.discount,
+        "penalty": fitted.penalty,
+        "prior_weight": fitted.prior_weight,
+        "weights": [round(float(w), 6) for w in fitted.weights],
+    }
+
+
+def fixed_graph_prediction(
+    settings: Settings,
+    loaded: LoadedGraph,
+    publication: Publication,
+    *,
+    model: PlayerModelKind,
+    bot: BotKind,
+    sessions: int,
+    mean_steps: int,
+    seed: int,
+) -> dict[str, Any]:
+    """Fig. 8's setting: ``2 x sessions`` bot sessions on ``publication``, learn from one
+    half, predict the other (none of them stored: they measure, they do not grow)."""
+    traces = play_sessions(
+        publication, bot, sessions=2 * sessions, mean_steps=mean_steps, seed=seed
+    )
+    learn, held_out = traces[0::2], traces[1::2]
+    refiner = crowd_refiner(settings, loaded, model)
+    refiner.learn(learn, publication)
+    figures: dict[str, Any] = prediction_figures(
+        publication, refiner.player_model(), refiner.restart, held_out, learned_from=learn
+    )
+    figures["observed_split_half_correlation"] = split_half_correlation(
+        learn, held_out, publication
+    )
+    figures["sessions_per_half"] = sessions
+    figures["model_fit"] = model_fit(refiner)
+    return figures
+
+
+def latest_play_prediction(
+    session: Session, settings: Settings, name: str | int, model: str | None = None
+) -> dict[str, Any] | None:
+    """How well the graph's crowd model, learned from every publication's play but the
+    latest one's, predicts the latest one's; None before two publications were played."""
+    loaded = open_graph(session, settings, name)
+    played = graph_play(session, loaded.row.id)
+    if len(played) < 2:
+        return None
+    chosen = parse_player_model(model or loaded.row.player_model)
+    refiner = crowd_refiner(settings, loaded, chosen)
+    for publication, traces in played[:-1]:
+        refiner.learn(traces, publication)
+    latest, traces = played[-1]
+    figures: dict[str, Any] = prediction_figures(
+        latest,
+        refiner.player_model(on=latest),
+        refiner.restart,
+        traces,
+        learned_from=refiner.traces,
+    )
+    figures["player_model"] = chosen.value
+    figures["publications_learned_from"] = len(played) - 1
+    figures["sessions_learned_from"] = len(refiner.traces)
+    figures["sessions_predicted"] = len(traces)
+    figures["model_fit"] = model_fit(refiner)
+    return figures
