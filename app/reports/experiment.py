@@ -20,6 +20,8 @@ import matplotlib.pyplot as plt  # noqa: E402
 import numpy as np  # noqa: E402
 from matplotlib.collections import LineCollection  # noqa: E402
 
+from app.reports.prediction import ingredients_section, settings_section  # noqa: E402
+
 ArraysLoader = Callable[[str], dict[str, np.ndarray]]
 
 FIGURES = {
@@ -49,9 +51,7 @@ def _series(result: dict[str, Any], strategy: str, key: str) -> tuple[np.ndarray
     return sizes.mean(axis=0), values
 
 
-def plot_metric(
-    result: dict[str, Any], key: str, title: str, ylabel: str, path: Path
-) -> Path:
+def plot_metric(result: dict[str, Any], key: str, title: str, ylabel: str, path: Path) -> Path:
     """Mean over seeds against graph size, the band spanning the seeds (min to max)."""
     fig, ax = plt.subplots(figsize=(6.4, 4.2))
     for strategy in result["results"]:
@@ -121,9 +121,7 @@ def plot_density_scatter(result: dict[str, Any], load_arrays: ArraysLoader, path
         row = next(iter(result["results"][strategy].values()))[-1]
         predicted, observed = arrays["predicted_density"], arrays["observed_density"]
         floor = 0.1 / max(int(row["n_steps"]), 1)  # below one observed step: unvisited
-        ax.scatter(
-            np.maximum(predicted, floor), np.maximum(observed, floor), s=5, alpha=0.5, lw=0
-        )
+        ax.scatter(np.maximum(predicted, floor), np.maximum(observed, floor), s=5, alpha=0.5, lw=0)
         ax.plot([floor, 1], [floor, 1], color="black", lw=0.8, label="predicted = observed")
         ax.set_xscale("log")
         ax.set_yscale("log")
@@ -208,19 +206,20 @@ def plot_density_graph(
     return path
 
 
-def markdown(result: dict[str, Any], images: list[Path]) -> str:
+def markdown(
+    result: dict[str, Any], images: list[Path], ingredients: list[dict[str, Any]] | None = None
+) -> str:
     plan = result["plan"]
-    scene = plan["dynamics"] + "".join(
-        f" / {plan[k]}" for k in ("preset", "fluid") if plan.get(k)
-    )
+    scene = plan["dynamics"] + "".join(f" / {plan[k]}" for k in ("preset", "fluid") if plan.get(k))
     seconds = result["seconds"]
     lines = [
         f"# Self-refining experiment `{result['name']}` on `{scene}`",
         "",
         f"Strategies {', '.join(plan['strategies'])}; seeds {plan['seeds']}; checkpoints "
-        f"{plan['checkpoints']} frames; {plan['sessions']} goal-directed bot sessions of "
-        f"mean {plan['mean_steps']} steps per checkpoint; {plan['batch_size']} expansions "
-        f"per growth epoch. High-error threshold {_threshold(result):.4g}."
+        f"{plan['checkpoints']} frames; {plan['sessions']} "
+        f"{plan.get('bot', 'goal-directed')} bot sessions of mean {plan['mean_steps']} steps "
+        f"per checkpoint; {plan['batch_size']} expansions per growth epoch. "
+        f"High-error threshold {_threshold(result):.4g}."
         + (
             f" This invocation ran {seconds} s (a resume runs only what was not stored;"
             " growth seconds per run are under Cost)."
@@ -248,6 +247,8 @@ def markdown(result: dict[str, Any], images: list[Path]) -> str:
                 f"| {mean('mean_score_per_step')} |"
             )
     lines += _prediction_section(result)
+    lines += settings_section(result)
+    lines += ingredients_section(ingredients or [])
     versus = result["summary"].get("sr_crowd_vs_baseline")
     if versus:
         lines += ["", "## sr-crowd against baseline at the last checkpoint", ""]
@@ -357,8 +358,16 @@ def _number(value: float | None, digits: int = 2) -> str:
     return "n/a" if value is None or np.isnan(value) else f"{value:.{digits}f}"
 
 
-def write_report(result: dict[str, Any], out_dir: Path, load_arrays: ArraysLoader) -> Path:
-    """PNG plots and ``report.md`` into ``out_dir``; returns the markdown path."""
+def write_report(
+    result: dict[str, Any],
+    out_dir: Path,
+    load_arrays: ArraysLoader,
+    ingredients: list[dict[str, Any]] | None = None,
+) -> Path:
+    """PNG plots and ``report.md`` into ``out_dir``; returns the markdown path.
+
+    ``ingredients``: rows of :func:`app.services.ingredients.eq2_ingredients`, if wanted.
+    """
     out_dir.mkdir(parents=True, exist_ok=True)
     images = [
         plot_metric(result, key, title, ylabel, out_dir / name)
@@ -371,5 +380,5 @@ def write_report(result: dict[str, Any], out_dir: Path, load_arrays: ArraysLoade
             plot_density_graph(result, strategy, load_arrays, out_dir / f"density-{strategy}.png")
         )
     report = out_dir / "report.md"
-    report.write_text(markdown(result, images))
+    report.write_text(markdown(result, images, ingredients))
     return report

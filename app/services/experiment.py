@@ -309,11 +309,11 @@ def run_one(
     plan = stored_plan(name)
     graph = run_graph_name(name, strategy, seed)
     with transaction() as session:
-        experiment_id = _experiment_id(session, name)
+        stored_id = experiment_id(session, name)
         done = set(
             session.scalars(
                 select(ExperimentCheckpoint.checkpoint).where(
-                    ExperimentCheckpoint.experiment_id == experiment_id,
+                    ExperimentCheckpoint.experiment_id == stored_id,
                     ExperimentCheckpoint.strategy == strategy.value,
                     ExperimentCheckpoint.seed == seed,
                 )
@@ -350,7 +350,7 @@ def run_one(
             figures["resident_mb"] = round(_resident_mb(), 1)
             session.add(
                 ExperimentCheckpoint(
-                    experiment_id=experiment_id,
+                    experiment_id=stored_id,
                     strategy=strategy.value,
                     seed=seed,
                     checkpoint=index,
@@ -485,7 +485,7 @@ def collect(name: str, seconds: float | None = None) -> dict[str, Any]:
     with transaction() as session:
         rows = session.scalars(
             select(ExperimentCheckpoint)
-            .where(ExperimentCheckpoint.experiment_id == _experiment_id(session, name))
+            .where(ExperimentCheckpoint.experiment_id == experiment_id(session, name))
             .order_by(ExperimentCheckpoint.checkpoint)
         ).all()
     results: dict[str, dict[str, list[dict[str, Any]]]] = {
@@ -610,7 +610,7 @@ def _ratio(numerator: object, denominator: object) -> float | None:
     return num / den if den > 0 else None
 
 
-def _experiment_id(session: Session, name: str) -> int:
+def experiment_id(session: Session, name: str) -> int:
     found = session.scalar(select(Experiment.id).where(Experiment.name == name))
     if found is None:
         raise NothingToResume(f"no experiment named {name!r}")

@@ -1,0 +1,108 @@
+"""Why eq. 2 misses: each of its ingredients varied alone, on an experiment's stored play.
+
+For every sr-crowd checkpoint after the first, eq. 2 is learned from the earlier
+checkpoints' traces (the grown-graph setting, paper Fig. 9) as built, and then with one
+ingredient changed: the eps prior, the kernel radius (in descriptor units, so also pdist's
+scale), the P_obs(u) weighting of visited vertices, and the restart rate (set to the
+predicted sessions' own mean length: an oracle). Each variant's prediction of the
+checkpoint's play is measured like the experiment's (:func:`prediction_figures`).
+docs/player-models.md reads the table.
+"""
+
+from __future__ import annotations
+
+from typing import Any
+
+import numpy as np
+from sqlalchemy import select
+
+from app.config import get_settings
+from app.core.player_models import (
+    crowd_player_model,
+    heuristic_player_model,
+    mean_session_length,
+    observed_control_counts,
+    robust_session_length,
+)
+from app.core.prediction import prediction_figures
+from app.core.strategies import Strategy
+from app.db import transaction
+from app.models import ExperimentCheckpoint
+from app.services.experiment import experiment_id, run_graph_name
+from app.services.graphs import open_graph, refiner_config
+from app.store.publications import load_publication
+from app.store.traces import load_traces
+
+#: (label, radius factor, eps or None for the configured one, weight visits, oracle L)
+VARIANTS = (
+    ("as built", 1.0, None, True, False),
+    ("eps = 0", 1.0, 0.0, True, False),
+    ("eps = 0.1", 1.0, 0.1, True, False),
+    ("eps = 1", 1.0, 1.0, True, False),
+    ("radius / 2", 0.5, None, True, False),
+    ("radius x 2", 2.0, None, True, False),
+    ("radius x 4", 4.0, None, True, False),
+    ("P_obs(c|u) unweighted by visits", 1.0, None, False, False),
+    ("L of the predicted sessions", 1.0, None, True, True),
+)
+
+
+def eq2_ingredients(name: str) -> list[dict[str, Any]]:
+    """One row per (seed, checkpoint, variant) of the experiment's sr-crowd runs."""
+    settings = get_settings()
+    rows: list[dict[str, Any]] = []
+    with transaction() as session:
+        checkpoints = session.scalars(
+            select(ExperimentCheckpoint)
+            .where(
+                ExperimentCheckpoint.experiment_id == experiment_id(session, name),
+                ExperimentCheckpoint.strategy == Strategy.SR_CROWD.value,
+            )
+            .order_by(ExperimentCheckpoint.seed, ExperimentCheckpoint.checkpoint)
+        ).all()
+        for checkpoint in checkpoints:
+            earlier = [
+                c.publication_id
+                for c in checkpoints
+                if c.seed == checkpoint.seed and c.checkpoint < checkpoint.checkpoint
+            ]
+            if not earlier:
+                continue
+            loaded = open_graph(
+                session, settings, run_graph_name(name, Strategy.SR_CROWD, checkpoint.seed)
+            )
+            config = refiner_config(settings, loaded.dynamics)
+            publication = load_publication(session, checkpoint.publication_id)
+            played = load_traces(session, [checkpoint.publication_id])
+            past = load_traces(session, earlier)
+            v, n = publication.n_vertices, publication.n_controls
+            control = np.asarray(loaded.graph.vertex_control[:v])
+            descriptors = loaded.graph.vertex_descriptors()[:v]
+            counts = observed_control_counts(past, v, n).astype(np.float64)
+            per_vertex = counts / np.maximum(counts.sum(axis=1, keepdims=True), 1.0)
+            fallback = heuristic_player_model(control, n, config.alpha)
+            length = robust_session_length(
+                past, default=config.default_session_steps, ceiling=config.max_session_steps
+            )
+            for label, radius, eps, weighted, oracle in VARIANTS:
+                model = crowd_player_model(
+                    descriptors,
+                    control,
+                    counts if weighted else per_vertex,
+                    config.crowd_radius * radius,
+                    config.crowd_eps if eps is None else eps,
+                    fallback=fallback,
+                )
+                steps = mean_session_length(played) if oracle else length
+                figures = prediction_figures(
+                    publication, model, 1.0 / steps, played, learned_from=past
+                )
+                rows.append(
+                    {
+                        "seed": checkpoint.seed,
+                        "checkpoint_frames": checkpoint.figures["checkpoint_frames"],
+                        "variant": label,
+                        **figures,
+                    }
+                )
+    return rows
