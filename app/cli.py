@@ -27,6 +27,7 @@ from app.cli_runtime import register_runtime_commands
 if TYPE_CHECKING:
     from sqlalchemy.exc import DBAPIError
 
+    from app.core.bots import BotKind
     from app.services.experiment import ExperimentPlan
 
 app = typer.Typer(
@@ -90,6 +91,17 @@ def experiment(
     seeds: str | None = typer.Option(None, help="comma-separated seeds (default 0,1,2)"),
     checkpoints: str | None = typer.Option(None, help="comma-separated frame counts"),
     sessions: int | None = typer.Option(None, help="bot sessions per checkpoint (default 30)"),
+    player_model: str | None = typer.Option(
+        None, help="crowd model sr-crowd learns: eq2 (default, the paper's) or logit"
+    ),
+    bot: str | None = typer.Option(
+        None,
+        help="bots that play every checkpoint: goal-directed (default), heuristic, random, "
+        "hesitant or avoider",
+    ),
+    fixed_graph_sessions: int | None = typer.Option(
+        None, help="bot sessions per half of the fixed-graph prediction setting (default 100)"
+    ),
     name: str | None = typer.Option(
         None, help="experiment name (default: from dynamics, preset and fluid)"
     ),
@@ -127,13 +139,14 @@ def experiment(
     if jobs is not None and jobs < 1:
         raise UserError(f"--jobs must be positive, got {jobs}")
     options = (dynamics, preset, fluid, strategies, seeds, checkpoints, sessions)
+    model_options = (player_model, bot, fixed_graph_sessions)
     name = name or "-".join(x for x in ("experiment", dynamics or "toy", preset, fluid) if x)
     if resume:
-        if quick or any(option is not None for option in options):
+        if quick or any(option is not None for option in (*options, *model_options)):
             raise UserError("--resume runs the stored plan: give only --name, --jobs, --json")
         plan = stored_plan(name)
     else:
-        plan = _experiment_plan(dynamics or "toy", quick, *options[1:])
+        plan = _experiment_plan(dynamics or "toy", quick, *options[1:], *model_options)
         plan = create_experiment(name, plan)
     settings = get_settings()
     if settings.eager:
@@ -164,7 +177,11 @@ def _experiment_plan(
     seeds: str | None,
     checkpoints: str | None,
     sessions: int | None,
+    player_model: str | None,
+    bot: str | None,
+    fixed_graph_sessions: int | None,
 ) -> ExperimentPlan:
+    from app.core.player_models import parse_player_model
     from app.core.strategies import parse_strategy
     from app.services.experiment import ExperimentPlan, parse_checkpoints
 
@@ -180,9 +197,28 @@ def _experiment_plan(
         changes["checkpoints"] = parse_checkpoints(checkpoints)
     if sessions is not None:
         changes["sessions"] = sessions
+    if player_model is not None:
+        changes["player_model"] = parse_player_model(player_model)
+    if bot is not None:
+        changes["bot"] = parse_bot(bot)
+    if fixed_graph_sessions is not None:
+        if fixed_graph_sessions < 1:
+            raise UserError(f"--fixed-graph-sessions must be positive, got {fixed_graph_sessions}")
+        changes["fixed_graph_sessions"] = fixed_graph_sessions
     if quick:
         return ExperimentPlan.quick(dynamics, **changes)
     return ExperimentPlan(dynamics=dynamics, **changes)
+
+
+def parse_bot(name: str) -> BotKind:
+    """The bot called ``name``; a :class:`UserError` naming the known ones otherwise."""
+    from app.core.bots import BotKind
+
+    try:
+        return BotKind(name)
+    except ValueError:
+        known = ", ".join(kind.value for kind in BotKind)
+        raise UserError(f"unknown bot {name!r} (known: {known})") from None
 
 
 def main() -> None:

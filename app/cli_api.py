@@ -3,9 +3,12 @@
 from __future__ import annotations
 
 import json
-from typing import Any
+from typing import TYPE_CHECKING, Any
 
 import typer
+
+if TYPE_CHECKING:
+    from rich.console import Console
 
 
 def register_api_commands(app: typer.Typer, bench_app: typer.Typer) -> None:
@@ -40,14 +43,23 @@ def analytics(
         None, help="high-error threshold (default: settings, else the dynamics' default)"
     ),
     top: int = typer.Option(10, help="vertices shown in the per-vertex tables"),
+    player_model: str | None = typer.Option(
+        None, help="crowd model whose prediction is shown: eq2 or logit (default: the graph's)"
+    ),
 ) -> None:
-    """Observed error, session lengths, visits and control probabilities from traces."""
+    """Observed error, session lengths, visits and control probabilities from traces, and
+    how well the crowd model predicted the latest publication's play from the earlier ones'.
+    """
     from app.config import get_settings
+    from app.core.player_models import parse_player_model
     from app.db import session_factory
     from app.services.dynamics import make_dynamics
+    from app.services.prediction import latest_play_prediction
     from app.store.analytics import graph_analytics
     from app.store.graphs import get_graph_row
 
+    if player_model is not None:  # before any work; '' names no model either
+        parse_player_model(player_model)
     settings = get_settings()
     with session_factory()() as session:
         if threshold is None:
@@ -55,6 +67,7 @@ def analytics(
             dynamics = make_dynamics(row.dynamics, row.scene.get("preset"), row.scene.get("fluid"))
             threshold = settings.high_error_threshold or dynamics.high_error_threshold
         report = graph_analytics(session, graph, threshold)
+        report["prediction"] = latest_play_prediction(session, settings, graph, player_model)
     if json_output:
         typer.echo(json.dumps(report, indent=2))
     else:
@@ -89,6 +102,45 @@ def _print_tables(report: dict[str, Any], top: int) -> None:
             [r for r in report["control_probabilities"] if r["vertex"] in shown],
         )
     )
+    _print_prediction(console, report["prediction"])
+
+
+#: the figures of the prediction table, in the order an operator reads them
+PREDICTION_ROWS = (
+    "predicted_expected_error",
+    "observed_mean_error",
+    "expected_error_relative_difference",
+    "per_vertex_bound_expected_error",
+    "per_vertex_bound_relative_difference",
+    "density_correlation",
+    "density_tv_distance",
+    "predicted_mass_unvisited",
+)
+
+
+def _print_prediction(console: Console, prediction: dict[str, Any] | None) -> None:
+    """The latest publication's play against what the crowd model predicted for it."""
+    from rich.table import Table
+
+    if prediction is None:
+        console.print("prediction: fewer than two publications played, nothing to compare yet")
+        return
+    caption = (
+        f"the {prediction['player_model']} model, learned from "
+        f"{prediction['sessions_learned_from']} sessions on "
+        f"{prediction['publications_learned_from']} earlier publication(s), against "
+        f"{prediction['sessions_predicted']} sessions on the latest"
+    )
+    out = Table(title="prediction of the latest publication's play", caption=caption)
+    out.add_column("figure")
+    out.add_column("value", justify="right")
+    for key in PREDICTION_ROWS:
+        value = prediction[key]
+        out.add_row(key, f"{value:.4g}" if isinstance(value, float) else str(value))
+    console.print(out)
+    if prediction["model_fit"] is not None:
+        fit = prediction["model_fit"]
+        console.print("model fit: " + " ".join(f"{k}={v}" for k, v in fit.items()), markup=False)
 
 
 def bench_ingest_command(

@@ -76,10 +76,14 @@ def init(
     fluid: str | None = typer.Option(None, help="liquid fluid: low (default) or high"),
     strategy: str = typer.Option("sr-crowd", help="max-error, baseline, sr-heuristic, sr-crowd"),
     depth: int = typer.Option(2, help="depth of the initial simulation tree (>= 2)"),
+    player_model: str | None = typer.Option(
+        None, help="crowd model sr-crowd learns: eq2 or logit (default SRG_PLAYER_MODEL, eq2)"
+    ),
     json_output: bool = typer.Option(False, "--json", help="print JSON"),
 ) -> None:
     """Create a graph: the initial tree of the dynamics, its leaves blended back."""
     from app.config import get_settings
+    from app.core.player_models import parse_player_model
     from app.services.dynamics import check_fluid
     from app.services.graphs import init_graph
 
@@ -87,6 +91,8 @@ def init(
         preset = "small"
     if fluid is not None:
         check_fluid(fluid)
+    if player_model is not None:  # '' too: it names no model, not the default
+        parse_player_model(player_model)
     with transaction() as session:
         summary = init_graph(
             session,
@@ -97,6 +103,7 @@ def init(
             fluid=fluid,
             strategy=strategy,
             depth=depth,
+            player_model=player_model,
         )
     emit(summary, json_output)
 

@@ -27,6 +27,8 @@ LIQUID_PLAN = (
     "--dynamics", "liquid", "--preset", "tiny", "--strategies", "baseline,sr-crowd",
     "--seeds", "3", "--checkpoints", "120,240", "--sessions", "8",
 )  # fmt: skip
+
+
 def differences(a: dict[str, Any], b: dict[str, Any]) -> list[str]:
     """(strategy, seed, checkpoint, figure) where two results' comparable figures differ."""
     found = []
@@ -133,9 +135,15 @@ def test_a_toy_experiment_reports_every_strategy_and_the_ratio_per_seed(tmp_path
         (("--strategies", "best"), "unknown strategy"),
         (("--seeds", "x"), "seeds must be comma-separated integers"),
         (("--sessions", "0"), "sessions"),
+        (("--player-model", "softmax"), "unknown player model 'softmax'"),
+        (("--bot", "cheater"), "unknown bot 'cheater'"),
+        (("--fixed-graph-sessions", "0"), "--fixed-graph-sessions must be positive"),
         (("--jobs", "0"), "--jobs must be positive"),
         (("--resume", "--name", "never-ran"), "no experiment named 'never-ran' to resume"),
         (("--resume", "--seeds", "1"), "--resume runs the stored plan"),
+        (("--resume", "--player-model", "logit"), "--resume runs the stored plan"),
+        (("--resume", "--bot", "random"), "--resume runs the stored plan"),
+        (("--resume", "--fixed-graph-sessions", "5"), "--resume runs the stored plan"),
         (("--name", "a/b"), "no '/'"),
     ],
 )
