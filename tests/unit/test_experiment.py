@@ -2,6 +2,7 @@
 
 from __future__ import annotations
 
+import json
 from pathlib import Path
 from typing import Any
 
@@ -10,9 +11,9 @@ import pytest
 from database_helpers import migrate
 
 from app.config import get_settings
-from app.core.bots import play_sessions
+from app.core.bots import BotKind, play_sessions
 from app.core.metrics import CheckpointReport, evaluate_checkpoint
-from app.core.player_models import robust_session_length
+from app.core.player_models import PlayerModelKind, robust_session_length
 from app.core.publication import Publication
 from app.core.strategies import Strategy
 from app.db import get_engine
@@ -95,3 +96,106 @@ def _fresh_settings() -> Any:
     get_engine().dispose()
     get_settings.cache_clear()
     get_engine.cache_clear()
+
+
+# ---- the plan's player model, bots and fixed-graph setting --------------------------------
+def test_plan_round_trips_through_its_stored_dict() -> None:
+    plan = ExperimentPlan(
+        strategies=(Strategy.BASELINE, Strategy.SR_CROWD),
+        seeds=(3, 1),
+        checkpoints=(500, 900),
+        player_model=PlayerModelKind.LOGIT,
+        bot=BotKind.HESITANT,
+        fixed_graph_sessions=7,
+        high_error_threshold=0.25,
+    )
+    stored = plan.to_dict()
+    assert stored["player_model"] == "logit" and stored["bot"] == "hesitant"
+    assert stored["fixed_graph_sessions"] == 7
+    assert json.loads(json.dumps(stored)) == stored  # plain JSON, as the database keeps it
+    assert ExperimentPlan.from_dict(json.loads(json.dumps(stored))) == plan
+
+
+def test_a_plan_stored_before_player_models_and_bots_loads_with_the_defaults() -> None:
+    stored = ExperimentPlan(seeds=(4,), checkpoints=(700,), sessions=12).to_dict()
+    for key in ("player_model", "bot", "fixed_graph_sessions"):
+        del stored[key]
+    plan = ExperimentPlan.from_dict(stored)
+    assert plan.player_model is PlayerModelKind.EQ2
+    assert plan.bot is BotKind.GOAL_DIRECTED
+    assert plan.fixed_graph_sessions == ExperimentPlan().fixed_graph_sessions
+    assert (plan.seeds, plan.checkpoints, plan.sessions) == ((4,), (700,), 12)
+
+
+def test_a_stored_plan_with_an_unknown_key_still_loads() -> None:
+    stored = {**ExperimentPlan().to_dict(), "retired_setting": 1}
+    assert ExperimentPlan.from_dict(stored) == ExperimentPlan()
+
+
+@pytest.mark.parametrize("sessions", [0, -3])
+def test_fixed_graph_sessions_must_be_positive(sessions: int) -> None:
+    with pytest.raises(ValueError, match="positive"):
+        ExperimentPlan(fixed_graph_sessions=sessions)
+
+
+@pytest.mark.parametrize(
+    ("key", "value", "message"),
+    [("player_model", "best", "eq2, logit"), ("bot", "cheater", "cheater")],
+)
+def test_a_stored_plan_with_an_unknown_model_or_bot_is_refused(
+    key: str, value: str, message: str
+) -> None:
+    with pytest.raises(ValueError, match=message):
+        ExperimentPlan.from_dict({**ExperimentPlan().to_dict(), key: value})
+
+
+def prediction_row(value: float, *, fixed: float | None = None) -> dict[str, Any]:
+    """A checkpoint's row whose prediction figures are ``value`` plus the key's index."""
+    row: dict[str, Any] = {
+        key: value + index for index, key in enumerate(experiment.PREDICTION_KEYS)
+    }
+    if fixed is not None:
+        row["fixed_graph"] = {
+            **{key: fixed + index for index, key in enumerate(experiment.PREDICTION_KEYS)},
+            "observed_split_half_correlation": fixed + 0.5,
+        }
+    return row
+
+
+def test_prediction_summary_lists_the_last_checkpoints_per_seed_in_seed_order() -> None:
+    results = {
+        "baseline": {
+            "2": [prediction_row(-1.0), prediction_row(20.0, fixed=200.0)],
+            "0": [prediction_row(-1.0), prediction_row(0.0, fixed=100.0)],
+        },
+        "sr-crowd": {  # fixed_graph only on an earlier row of one seed: not a last one
+            "2": [prediction_row(-1.0, fixed=9.0), prediction_row(30.0)],
+            "0": [prediction_row(-1.0), prediction_row(10.0)],
+        },
+        "sr-heuristic": {  # one seed of two has it: the setting is incomplete, left out
+            "2": [prediction_row(50.0, fixed=500.0)],
+            "0": [prediction_row(40.0)],
+        },
+    }
+    summary = experiment.prediction_summary(results)
+    grown = summary["grown_graph"]
+    assert set(grown) == {"baseline", "sr-crowd", "sr-heuristic"}
+    assert grown["baseline"]["seeds"] == ["2", "0"]
+    assert grown["baseline"]["expected_error_relative_difference"] == [20.0, 0.0]
+    assert grown["baseline"]["density_correlation"] == [21.0, 1.0]
+    assert grown["sr-crowd"]["expected_error_relative_difference"] == [30.0, 10.0]
+    assert grown["sr-heuristic"]["predicted_mass_unvisited"] == [54.0, 44.0]
+    assert set(summary["fixed_graph"]) == {"baseline"}
+    fixed = summary["fixed_graph"]["baseline"]
+    assert fixed["seeds"] == ["2", "0"]
+    assert fixed["expected_error_relative_difference"] == [200.0, 100.0]
+    assert fixed["density_correlation"] == [201.0, 101.0]
+    assert fixed["observed_split_half_correlation"] == [200.5, 100.5]
+
+
+def test_prediction_summary_keeps_figures_a_row_lacks_as_none() -> None:
+    row = prediction_row(1.0)
+    del row["predicted_mass_unvisited"]  # baseline learns nothing: no unvisited mass
+    summary = experiment.prediction_summary({"baseline": {"0": [row]}})
+    assert summary["grown_graph"]["baseline"]["predicted_mass_unvisited"] == [None]
+    assert summary["fixed_graph"] == {}
