@@ -127,6 +127,7 @@ def experiment(
     import os
 
     from app.config import get_settings
+    from app.core.strategies import Strategy
     from app.reports.experiment import write_report
     from app.services.experiment import (
         create_experiment,
@@ -135,6 +136,7 @@ def experiment(
         stored_plan,
     )
     from app.services.graphs import artifact_store
+    from app.services.ingredients import eq2_ingredients
 
     if jobs is not None and jobs < 1:
         raise UserError(f"--jobs must be positive, got {jobs}")
@@ -160,8 +162,12 @@ def experiment(
     total = len(plan.runs) * plan.checkpoints[-1]
     with progress_bar(total, f"{name}: frames grown") as advance:
         result = run_experiment(name, grower, jobs=jobs, progress=advance)
+    crowd = Strategy.SR_CROWD in plan.strategies and result["complete"]
     report = write_report(
-        result, out or settings.var_dir / "experiment" / name, artifact_store(settings).get_arrays
+        result,
+        out or settings.var_dir / "experiment" / name,
+        artifact_store(settings).get_arrays,
+        ingredients=eq2_ingredients(name) if crowd else None,
     )
     emit(result, json_path)
     typer.echo(json.dumps(result["summary"], indent=2), err=json_path == "-")

@@ -84,7 +84,7 @@ class Refiner:
         """
         vertices = self.graph.n_vertices if on is None else on.n_vertices
         heuristic = self.heuristic_model()[:vertices]
-        traces = self.traces
+        traces = [trace for trace in self.traces if len(trace)]
         if not (self.strategy.learns_from_traces and traces):
             return heuristic
         counts = observed_control_counts(traces, self.graph.n_vertices, self.graph.n_controls)

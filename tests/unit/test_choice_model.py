@@ -467,12 +467,6 @@ def test_refiner_with_the_logit_model_answers_for_every_vertex_and_publication(
     assert r.choice_model() is not fitted
 
 
-@pytest.mark.xfail(
-    strict=True,
-    raises=ValueError,
-    reason="Refiner.player_model with player_model=LOGIT raises ValueError ('no trace has a "
-    "step') when every learnt session is empty, where eq. 2 answers with P_h",
-)
 def test_sessions_without_a_step_leave_the_logit_refiner_at_the_heuristic() -> None:
     bank = MemoryClipBank()
     config = RefinerConfig(player_model=PlayerModelKind.LOGIT)
