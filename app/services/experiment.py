@@ -47,6 +47,7 @@ from app.core.player_models import (
     observed_control_counts,
     parse_player_model,
 )
+from app.core.prediction import observed_error_relative_se
 from app.core.publication import Publication
 from app.core.refinement import Refiner
 from app.core.strategies import Strategy, parse_strategy
@@ -93,6 +94,7 @@ PREDICTION_KEYS = (
     "density_tv_distance",
     "per_vertex_bound_relative_difference",
     "predicted_mass_unvisited",
+    "observed_mean_error_relative_se",
 )
 #: added to a run's seed for the bots of the fixed-graph setting (checkpoints use 0, 1, ...)
 FIXED_GRAPH_SEED = 5_000
@@ -427,6 +429,9 @@ def checkpoint_figures(
         **context,
         **report.to_dict(),
         "model_fit": model_fit(refiner),
+        "observed_mean_error_relative_se": observed_error_relative_se(
+            traces, publication.edge_err, n
+        ),
     }
     if strategy is Strategy.BASELINE and index == len(plan.checkpoints) - 1:
         figures["fixed_graph"] = fixed_graph_prediction(

@@ -14,7 +14,11 @@ from app.core.player_models import (
     observed_control_counts,
     observed_player_model,
 )
-from app.core.prediction import prediction_figures, split_half_correlation
+from app.core.prediction import (
+    observed_error_relative_se,
+    prediction_figures,
+    split_half_correlation,
+)
 from app.core.publication import Publication
 from app.core.refinement import Refiner, RefinerConfig
 from app.core.strategies import Strategy
@@ -121,3 +125,18 @@ def test_split_half_correlation_is_one_for_identical_halves_and_less_otherwise(
     assert -1.0 <= between < 1.0 - 1e-6
     other = play_sessions(publication, BotKind.RANDOM, sessions=20, mean_steps=30, seed=9)
     assert split_half_correlation(first, other, publication) < between
+
+
+def test_the_observed_errors_standard_error_shrinks_with_more_sessions(
+    publication: Publication,
+) -> None:
+    err, n = publication.edge_err, publication.n_controls
+    few = play_sessions(publication, BotKind.RANDOM, sessions=10, mean_steps=30, seed=5)
+    many = play_sessions(publication, BotKind.RANDOM, sessions=400, mean_steps=30, seed=5)
+    se_few, se_many = (
+        observed_error_relative_se(few, err, n),
+        observed_error_relative_se(many, err, n),
+    )
+    assert 0.0 < se_many < se_few / 3  # about sqrt(40) times smaller
+    assert observed_error_relative_se(few, err, n) == se_few  # seeded: the same every time
+    assert np.isnan(observed_error_relative_se(few, np.zeros_like(err), n))
