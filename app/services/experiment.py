@@ -592,7 +592,7 @@ def prediction_summary(results: dict[str, dict[str, list[dict[str, Any]]]]) -> d
             keys = (*PREDICTION_KEYS, "observed_split_half_correlation")
             settings["fixed_graph"][strategy] = {
                 "seeds": seeds,
-                **{key: [row[key] for row in fixed] for key in keys},
+                **{key: [row.get(key) for row in fixed] for key in keys},
             }
     return settings
 
