@@ -110,8 +110,15 @@ def test_a_toy_experiment_reports_every_strategy_and_the_ratio_per_seed(tmp_path
     assert all(row["error_ratio"] > 0 for row in per_seed)
     last = result["results"]["baseline"]["0"][-1]
     assert last["size_frames"] >= 1200 and last["n_traces"] == 30
-    report = tmp_path / "experiment" / result["name"] / "report.md"
-    assert "sr-crowd" in report.read_text()
+    report = (tmp_path / "experiment" / result["name"] / "report.md").read_text()
+    assert "sr-crowd" in report
+    # both prediction settings, and eq. 2's ingredients learned from sr-crowd's first play
+    fixed = result["summary"]["prediction"]["fixed_graph"]["baseline"]
+    assert len(fixed["density_correlation"]) == 2 and fixed["density_correlation"][0] > 0.5
+    grown = result["summary"]["prediction"]["grown_graph"]["sr-crowd"]
+    assert grown["seeds"] == ["0", "1"] and len(grown["expected_error_relative_difference"]) == 2
+    assert "| fixed_graph | baseline |" in report
+    assert "| as built | 1" in report and "| radius x 2 |" in report
     # a finished experiment resumes to the same result without growing anything
     engine = create_engine(f"sqlite:///{tmp_path / 'srg.sqlite3'}")
     with engine.connect() as connection:
