@@ -20,6 +20,7 @@ from app.config import Settings, get_settings
 from app.core.clipbank import MemoryClipBank
 from app.core.dynamics import Dynamics
 from app.core.growth import expand_blend_edge, initial_tree
+from app.core.player_models import PlayerModelKind
 from app.core.refinement import RefinerConfig
 from app.core.toy import ToyDynamics
 from app.db import get_engine, session_factory, transaction
@@ -139,8 +140,10 @@ def test_growth_goes_on_when_staterank_fails_and_says_so(
     graph_id = seed_graph(settings)
     configured = graphs.refiner_config
 
-    def one_iteration(settings: Settings, dynamics: Dynamics) -> RefinerConfig:
-        return replace(configured(settings, dynamics), staterank_max_iter=1)
+    def one_iteration(
+        settings: Settings, dynamics: Dynamics, model: PlayerModelKind = PlayerModelKind.EQ2
+    ) -> RefinerConfig:
+        return replace(configured(settings, dynamics, model), staterank_max_iter=1)
 
     monkeypatch.setattr(graphs, "refiner_config", one_iteration)
     with caplog.at_level(logging.WARNING, logger="app.services.growth"):
