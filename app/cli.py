@@ -27,7 +27,6 @@ from app.cli_runtime import register_runtime_commands
 if TYPE_CHECKING:
     from sqlalchemy.exc import DBAPIError
 
-    from app.core.bots import BotKind
     from app.services.experiment import ExperimentPlan
 
 app = typer.Typer(
@@ -187,6 +186,7 @@ def _experiment_plan(
     bot: str | None,
     fixed_graph_sessions: int | None,
 ) -> ExperimentPlan:
+    from app.core.bots import parse_bot
     from app.core.player_models import parse_player_model
     from app.core.strategies import parse_strategy
     from app.services.experiment import ExperimentPlan, parse_checkpoints
@@ -214,17 +214,6 @@ def _experiment_plan(
     if quick:
         return ExperimentPlan.quick(dynamics, **changes)
     return ExperimentPlan(dynamics=dynamics, **changes)
-
-
-def parse_bot(name: str) -> BotKind:
-    """The bot called ``name``; a :class:`UserError` naming the known ones otherwise."""
-    from app.core.bots import BotKind
-
-    try:
-        return BotKind(name)
-    except ValueError:
-        known = ", ".join(kind.value for kind in BotKind)
-        raise UserError(f"unknown bot {name!r} (known: {known})") from None
 
 
 def main() -> None:

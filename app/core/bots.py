@@ -32,6 +32,15 @@ class BotKind(StrEnum):
     AVOIDER = "avoider"
 
 
+def parse_bot(name: str) -> BotKind:
+    """The bot called ``name``; ValueError naming the known ones otherwise."""
+    try:
+        return BotKind(name)
+    except ValueError:
+        known = ", ".join(k.value for k in BotKind)
+        raise ValueError(f"unknown bot {name!r} (known: {known})") from None
+
+
 def lookahead_policy(
     publication: Publication,
     reward: np.ndarray,

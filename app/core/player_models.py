@@ -245,16 +245,11 @@ def kernel_support(
     vertex_control = np.asarray(vertex_control)
     if vertex_control.shape != visited.shape:
         raise ValueError(f"vertex_control {vertex_control.shape} and visited differ in shape")
-    supported = np.zeros(visited.size, dtype=bool)
-    for group in np.unique(vertex_control):
-        members = np.flatnonzero(vertex_control == group)
-        sources = np.flatnonzero((vertex_control == group) & visited)
-        if sources.size == 0:
-            continue
-        # the kernel max(0, 1 - x/r) is 0 at x = r: support needs x strictly below r
-        distance, _ = cKDTree(descriptors[sources]).query(descriptors[members], k=1)
-        supported[members] = distance < radius
-    return supported
+    # eq. 2's evidence of one visit at every visited vertex, in every control's column;
+    # the kernel max(0, 1 - x/r) is 0 at x = r, so support needs x strictly below r
+    groups = int(vertex_control.max()) + 1 if vertex_control.size else 1
+    one_visit = np.repeat(visited[:, None].astype(np.float64), groups, axis=1)
+    return kernel_counts(descriptors, vertex_control, one_visit, radius).sum(axis=1) > 0.0
 
 
 def trace_edges(traces: Iterable[Trace], n_vertices: int, n_controls: int) -> np.ndarray:

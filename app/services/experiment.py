@@ -30,7 +30,7 @@ from sqlalchemy import func, select
 from sqlalchemy.orm import Session
 
 from app.config import Settings, get_settings
-from app.core.bots import BotKind, play_sessions
+from app.core.bots import BotKind, parse_bot, play_sessions
 from app.core.metrics import (
     evaluate_checkpoint,
     observed_edge_density,
@@ -182,7 +182,7 @@ class ExperimentPlan:
         if "player_model" in values:
             values["player_model"] = parse_player_model(values["player_model"])
         if "bot" in values:
-            values["bot"] = BotKind(values["bot"])
+            values["bot"] = parse_bot(values["bot"])
         return cls(**values)
 
 

@@ -18,7 +18,7 @@ from sqlalchemy.exc import IntegrityError
 from sqlalchemy.orm import Session
 
 from app.config import Settings
-from app.core.bots import BotKind, play_sessions
+from app.core.bots import parse_bot, play_sessions
 from app.core.clipbank import ClipBank, MemoryClipBank
 from app.core.dynamics import Dynamics
 from app.core.graph import EdgeKind, StateGraph
@@ -462,11 +462,7 @@ def play_graph(
     seed: int = 0,
 ) -> PlayResult:
     """Bots play the latest publication in-process; their traces are stored as uploads."""
-    try:
-        kind = BotKind(bot)
-    except ValueError:
-        known = ", ".join(k.value for k in BotKind)
-        raise ValueError(f"unknown bot {bot!r} (known: {known})") from None
+    kind = parse_bot(bot)
     if sessions <= 0 or mean_steps < 2:
         raise ValueError("sessions must be positive and mean steps at least 2")
     row = get_graph_row(session, name)
