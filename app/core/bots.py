@@ -18,6 +18,7 @@ from enum import StrEnum
 
 import numpy as np
 
+from app.core.lookahead import lookahead_values, scaled_per_vertex
 from app.core.publication import Publication
 
 #: the control that leaves the tank level (toy and liquid alike: the tilts are 1 and 2)
@@ -57,18 +58,8 @@ def lookahead_policy(
     the same everywhere; a vertex where every choice scores alike gets a uniform choice.
     ``reward`` is indexed like the publication's edges (``vertex * n_controls + control``).
     """
-    n = publication.n_controls
-    score = reward.reshape(-1, n)
-    dst = publication.edge_dst.reshape(-1, n)
-    value = np.zeros(publication.n_vertices)
-    q = score
-    for _ in range(lookahead):
-        q = score + discount * value[dst]
-        value = q.max(axis=1)
-    spread = q.max(axis=1, keepdims=True) - q.min(axis=1, keepdims=True)
-    scaled = (q - q.max(axis=1, keepdims=True)) / np.maximum(spread, 1e-12)
-    logits = np.where(spread > 1e-9, scaled / temperature, 0.0)
-    prob = np.exp(logits)
+    q = lookahead_values(publication.edge_dst, reward, publication.n_controls, lookahead, discount)
+    prob = np.exp(scaled_per_vertex(q) / temperature)
     return prob / prob.sum(axis=1, keepdims=True)
 
 

@@ -39,6 +39,7 @@ import numpy as np
 from scipy.optimize import minimize
 from scipy.special import logsumexp
 
+from app.core.lookahead import lookahead_values, scaled_per_vertex
 from app.core.player_models import Trace, kernel_counts, observed_control_counts
 from app.core.publication import Publication
 
@@ -120,22 +121,14 @@ class ChoiceModel:
 
 
 def goal_values(graph: ChoiceGraph, horizon: int, discount: float) -> np.ndarray:
-    """Q(v, c): score of the edge plus the discounted best value ``horizon - 1`` steps on."""
-    if horizon < 1 or not 0.0 <= discount <= 1.0:
-        raise ValueError(f"need horizon >= 1 and discount in [0, 1], got {horizon}, {discount}")
-    n = graph.n_controls
-    score = np.asarray(graph.edge_score, dtype=np.float64).reshape(-1, n)
-    dst = np.asarray(graph.edge_dst, dtype=np.int64).reshape(-1, n)
-    q = score
-    for _ in range(horizon - 1):
-        q = score + discount * q.max(axis=1)[dst]
-    return q
+    """Q(v, c) of the graph's clip scores (:func:`~app.core.lookahead.lookahead_values`)."""
+    return lookahead_values(graph.edge_dst, graph.edge_score, graph.n_controls, horizon, discount)
 
 
 def choice_features(graph: ChoiceGraph, horizon: int, discount: float) -> np.ndarray:
     """The features of every (vertex, control): shape (V, N, 3 + N - 1)."""
     n, v = graph.n_controls, graph.n_vertices
-    goal = _scaled(goal_values(graph, horizon, discount))
+    goal = scaled_per_vertex(goal_values(graph, horizon, discount))
     parent = np.asarray(graph.vertex_parent, dtype=np.int64)
     keep = np.zeros((v, n))
     keep[np.arange(v), np.asarray(graph.vertex_control, dtype=np.int64)] = 1.0
@@ -287,13 +280,6 @@ def _fit(features: np.ndarray, counts: np.ndarray, penalty: float) -> np.ndarray
 def _log_likelihood(features: np.ndarray, counts: np.ndarray, weights: np.ndarray) -> float:
     z = features @ weights
     return float(np.sum(counts * (z - logsumexp(z, axis=1)[:, None])))
-
-
-def _scaled(q: np.ndarray) -> np.ndarray:
-    """Per vertex, (q - max) / spread in [-1, 0]; 0 where every control scores alike."""
-    spread = q.max(axis=1, keepdims=True) - q.min(axis=1, keepdims=True)
-    flat = spread <= 1e-12
-    return np.where(flat, 0.0, (q - q.max(axis=1, keepdims=True)) / np.where(flat, 1.0, spread))
 
 
 def _softmax(z: np.ndarray) -> np.ndarray:

@@ -15,13 +15,13 @@ from app.core.choice_model import (
     ChoiceModel,
     Kernel,
     PlayedGraph,
-    _scaled,
     choice_features,
     fit_choice_model,
     goal_values,
 )
 from app.core.clipbank import MemoryClipBank
 from app.core.growth import expand_blend_edge, initial_tree
+from app.core.lookahead import scaled_per_vertex
 from app.core.player_models import (
     PlayerModelKind,
     crowd_player_model,
@@ -126,7 +126,7 @@ def test_scaled_goal_spans_minus_one_to_zero_and_is_zero_on_flat_rows() -> None:
     rng = np.random.default_rng(0)
     q = rng.normal(size=(50, 4)) * 10.0
     q[7] = 2.5  # every control alike
-    s = _scaled(q)
+    s = scaled_per_vertex(q)
     assert s.min() >= -1.0 and s.max() <= 0.0
     rows = np.delete(np.arange(50), 7)
     np.testing.assert_allclose(s[rows].max(axis=1), 0.0, atol=1e-15)
@@ -134,14 +134,14 @@ def test_scaled_goal_spans_minus_one_to_zero_and_is_zero_on_flat_rows() -> None:
     np.testing.assert_array_equal(s[7], 0.0)
     # order within a row is kept, and an affine change of a row's scores changes nothing
     np.testing.assert_array_equal(np.argsort(s[rows], axis=1), np.argsort(q[rows], axis=1))
-    np.testing.assert_allclose(_scaled(3.0 * q + 1.0), s, atol=1e-12)
+    np.testing.assert_allclose(scaled_per_vertex(3.0 * q + 1.0), s, atol=1e-12)
 
 
 def test_choice_features_columns() -> None:
     graph = random_graph(1, n_vertices=30)
     f = choice_features(graph, 2, 0.9)
     assert f.shape == (30, N, 3 + N - 1)
-    goal = _scaled(goal_values(graph, 2, 0.9))
+    goal = scaled_per_vertex(goal_values(graph, 2, 0.9))
     np.testing.assert_array_equal(f[:, :, 0], goal)
     np.testing.assert_array_equal(f[:, :, 1], goal[graph.vertex_parent])
     # keep: one at the control that produced the vertex, zero elsewhere
