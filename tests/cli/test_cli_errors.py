@@ -11,15 +11,14 @@ import json
 from collections.abc import Iterator
 from pathlib import Path
 
-import numpy as np
 import pytest
 from cli_helpers import ok, one_line_error, srg
 from database_helpers import postgres_base_url, postgres_database
 from sqlalchemy import select
+from trace_helpers import looping_trace
 
 from app.cli import progress_bar
 from app.config import Settings
-from app.core.publication import Publication
 from app.db import make_engine, session_factory
 from app.models import Graph
 from app.store.publications import latest_publication, load_publication
@@ -256,16 +255,6 @@ def test_the_progress_bar_stays_within_zero_and_its_total(
 
 
 # ---- growth after huge traces (STATERANK's non-convergence) ---------------------------
-def looping_trace(publication: Publication, control: int, steps: int) -> np.ndarray:
-    """A session holding one control for ``steps`` steps: it ends up circling a loop."""
-    trace = np.empty((steps, 2), dtype=np.int64)
-    vertex = publication.start
-    for step in range(steps):
-        trace[step] = vertex, control
-        vertex = publication.destination(vertex, control)
-    return trace
-
-
 def test_grow_goes_on_after_two_huge_looping_traces(tmp_path: Path) -> None:
     """The graph that stalled STATERANK: two 85,000-step looping sessions of one player."""
     ok(tmp_path, "init", "looped", "--strategy", "sr-crowd")

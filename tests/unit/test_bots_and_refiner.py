@@ -4,6 +4,7 @@ from __future__ import annotations
 
 import numpy as np
 import pytest
+from trace_helpers import looping_trace
 
 from app.core.bots import LEVEL_CONTROL, AvoiderBot, BotKind, HesitantBot, play_sessions
 from app.core.clipbank import MemoryClipBank
@@ -81,16 +82,6 @@ def test_sr_crowd_learns_from_traces_and_others_ignore_them(publication) -> None
     assert not np.allclose(crowd.player_model(), crowd.heuristic_model())
     assert np.array_equal(heuristic.player_model(), heuristic.heuristic_model())
     assert crowd.restart != pytest.approx(1 / 90)
-
-
-def looping_trace(publication: Publication, control: int, steps: int) -> np.ndarray:
-    """A session that holds one control for ``steps`` steps: it ends up circling a loop."""
-    trace = np.empty((steps, 2), dtype=np.int64)
-    vertex = publication.start
-    for step in range(steps):
-        trace[step] = vertex, control
-        vertex = publication.destination(vertex, control)
-    return trace
 
 
 def test_two_huge_looping_traces_of_one_player_do_not_stop_growth() -> None:
