@@ -62,7 +62,7 @@ class Refiner:
     strategy: Strategy
     config: RefinerConfig = RefinerConfig()
     #: the sessions learnt from, each with the publication it was played on
-    played: list[tuple[Publication, list[Trace]]] = field(default_factory=list)
+    played: list[tuple[Publication | None, list[Trace]]] = field(default_factory=list)
     _pi: np.ndarray | None = None
     _choice: ChoiceModel | None = None
 
@@ -117,9 +117,12 @@ class Refiner:
         """The logit-prior model fitted to the sessions learnt so far (fitted once)."""
         if self._choice is None:
             control, parents = np.asarray(self.graph.vertex_control), self.graph.vertex_parents()
+            if any(publication is None for publication, _ in self.played):
+                raise ValueError("the logit model needs the publication of every session")
             played = [
                 PlayedGraph(ChoiceGraph.of(publication, control, parents), traces)
                 for publication, traces in self.played
+                if publication is not None
             ]
             self._choice = fit_choice_model(played, self.kernel())
         return self._choice
@@ -214,7 +217,11 @@ class Refiner:
         )
         return freeze(self.graph), relinked
 
-    def learn(self, traces: Sequence[Trace], publication: Publication) -> None:
-        """Take sessions played on ``publication`` (a version of this graph) into account."""
+    def learn(self, traces: Sequence[Trace], publication: Publication | None = None) -> None:
+        """Take sessions played on ``publication`` (a version of this graph) into account.
+
+        The logit model reads each session's goals on the publication it was played on;
+        eq. 2 reads none, so its callers need not load them.
+        """
         self.played.append((publication, [np.asarray(t, dtype=np.int64) for t in traces]))
         self._choice = None

@@ -164,9 +164,11 @@ def refiner_for(
         strategy,
         refiner_config(settings, loaded.dynamics, parse_player_model(loaded.row.player_model)),
     )
-    if strategy.learns_from_traces:
+    if strategy.learns_from_traces and refiner.config.player_model is PlayerModelKind.LOGIT:
         for publication, traces in graph_play(session, loaded.row.id):
             refiner.learn(traces, publication)
+    elif strategy.learns_from_traces:  # eq. 2 reads no publication: one query for all traces
+        refiner.learn(load_traces(session, played_publications(session, loaded.row.id)))
     return refiner
 
 

@@ -476,3 +476,18 @@ def test_sessions_without_a_step_leave_the_logit_refiner_at_the_heuristic() -> N
     eq2 = Refiner(r.graph, r.bank, DYN, Strategy.SR_CROWD, RefinerConfig(), played=r.played)
     np.testing.assert_array_equal(eq2.player_model(), r.heuristic_model())
     np.testing.assert_array_equal(r.player_model(), r.heuristic_model())
+
+
+def test_eq2_learns_without_publications_and_the_logit_model_refuses_to() -> None:
+    bank = MemoryClipBank()
+    graph = initial_tree(DYN, bank)
+    publication = Refiner(graph, bank, DYN, Strategy.SR_CROWD, RefinerConfig()).publish()[0]
+    traces = play_sessions(publication, BotKind.GOAL_DIRECTED, sessions=4, mean_steps=10, seed=1)
+    eq2 = Refiner(graph, bank, DYN, Strategy.SR_CROWD, RefinerConfig())
+    eq2.learn(traces)
+    assert not np.allclose(eq2.player_model(), eq2.heuristic_model())
+    config = RefinerConfig(player_model=PlayerModelKind.LOGIT)
+    logit = Refiner(graph, bank, DYN, Strategy.SR_CROWD, config)
+    logit.learn(traces)
+    with pytest.raises(ValueError, match="publication of every session"):
+        logit.player_model()
