@@ -1,1 +1,1 @@
-"""The HTTP API and the web client (DESIGN section 6)."""
+"""The HTTP API and the web client (docs/design.md, "Play")."""

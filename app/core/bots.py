@@ -1,4 +1,4 @@
-"""Synthetic players: they stand in for a crowd where no people play (DESIGN section 6).
+"""Synthetic players: they stand in for a crowd where no people play (docs/design.md, "Play").
 
 Every bot plays a :class:`~app.core.publication.Publication` and returns a trace, rows of
 (vertex, control), exactly what a browser uploads. Bots are seeded: the same seed, bot

@@ -45,7 +45,7 @@ class ClipFeatures:
 
 @runtime_checkable
 class Dynamics(Protocol):
-    """A pluggable system to precompute into a state graph (DESIGN section 2)."""
+    """A pluggable system to precompute into a state graph (docs/design.md, "Vocabulary")."""
 
     @property
     def name(self) -> str: ...

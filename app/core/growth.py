@@ -1,4 +1,4 @@
-"""Building and growing a state graph (paper sections 3 and 6.1; DESIGN section 3).
+"""Building and growing a state graph (paper 3, 6.1; docs/design.md, "Graph algorithms").
 
 An expansion is split in two so that a distributed runtime can fan out the expensive
 part: :func:`expansion_start_state` names the state to simulate from (workers simulate

@@ -1,4 +1,6 @@
-"""What players saw: error and visit statistics of traces on a published graph (DESIGN 7).
+"""What players saw: error and visit statistics of traces on a publication.
+
+See docs/design.md, "Evaluation".
 
 Every function takes the traces (sequences of (vertex, control) steps), the per-edge error
 ``err`` indexed by ``e = v * N + c`` (0 on SIM edges, the blend error on BLEND edges) and N.
@@ -170,7 +172,7 @@ def per_vertex_bound_edge_probabilities(
 
 @dataclass(frozen=True)
 class CheckpointReport:
-    """The evaluation numbers of one graph at one checkpoint (DESIGN section 7)."""
+    """The evaluation numbers of one graph at one checkpoint (docs/design.md, "Evaluation")."""
 
     n_traces: int
     n_steps: int

@@ -42,8 +42,8 @@ def heuristic_player_model(vertex_control: np.ndarray, n_controls: int, alpha: f
     .. math:: P_h(c|v) = \alpha [c = c_v] + (1 - \alpha) / N
 
     where :math:`c_v` is the control of the clip that produced :math:`v`. This is the
-    form DESIGN section 3 fixes: the "otherwise" branch picks uniformly among all N
-    controls, so each row sums to 1 exactly (eq. 1 as printed does not).
+    form docs/design.md ("Graph algorithms") fixes: the "otherwise" branch picks
+    uniformly among all N controls, so each row sums to 1 exactly (eq. 1 as printed does not).
 
     Parameters
     ----------
@@ -197,7 +197,7 @@ def observed_player_model(control_counts: np.ndarray, *, fallback: np.ndarray) -
     vertex one control distribution can do on them: it already holds whatever players
     do at each vertex, including what a per-vertex model cannot explain (a reaction delay
     makes the control at a vertex depend on the vertex before it). Its STATERANK
-    prediction bounds how close the learned model's can get (DESIGN section 7).
+    prediction bounds how close the learned model's can get (docs/design.md, "Evaluation").
 
     Parameters
     ----------

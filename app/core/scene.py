@@ -1,6 +1,6 @@
 """Liquid scenes: a box tank, a fluid block, gravity controls and a target region.
 
-A scene is data (DESIGN section 2): a frozen dataclass that round-trips through a JSON
+A scene is data (docs/design.md, "Vocabulary"): a frozen dataclass that round-trips through a JSON
 dict, so a graph stores the scene it was grown with. Coordinates are metres with y up;
 the viewing axis is z, so tilting the tank rotates gravity in the x-y plane.
 
@@ -68,7 +68,7 @@ class Scene:
         Bounds on the PCISPH pressure iterations per substep.
     rest_kinetic : float
         T0, the residual kinetic energy (J) of the settled tank, measured by
-        ``app.services.sph_validation.measure_rest_kinetic`` and stored with the preset.
+        ``app.liquid.validation.measure_rest_kinetic`` and stored with the preset.
     """
 
     name: str

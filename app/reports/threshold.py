@@ -1,4 +1,4 @@
-"""Figures of a visible-error threshold study (``app.services.threshold``).
+"""Figures of a visible-error threshold study (``app.liquid.threshold``).
 
 * ``threshold-<name>-scatter.png``: each blend's largest artifact relative to its limit
   against ``dist``, with the criterion line, the threshold and its bootstrap interval,
@@ -25,7 +25,7 @@ import numpy as np  # noqa: E402
 from PIL import Image  # noqa: E402
 
 from app.core.error_threshold import fit_logistic, log_dist  # noqa: E402
-from app.services.threshold import ThresholdStudy  # noqa: E402
+from app.liquid.threshold import ThresholdStudy  # noqa: E402
 
 MEASURES = (
     ("mismatch", "silhouette mismatch to the simulation"),

@@ -58,7 +58,7 @@ def make_dynamics(name: str, preset: str | None = None, fluid: str | None = None
         A name, preset or fluid that does not exist (all ``ValueError``).
     ValueError
         A fluid for the toy.
-    app.services.liquid.MissingCalibration
+    app.liquid.adapter.MissingCalibration
         The liquid preset and fluid have no stored calibration (a ``LookupError``); the
         message names the command that makes one.
     """
@@ -69,7 +69,7 @@ def make_dynamics(name: str, preset: str | None = None, fluid: str | None = None
     if name == "liquid":
         preset = check_liquid_preset(preset or DEFAULT_LIQUID_PRESET)
         fluid = check_fluid(fluid or DEFAULT_FLUID)
-        from app.services.liquid import LiquidDynamics, MissingCalibration
+        from app.liquid.adapter import LiquidDynamics, MissingCalibration
 
         try:
             return LiquidDynamics(preset, fluid)

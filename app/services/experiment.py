@@ -1,4 +1,4 @@
-"""The paper's evaluation (section 7; DESIGN section 7) on stored graphs, resumable.
+"""The paper's evaluation (section 7; docs/design.md, "Evaluation") on stored graphs, resumable.
 
 An experiment grows one stored graph per (strategy, seed) run from the same initial
 tree through the checkpoints. At each checkpoint the graph is published (pre-publish

@@ -1,6 +1,6 @@
 """The growth epoch as a sequence of small steps, shared by the eager and the Celery paths.
 
-One epoch (DESIGN section 5) is:
+One epoch (docs/design.md, "Runtime") is:
 
 1. :func:`plan_epoch` - under the graph's row lock: rank (STATERANK warm-started from
    the previous epoch's pi, stored as an artifact and named on the epoch row), pop the
@@ -347,9 +347,7 @@ def finish_clip(dynamics: Dynamics, stage: dict[str, np.ndarray]) -> dict[str, n
     return clip_arrays(sim, dynamics.features(sim))
 
 
-def record_clip(
-    session: Session, epoch_id: int, position: int, control: int, clip: str
-) -> None:
+def record_clip(session: Session, epoch_id: int, position: int, control: int, clip: str) -> None:
     """Note a planned clip's artifact on ``expansion_clips`` (once) and beat the heart."""
     insert_ignoring_duplicates(
         session,

@@ -1,4 +1,4 @@
-"""SQL analytics over uploaded traces (DESIGN section 5: "SQL queries over traces").
+"""SQL analytics over uploaded traces (docs/design.md, "Runtime": "SQL queries over traces").
 
 Plain SQL text, portable between SQLite (3.25+, for window functions) and PostgreSQL, so
 the same statements can be read in docs/play.md and pasted into ``psql`` or ``sqlite3``.

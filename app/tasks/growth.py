@@ -131,9 +131,7 @@ def publish(self: Any, graph_id: int) -> int:
 
 
 @celery_app.task(name="srg.grow_epoch")
-def grow_epoch(
-    graph_id: int, count: int | None = None, renders: bool | None = None
-) -> int | None:
+def grow_epoch(graph_id: int, count: int | None = None, renders: bool | None = None) -> int | None:
     """Plan the graph's next epoch (or re-send a stalled one) and dispatch its canvas.
 
     ``count`` blend edges are expanded (default ``SRG_BATCH_SIZE``); ``renders`` says

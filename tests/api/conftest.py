@@ -10,7 +10,7 @@ from api_helpers import Published, make_client, register
 from fastapi.testclient import TestClient
 from sqlalchemy.orm import Session
 
-from app.services.bench_ingest import build_toy_graph
+from app.bench.ingest import build_toy_graph
 from app.store.artifacts import ArtifactStore
 from app.store.graphs import set_animations
 from app.store.publications import load_publication, publish

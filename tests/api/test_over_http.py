@@ -11,10 +11,10 @@ from sqlalchemy import func, select
 from app.api.app import create_app
 from app.api.client import play_over_http
 from app.api.local_server import serve_in_thread
+from app.bench.ingest import bench_ingest, build_toy_graph
 from app.config import Settings
 from app.db import make_engine, session_factory
 from app.models import Base, Trace, TraceStep
-from app.services.bench_ingest import bench_ingest, build_toy_graph
 from app.store.artifacts import ArtifactStore
 from app.store.publications import publish
 

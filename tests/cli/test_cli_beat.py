@@ -5,7 +5,7 @@ from __future__ import annotations
 
 from pathlib import Path
 
-from app.cli_runtime import beat_state_file
+from app.cli.runtime import beat_state_file
 
 
 def test_the_beat_state_file_lives_in_the_var_dir_which_is_made(tmp_path: Path) -> None:

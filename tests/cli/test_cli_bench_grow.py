@@ -9,7 +9,7 @@ from typing import Any
 import pytest
 from cli_helpers import ok, one_line_error, srg
 
-import app.services.bench_grow
+import app.bench.grow
 
 POSITIVE_INTS = "takes comma-separated positive integers, got"
 
@@ -23,7 +23,7 @@ def bench_calls(monkeypatch: pytest.MonkeyPatch) -> list[dict[str, Any]]:
         calls.append(kwargs)
         return {"recorded": True}
 
-    monkeypatch.setattr(app.services.bench_grow, "bench_grow", record)
+    monkeypatch.setattr(app.bench.grow, "bench_grow", record)
     return calls
 
 

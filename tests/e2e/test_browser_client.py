@@ -18,12 +18,12 @@ from sqlalchemy import Engine, select
 
 from app.api.app import create_app
 from app.api.local_server import serve_in_thread
+from app.bench.ingest import ToyGraph, build_toy_graph
 from app.config import Settings
 from app.core.graph import EdgeKind
 from app.db import make_engine, session_factory
 from app.models import Base, Trace, TraceStep
 from app.render.animation import STRIP_MEDIA_TYPE, encode_strip
-from app.services.bench_ingest import ToyGraph, build_toy_graph
 from app.store.artifacts import ArtifactStore
 from app.store.graphs import set_animations
 from app.store.publications import load_publication, publish

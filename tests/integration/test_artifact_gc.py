@@ -12,8 +12,8 @@ import pytest
 from sqlalchemy import select, update
 from sqlalchemy.orm import Session
 
+from app.bench.ingest import build_toy_graph
 from app.models import Artifact, Clip
-from app.services.bench_ingest import build_toy_graph
 from app.store.artifact_gc import (
     artifact_references,
     collect_orphaned_artifacts,

@@ -9,12 +9,12 @@ import pytest
 from sqlalchemy import func, select, update
 from sqlalchemy.orm import Session
 
+from app.bench.store import synthetic_graph
 from app.core.clipbank import ClipBank, MemoryClipBank
 from app.core.graph import StateGraph
 from app.core.growth import best_target, expand_blend_edge, relink_all
 from app.core.toy import ToyDynamics
 from app.models import Edge, Graph
-from app.services.bench_store import synthetic_graph
 from app.store.artifacts import ArtifactStore
 from app.store.clipbank import MIN_SHAPE_ENTRIES
 from app.store.graphs import (

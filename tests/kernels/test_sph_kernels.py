@@ -10,7 +10,7 @@ from app.core.scene import initial_particles, kinetic_energy, tilt_tank
 from app.kernels.context import runtime
 from app.kernels.sph import SphSimulator
 from app.kernels.sph_kernels import MAX_NEIGHBOURS, MAX_WALL_NEIGHBOURS, SphKernels
-from app.services import sph_validation as v
+from app.liquid import validation as v
 
 
 @pytest.fixture(scope="module")

@@ -4,7 +4,7 @@ from __future__ import annotations
 
 import json
 
-from app.services.bench_rank import bench_rank
+from app.bench.rank import bench_rank
 
 
 def test_bench_rank_small_chain() -> None:

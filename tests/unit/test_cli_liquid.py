@@ -12,8 +12,8 @@ import pytest
 import typer
 from typer.testing import CliRunner
 
-from app.cli_liquid import register_liquid_commands
-from app.services import liquid
+from app.cli.liquid import register_liquid_commands
+from app.liquid import adapter as liquid
 from app.services.dynamics import (
     DEFAULT_FLUID,
     DYNAMICS_NAMES,
@@ -76,12 +76,12 @@ def test_bad_input_raises_a_one_line_value_error_before_any_work(
 def test_main_prints_srg_error_and_exits_2(
     cli: typer.Typer, monkeypatch: pytest.MonkeyPatch, capsys: pytest.CaptureFixture[str]
 ) -> None:
-    import app.cli
+    import app.cli.main
 
-    monkeypatch.setattr(app.cli, "app", cli)
+    monkeypatch.setattr(app.cli.main, "app", cli)
     monkeypatch.setattr(sys, "argv", ["srg", "bench", "sph", "--preset", "huge"])
     with pytest.raises(SystemExit) as exit_info:
-        app.cli.main()
+        app.cli.main.main()
     assert exit_info.value.code == 2
     err = capsys.readouterr().err
     assert err == f"srg: error: {UNKNOWN}\n"
@@ -98,11 +98,11 @@ def test_an_unknown_fluid_is_one_line_and_exit_2(
     monkeypatch: pytest.MonkeyPatch, capsys: pytest.CaptureFixture[str], args: list[str]
 ) -> None:
     """The whole ``srg`` app: refused before any simulation or database work."""
-    import app.cli
+    import app.cli.main
 
     monkeypatch.setattr(sys, "argv", ["srg", *args])
     with pytest.raises(SystemExit) as exit_info:
-        app.cli.main()
+        app.cli.main.main()
     assert exit_info.value.code == 2
     assert capsys.readouterr().err == f"srg: error: {UNKNOWN_FLUID}\n"
 
@@ -162,7 +162,7 @@ def _fake_validate(passed: bool) -> Any:
 def test_validate_prints_the_report_and_exits_1_when_a_check_fails(
     cli: typer.Typer, monkeypatch: pytest.MonkeyPatch, passed: bool
 ) -> None:
-    from app.services import sph_validation
+    from app.liquid import validation as sph_validation
 
     monkeypatch.setattr(sph_validation, "validate", _fake_validate(passed))
     result = CliRunner().invoke(cli, ["validate", "--preset", "tiny", "--json", "-"])
@@ -173,7 +173,7 @@ def test_validate_prints_the_report_and_exits_1_when_a_check_fails(
 def test_validate_json_file_gets_the_report_and_stdout_a_line_per_check(
     cli: typer.Typer, monkeypatch: pytest.MonkeyPatch, tmp_path: Path
 ) -> None:
-    from app.services import sph_validation
+    from app.liquid import validation as sph_validation
 
     monkeypatch.setattr(sph_validation, "validate", _fake_validate(False))
     target = tmp_path / "out" / "validate.json"
@@ -186,7 +186,7 @@ def test_validate_json_file_gets_the_report_and_stdout_a_line_per_check(
 def test_validate_reports_a_check_that_does_not_apply_as_skipped(
     cli: typer.Typer, monkeypatch: pytest.MonkeyPatch, tmp_path: Path
 ) -> None:
-    from app.services import sph_validation
+    from app.liquid import validation as sph_validation
 
     seen = []
 
@@ -206,7 +206,7 @@ def test_validate_reports_a_check_that_does_not_apply_as_skipped(
 
 def test_importing_the_dynamics_registry_does_not_load_opencl_or_mitsuba() -> None:
     code = (
-        "import sys, app.services.dynamics, app.cli_liquid; "
+        "import sys, app.services.dynamics, app.cli.liquid; "
         "print(sorted(m for m in ('pyopencl', 'mitsuba') if m in sys.modules))"
     )
     out = subprocess.run([sys.executable, "-c", code], capture_output=True, text=True, check=True)

@@ -7,7 +7,7 @@ import pytest
 
 from app.core.dynamics import Dynamics, SimClip
 from app.core.surface import dequantise_sdf, liquid_volumes, occupancy
-from app.services.liquid import LiquidDynamics, load_calibration
+from app.liquid.adapter import LiquidDynamics, load_calibration
 
 
 @pytest.fixture(scope="module")

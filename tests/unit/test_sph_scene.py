@@ -27,7 +27,7 @@ from app.core.sph_grid import (
     wall_particles,
     wall_volumes,
 )
-from app.services.sph_validation import martin_moyce_front
+from app.liquid.validation import martin_moyce_front
 
 
 @pytest.mark.parametrize(

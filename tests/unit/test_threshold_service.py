@@ -7,8 +7,8 @@ import pytest
 from scipy.stats import spearmanr
 
 from app.core.visible_error import VisibilityCriterion, VisibleArtifacts
-from app.services.liquid import LiquidDynamics
-from app.services.threshold import measure_blends, pick_targets
+from app.liquid.adapter import LiquidDynamics
+from app.liquid.threshold import measure_blends, pick_targets
 
 
 def test_targets_run_from_the_best_to_the_worst_of_the_same_control() -> None:

@@ -116,7 +116,7 @@ def grow(
     json_output: bool = typer.Option(False, "--json", help="print JSON"),
 ) -> None:
     """Grow a graph in-process (eagerly) by a budget of frames or expansions."""
-    from app.cli import progress_bar
+    from app.cli.main import progress_bar
     from app.config import get_settings
     from app.core.strategies import parse_strategy
     from app.services.graphs import grow_graph
@@ -149,7 +149,7 @@ def publish(
     json_output: bool = typer.Option(False, "--json", help="print JSON"),
 ) -> None:
     """Relink every blend, render what is missing, freeze a publication for players."""
-    from app.cli import progress_bar
+    from app.cli.main import progress_bar
     from app.config import get_settings
     from app.services.graphs import count_missing_animations, publish_graph
     from app.store.graphs import get_graph_row
@@ -235,7 +235,7 @@ def gc(
     reference survives: keep it above the longest step. Safe to run while graphs grow;
     ``srg beat`` also runs it every SRG_ARTIFACT_GC_INTERVAL seconds.
     """
-    from app.cli import progress_bar
+    from app.cli.main import progress_bar
     from app.config import get_settings
     from app.services.artifact_gc import collect_artifacts
     from app.services.graphs import artifact_store

@@ -28,8 +28,8 @@ import numpy as np
 from app.core.dynamics import ClipFeatures, SimClip
 from app.core.surface import pack_clip_fields
 from app.kernels.sph import SphSimulator
+from app.liquid.adapter import LiquidCalibration, LiquidDynamics, MissingCalibration
 from app.render.animation import encode_poster, encode_strip
-from app.services.liquid import LiquidCalibration, LiquidDynamics, MissingCalibration
 from app.store.artifacts import encode_arrays
 
 #: constants for timing a preset that has no calibration yet: no stage's cost depends on them

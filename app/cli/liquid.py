@@ -84,7 +84,7 @@ def validate_command(
     """
     check_liquid_preset(preset)
     check_fluid(fluid)
-    from app.services.sph_validation import validate
+    from app.liquid.validation import validate
 
     typer.echo(f"validating tilt-tank/{preset} with the {fluid} fluid (minutes) ...", err=True)
     report = validate(preset, fluid)
@@ -131,7 +131,7 @@ def calibrate_command(
         typer.echo(message, err=True)
 
     if only == "threshold":
-        from app.services.calibration import calibrate_threshold
+        from app.liquid.calibration import calibrate_threshold
 
         typer.echo(f"threshold of tilt-tank/{preset}, {fluid} fluid (minutes) ...", err=True)
         stored, study = calibrate_threshold(preset, fluid, progress)
@@ -147,7 +147,7 @@ def calibrate_command(
                 typer.echo(f"wrote {path}", err=True)
         typer.echo(_dumps(stored))
         return
-    from app.services.calibration import calibrate
+    from app.liquid.calibration import calibrate
 
     typer.echo(f"calibrating tilt-tank/{preset} with the {fluid} fluid ...", err=True)
     typer.echo(_dumps(calibrate(preset, fluid, progress)))
@@ -166,7 +166,7 @@ def bench_sph_command(
     check_liquid_preset(preset)
     check_fluid(fluid)
     _positive("--steps", steps)
-    from app.services.sph_bench import bench_sph
+    from app.bench.sph import bench_sph
 
     _print(bench_sph(preset, steps, compare_splishsplash=splishsplash, fluid=fluid), json_output)
 
@@ -187,7 +187,7 @@ def bench_clip_command(
         raise ValueError(f"--settle must be positive, got {settle}")
     if frames is not None:
         _positive("--frames", frames)
-    from app.services.bench_clip import bench_clip
+    from app.bench.clip import bench_clip
 
     _print(bench_clip(preset, fluid, settle=settle, frames=frames), json_output)
 
@@ -206,7 +206,7 @@ def bench_store_command(
     _positive("--edges", edges)
     if distinct_bundles is not None:
         _positive("--distinct-bundles", distinct_bundles)
-    from app.services.bench_store import bench_store
+    from app.bench.store import bench_store
 
     result = asdict(
         bench_store(edges, database_url=database_url, distinct_bundles=distinct_bundles)

@@ -17,12 +17,12 @@ import typer
 from rich.console import Console
 from rich.progress import BarColumn, MofNCompleteColumn, Progress, TextColumn, TimeElapsedColumn
 
-from app.cli_api import register_api_commands
-from app.cli_bench import bench_app
-from app.cli_demo import demo
-from app.cli_graph import register_graph_commands
-from app.cli_liquid import register_liquid_commands
-from app.cli_runtime import register_runtime_commands
+from app.cli.api import register_api_commands
+from app.cli.bench import bench_app
+from app.cli.demo import demo
+from app.cli.graph import register_graph_commands
+from app.cli.liquid import register_liquid_commands
+from app.cli.runtime import register_runtime_commands
 
 if TYPE_CHECKING:
     from sqlalchemy.exc import DBAPIError

@@ -9,7 +9,7 @@ return the same kind. Occupancy in the features is uint8 for the same reason.
 The constants the paper measures (T0, w_e) and the defaults of the crowd radius and the
 high-error threshold come from the preset's stored calibration
 (``app/data/calibration/<preset>.json`` for the low-viscosity fluid,
-``<preset>-<fluid>.json`` for another, written by ``app.services.calibration``).
+``<preset>-<fluid>.json`` for another, written by ``app.liquid.calibration``).
 """
 
 from __future__ import annotations
@@ -57,7 +57,7 @@ def calibration_path(preset: str, fluid: str = "low", directory: Path = CALIBRAT
 
 @dataclass(frozen=True)
 class LiquidCalibration:
-    """Measured constants of a preset (see ``app.services.calibration``)."""
+    """Measured constants of a preset (see ``app.liquid.calibration``)."""
 
     rest_kinetic: float
     energy_weight: float

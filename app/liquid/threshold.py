@@ -44,7 +44,7 @@ from app.core.visible_error import (
     swelling,
     visible_artifacts,
 )
-from app.services.liquid import LiquidDynamics
+from app.liquid.adapter import LiquidDynamics
 
 #: clips simulated for the study: a depth-2 tree (N + N^2 = 12) and random sequences
 DEFAULT_CLIPS = 48

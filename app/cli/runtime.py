@@ -67,7 +67,7 @@ def set_growing(
     on: bool = typer.Option(..., "--on/--off", help="grow it on every beat tick, or stop"),
 ) -> None:
     """Mark a graph for beat's periodic growth (or take it off)."""
-    from app.cli_graph import emit
+    from app.cli.graph import emit
     from app.db import transaction
     from app.services.growth import set_growing as mark
 
@@ -125,7 +125,7 @@ def bench_grow(
     json_output: bool = typer.Option(True, "--json/--no-json", help="print JSON (default)"),
 ) -> None:
     """Expansions per minute on 1 and 2 worker processes; integration time vs graph size."""
-    from app.services.bench_grow import bench_grow as run
+    from app.bench.grow import bench_grow as run
     from app.services.dynamics import make_dynamics
 
     if sizes is not None and frames is not None:

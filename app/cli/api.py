@@ -151,7 +151,7 @@ def bench_ingest_command(
     json_output: bool = typer.Option(True, "--json/--no-json", help="print JSON (default)"),
 ) -> None:
     """Concurrent trace uploads on loopback: every upload accounted for, p99 latency."""
-    from app.services.bench_ingest import bench_ingest
+    from app.bench.ingest import bench_ingest
 
     result = bench_ingest(
         clients=clients, uploads=uploads, mean_steps=mean_steps, database_url=database_url

@@ -29,7 +29,7 @@ def demo(
     from rich.console import Console
     from rich.table import Table
 
-    from app.cli import emit, progress_bar
+    from app.cli.main import emit, progress_bar
     from app.config import get_settings
     from app.services.demo import (
         demo_plan,

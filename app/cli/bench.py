@@ -21,7 +21,7 @@ def bench_rank_command(
     json_output: bool = typer.Option(True, "--json/--no-json", help="print JSON (default)"),
 ) -> None:
     """One cold and one warm STATERANK (after one expansion), next to networkx.pagerank."""
-    from app.services.bench_rank import bench_rank
+    from app.bench.rank import bench_rank
 
     if edges < controls * 10:
         raise ValueError(f"--edges must be at least {controls * 10}")
@@ -37,7 +37,7 @@ def bench_experiment_command(ctx: typer.Context) -> None:
     For example: srg bench experiment --dynamics liquid --preset tiny --seeds 0
     --checkpoints 2000,5000,10000,20000 (the paper's four strategies to 20k frames).
     """
-    from app.services.bench_experiment import bench_experiment
+    from app.bench.experiment import bench_experiment
 
     if any(arg in ("--json", "--resume", "--name", "--out") for arg in ctx.args):
         raise ValueError(

@@ -14,7 +14,7 @@ measured on the preset's scene with that fluid.
   same control, in a depth-2 tree of clips from the settled tank plus the near-rest
   clips: the kernel of one visited vertex reaches its typical neighbours.
 * **high_error_threshold**: the dist above which blends are mostly *visibly* wrong,
-  measured on the pictures players see (``app.services.threshold``,
+  measured on the pictures players see (``app.liquid.threshold``,
   ``docs/threshold.md``). Stored with how it was measured (``visible_threshold``) and,
   for comparison, the former definition (``percentile_threshold``): the 90th percentile
   over the clips above of the best blend error to another clip of the same control.
@@ -40,14 +40,14 @@ from app.core.liquid_metrics import (
     shape_distance,
 )
 from app.core.scene import kinetic_energy
-from app.services.liquid import (
+from app.liquid.adapter import (
     CALIBRATION_DIR,
     LiquidCalibration,
     LiquidDynamics,
     calibration_json,
     calibration_path,
 )
-from app.services.threshold import ThresholdStudy, measure_blends, measure_visible_threshold
+from app.liquid.threshold import ThresholdStudy, measure_blends, measure_visible_threshold
 
 #: kinetic energies of the pushed near-rest clips, in units of T0
 PUSH_ENERGIES = (0.0, 0.5, 1.0, 2.0, 4.0, 8.0)

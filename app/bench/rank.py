@@ -15,7 +15,7 @@ import scipy.sparse as sp
 from app.core.player_models import heuristic_player_model
 from app.core.staterank import StateRankResult, staterank
 
-#: DESIGN section 3 defaults: keep-control probability and mean session length in steps
+#: Defaults of docs/design.md, "Graph algorithms": keep-control probability, session steps
 ALPHA = 0.8
 SESSION_STEPS = 90.0
 TOL = 1e-10

@@ -1,0 +1,1 @@
+"""Benchmarks (`srg bench ...`): shells beside the CLI that measure the layers below."""

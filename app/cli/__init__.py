@@ -1,0 +1,1 @@
+"""The command line: one module per command group, one for output (``app.cli.output``)."""

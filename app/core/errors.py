@@ -1,0 +1,44 @@
+"""The errors srg tells its users about: one base, a few meanings.
+
+Every layer raises these for what the user can act on (a bad name, an unknown graph, a
+graph already busy). The shells map them in one place each: the CLI prints any
+``SrgError`` as one ``srg: error:`` line and exits 2 (``app.cli.output``); the API answers
+it with the ``http_status`` of its kind and a ``{error, details}`` body
+(``app.api.errors``). Any other exception is a bug and shows as one: a traceback on the
+CLI, a 500 in the API. The base sits in the pure core so that the core's own refusals
+(an invalid name, a model that cannot be parsed) join the same family without the core
+importing anything outside itself.
+
+``InvalidInput`` and ``NotFound`` keep Python's own meanings (``ValueError``,
+``LookupError``) as second bases, so that code catching those still catches ours.
+"""
+
+
+class SrgError(Exception):
+    """An error the user (operator, player, script) can act on."""
+
+    http_status = 400
+
+
+class InvalidInput(SrgError, ValueError):
+    """A value the user gave is refused: a name, an option, an upload."""
+
+    http_status = 422
+
+
+class NotFound(SrgError, LookupError):
+    """Something the user named does not exist (a graph, a publication, an experiment)."""
+
+    http_status = 404
+
+
+class Conflict(SrgError):
+    """The request clashes with the current state: a name taken, a graph busy growing."""
+
+    http_status = 409
+
+
+class Unavailable(SrgError):
+    """A part srg needs is not there or not ready: a database never migrated, no broker."""
+
+    http_status = 503

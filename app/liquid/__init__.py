@@ -1,0 +1,1 @@
+"""The liquid as a pluggable dynamics: the adapter, its calibration and its validation."""
