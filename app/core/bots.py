@@ -18,6 +18,7 @@ from enum import StrEnum
 
 import numpy as np
 
+from app.core.errors import InvalidInput
 from app.core.lookahead import lookahead_values, scaled_per_vertex
 from app.core.publication import Publication
 
@@ -34,12 +35,12 @@ class BotKind(StrEnum):
 
 
 def parse_bot(name: str) -> BotKind:
-    """The bot called ``name``; ValueError naming the known ones otherwise."""
+    """The bot called ``name``; :class:`InvalidInput` naming the known ones otherwise."""
     try:
         return BotKind(name)
     except ValueError:
         known = ", ".join(k.value for k in BotKind)
-        raise ValueError(f"unknown bot {name!r} (known: {known})") from None
+        raise InvalidInput(f"unknown bot {name!r} (known: {known})") from None
 
 
 def lookahead_policy(

@@ -16,13 +16,15 @@ from dataclasses import dataclass
 
 import numpy as np
 
+from app.core.errors import InvalidInput
+
 #: weight of the penalty ``ridge / 2 * slope^2``: finite fits when the groups separate
 DEFAULT_RIDGE = 0.01
 #: fewest blends of each label a threshold is computed from
 MIN_GROUP = 5
 
 
-class ThresholdFitError(ValueError):
+class ThresholdFitError(InvalidInput):
     """No threshold: too few blends of a label, or wrongness does not grow with dist."""
 
 

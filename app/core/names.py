@@ -13,11 +13,13 @@ from __future__ import annotations
 
 import re
 
+from app.core.errors import InvalidInput
+
 _NAME = re.compile(r"[A-Za-z0-9][A-Za-z0-9._-]*")
 _DIGITS = re.compile(r"[0-9]+")
 
 
-class InvalidName(ValueError):
+class InvalidName(InvalidInput):
     """A name that breaks the rule above; the message says which part."""
 
 

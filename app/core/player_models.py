@@ -14,6 +14,8 @@ import numpy as np
 import scipy.sparse as sp
 from scipy.spatial import cKDTree
 
+from app.core.errors import InvalidInput
+
 #: One step of a trace: the vertex the player was at and the control they took there.
 Trace = Sequence[tuple[int, int]] | np.ndarray
 
@@ -28,12 +30,12 @@ class PlayerModelKind(StrEnum):
 
 
 def parse_player_model(name: str) -> PlayerModelKind:
-    """The player model called ``name``; ValueError naming the known ones otherwise."""
+    """The player model called ``name``; :class:`InvalidInput` naming the known ones otherwise."""
     try:
         return PlayerModelKind(name)
     except ValueError:
         known = ", ".join(k.value for k in PlayerModelKind)
-        raise ValueError(f"unknown player model {name!r}; choose one of: {known}") from None
+        raise InvalidInput(f"unknown player model {name!r}; choose one of: {known}") from None
 
 
 def heuristic_player_model(vertex_control: np.ndarray, n_controls: int, alpha: float) -> np.ndarray:

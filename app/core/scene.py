@@ -17,6 +17,8 @@ from typing import Any
 
 import numpy as np
 
+from app.core.errors import InvalidInput
+
 GRAVITY = 9.81
 #: tilt of the controls about the viewing axis, degrees (index 0 = level)
 TILT_DEGREES = (0.0, -30.0, 30.0)
@@ -178,7 +180,7 @@ FILL_HEIGHT = 0.175
 TILT_TANK_REST_KINETIC = {"tiny": 0.0, "small": 0.0, "paper": 0.0}
 
 
-def tilt_tank(preset: str = "small", fluid: str = "low") -> Scene:
+def tilt_tank(preset: str, fluid: str = "low") -> Scene:
     """The game's scene: a 0.6 x 0.4 x 0.16 m tank filled to 0.175 m, tilted by +/- 30 degrees.
 
     The fastest plausible flow is a free fall over the tank height, ``sqrt(2 g H)``,
@@ -188,9 +190,9 @@ def tilt_tank(preset: str = "small", fluid: str = "low") -> Scene:
     ``tilt-tank/<preset>``, any other ``tilt-tank/<preset>-<fluid>``.
     """
     if preset not in TILT_TANK_SPACINGS:
-        raise ValueError(f"unknown preset {preset!r}; one of {sorted(TILT_TANK_SPACINGS)}")
+        raise InvalidInput(f"unknown preset {preset!r}; one of {sorted(TILT_TANK_SPACINGS)}")
     if fluid not in FLUIDS:
-        raise ValueError(f"unknown fluid {fluid!r}; one of {list(FLUIDS)}")
+        raise InvalidInput(f"unknown fluid {fluid!r}; one of {list(FLUIDS)}")
     liquid = FLUIDS[fluid]
     dx = TILT_TANK_SPACINGS[preset]
     size = (0.6, 0.4, 0.16)

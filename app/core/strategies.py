@@ -13,6 +13,7 @@ from enum import StrEnum
 
 import numpy as np
 
+from app.core.errors import InvalidInput
 from app.core.graph import StateGraph
 from app.core.staterank import (
     STATERANK_MAX_ITER,
@@ -42,7 +43,7 @@ def parse_strategy(name: str) -> Strategy:
         return Strategy(name)
     except ValueError:
         known = ", ".join(s.value for s in Strategy)
-        raise ValueError(f"unknown strategy {name!r} (known: {known})") from None
+        raise InvalidInput(f"unknown strategy {name!r} (known: {known})") from None
 
 
 @dataclass(frozen=True)

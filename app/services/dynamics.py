@@ -8,28 +8,36 @@ API, the CLI and the toy experiments import this module without needing either.
 from __future__ import annotations
 
 from app.core.dynamics import Dynamics
+from app.core.errors import InvalidInput
 from app.core.scene import FLUIDS, TILT_TANK_SPACINGS
 from app.core.toy import ToyDynamics
+from app.liquid.devices import LiquidDevices
 
 DYNAMICS_NAMES = ("toy", "liquid")
 #: presets of the liquid (``app.core.scene.tilt_tank``), smallest first
 LIQUID_PRESETS = tuple(sorted(TILT_TANK_SPACINGS, key=TILT_TANK_SPACINGS.__getitem__, reverse=True))
+#: the liquid preset wherever none is named (`srg init`, `srg experiment`, `srg calibrate`,
+#: `srg validate`, a stored graph without one): the one calibrated and validated in full
+#: (docs/liquid.md)
 DEFAULT_LIQUID_PRESET = "small"
+#: the preset of the runs meant to take minutes on a laptop: `srg demo` and the liquid
+#: runs of `srg bench grow` (1.9k particles: the two strategies part within 1.5k frames)
+QUICK_LIQUID_PRESET = "tiny"
 #: fluids of the liquid (``app.core.scene.FLUIDS``): the paper's low and high viscosity
 LIQUID_FLUIDS = tuple(FLUIDS)
 DEFAULT_FLUID = "low"
 
 
-class UnknownDynamics(ValueError):
-    pass
+class UnknownDynamics(InvalidInput):
+    """A dynamics name srg does not have."""
 
 
-class UnknownPreset(ValueError):
-    pass
+class UnknownPreset(InvalidInput):
+    """A scene preset the liquid does not have."""
 
 
-class UnknownFluid(ValueError):
-    pass
+class UnknownFluid(InvalidInput):
+    """A fluid the liquid does not have."""
 
 
 def check_liquid_preset(preset: str) -> str:
@@ -46,17 +54,20 @@ def check_fluid(fluid: str) -> str:
     return fluid
 
 
-def make_dynamics(name: str, preset: str | None = None, fluid: str | None = None) -> Dynamics:
+def make_dynamics(
+    name: str, preset: str | None = None, fluid: str | None = None, *, devices: LiquidDevices
+) -> Dynamics:
     """The dynamics ``name`` with the scene ``preset`` and ``fluid`` (liquid only).
 
     ``preset`` is ignored by ``toy``; a ``fluid`` given for the toy is refused, as it
-    would otherwise be silently dropped.
+    would otherwise be silently dropped. ``devices`` are where the liquid computes and
+    renders (the caller's settings: ``LiquidDevices.from_settings``).
 
     Raises
     ------
     UnknownDynamics, UnknownPreset, UnknownFluid
-        A name, preset or fluid that does not exist (all ``ValueError``).
-    ValueError
+        A name, preset or fluid that does not exist (all :class:`InvalidInput`).
+    InvalidInput
         A fluid for the toy.
     app.liquid.adapter.MissingCalibration
         The liquid preset and fluid have no stored calibration (a ``LookupError``); the
@@ -64,7 +75,7 @@ def make_dynamics(name: str, preset: str | None = None, fluid: str | None = None
     """
     if name == "toy":
         if fluid is not None:
-            raise ValueError(f"the toy has no fluid (got {fluid!r}); fluids are the liquid's")
+            raise InvalidInput(f"the toy has no fluid (got {fluid!r}); fluids are the liquid's")
         return ToyDynamics()
     if name == "liquid":
         preset = check_liquid_preset(preset or DEFAULT_LIQUID_PRESET)
@@ -72,7 +83,7 @@ def make_dynamics(name: str, preset: str | None = None, fluid: str | None = None
         from app.liquid.adapter import LiquidDynamics, MissingCalibration
 
         try:
-            return LiquidDynamics(preset, fluid)
+            return LiquidDynamics(preset, fluid, devices=devices)
         except MissingCalibration:
             option = "" if fluid == DEFAULT_FLUID else f" --fluid {fluid}"
             raise MissingCalibration(
