@@ -26,6 +26,7 @@ from sqlalchemy.exc import ArgumentError, DBAPIError, NoSuchModuleError
 from sqlalchemy.orm import Session, sessionmaker
 
 from app.config import get_settings
+from app.core.errors import InvalidInput, Unavailable
 
 ROOT = Path(__file__).resolve().parents[1]
 
@@ -38,15 +39,15 @@ SQLITE_BUSY_TIMEOUT_MS = 600_000
 UPGRADE_HINT = "run `srg db upgrade`"
 
 
-class InvalidDatabaseURL(ValueError):
+class InvalidDatabaseURL(InvalidInput):
     """The database URL cannot be parsed, or names a database SQLAlchemy does not know."""
 
 
-class DatabaseNotReady(LookupError):
+class DatabaseNotReady(Unavailable):
     """The configured database does not exist yet, or has no srg schema: upgrade it."""
 
 
-class DatabaseUnusable(ValueError):
+class DatabaseUnusable(Unavailable):
     """The database file is not a database (corrupted, or some other file)."""
 
 

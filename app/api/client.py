@@ -22,6 +22,7 @@ from tenacity import (
 )
 
 from app.core.bots import BotKind, play_sessions
+from app.core.errors import SrgError
 from app.core.graph import EdgeKind
 from app.core.publication import Publication
 
@@ -30,7 +31,7 @@ UPLOAD_ATTEMPTS = 3
 TIMEOUT_S = 30.0
 
 
-class ServerError(RuntimeError):
+class ServerError(SrgError):
     """The server refused a request; the message carries its status and JSON error."""
 
 

@@ -1,10 +1,13 @@
 """Every error the API returns is a JSON object ``{"error": "...", "details": ...}``.
 
-Routes raise :class:`ApiError`; the handlers installed by :func:`install_error_handlers`
-turn it, FastAPI's request validation errors, Starlette's own HTTP errors and the
-store's not-found errors (404) into that one shape (:class:`~app.api.schemas.ErrorBody`),
-so a client needs one code path for failures. :func:`error_responses` declares the same
-shape in the OpenAPI document for each status a route can answer.
+Routes raise :class:`ApiError` for the API's own refusals; the handlers installed by
+:func:`install_error_handlers` turn it, FastAPI's request validation errors, Starlette's
+own HTTP errors and any :class:`~app.core.errors.SrgError` (a graph not found: 404, a
+name refused: 422, ...; the ``http_status`` of its kind) into that one shape
+(:class:`~app.api.schemas.ErrorBody`), so a client needs one code path for failures.
+Any other exception is a bug: a 500 that says no more than "internal error".
+:func:`error_responses` declares the same shape in the OpenAPI document for each status a
+route can answer.
 
 Under ``/api`` a path no route serves is a 404, and a method no route of that path takes
 is a 405 whose ``Allow`` lists every method the path's routes take (:func:`no_route`):
@@ -24,15 +27,11 @@ from pydantic import ValidationError
 from starlette.exceptions import HTTPException as StarletteHTTPException
 from starlette.routing import Match, Mount, Route
 
-from app.api.queries import NoPublication
 from app.api.schemas import ErrorBody
-from app.store.graphs import GraphNotFound
-from app.store.publications import PublicationNotFound
+from app.core.errors import SrgError
 
 log = logging.getLogger(__name__)
 
-#: store lookups that fail because the client named something that does not exist
-NOT_FOUND = (GraphNotFound, PublicationNotFound, NoPublication)
 #: the methods a path is tried with to list its ``Allow``
 ANY_METHOD = ["GET", "HEAD", "POST", "PUT", "PATCH", "DELETE", "OPTIONS", "TRACE", "CONNECT"]
 
@@ -148,8 +147,9 @@ def install_error_handlers(app: FastAPI) -> None:
         details = getattr(exc, "details", None)
         return error_response(exc.status_code, str(exc.detail), exc.headers, details)
 
-    async def not_found(_: Request, exc: Exception) -> JSONResponse:
-        return error_response(404, str(exc.args[0]) if exc.args else "not found")
+    async def user_error(_: Request, exc: Exception) -> JSONResponse:
+        assert isinstance(exc, SrgError)
+        return error_response(exc.http_status, str(exc.args[0] if exc.args else exc))
 
     async def unexpected(_: Request, exc: Exception) -> JSONResponse:
         log.exception("unhandled error", exc_info=exc)
@@ -158,6 +158,5 @@ def install_error_handlers(app: FastAPI) -> None:
     app.add_exception_handler(ApiError, api_error)
     app.add_exception_handler(RequestValidationError, invalid_request)
     app.add_exception_handler(StarletteHTTPException, http_error)
-    for not_found_type in NOT_FOUND:
-        app.add_exception_handler(not_found_type, not_found)
+    app.add_exception_handler(SrgError, user_error)
     app.add_exception_handler(Exception, unexpected)

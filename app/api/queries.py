@@ -8,6 +8,7 @@ from sqlalchemy import func, select
 from sqlalchemy.orm import Session
 
 from app.api.schemas import EdgeOut, GraphSummary, PublicationOut
+from app.core.errors import NotFound
 from app.core.graph import EdgeKind
 from app.models import Artifact, Graph, PublicationEdge
 from app.models import Publication as PublicationRow
@@ -18,7 +19,7 @@ DEFAULT_FPS = 30.0
 ANIMATION_MEDIA_PREFIX = "image/"
 
 
-class NoPublication(LookupError):
+class NoPublication(NotFound):
     """The graph exists but has never been published."""
 
 

@@ -31,7 +31,7 @@ def bench_experiment(arguments: list[str]) -> dict[str, Any]:
         before = resource.getrusage(resource.RUSAGE_CHILDREN)
         started = time.perf_counter()
         done = subprocess.run(
-            [SRG, "experiment", *arguments, "--json", str(out)],
+            [SRG, "experiment", *arguments, "--result", str(out)],
             env=env,
             capture_output=True,
             text=True,

@@ -1,21 +1,16 @@
-"""``srg serve``, ``srg analytics`` and ``srg bench ingest``: the play side of the CLI."""
+"""``srg serve`` and ``srg analytics``: the play side of the CLI."""
 
 from __future__ import annotations
 
-import json
 from typing import TYPE_CHECKING, Any
 
 import typer
 
+from app.cli.output import JSON_HELP, to_json
+from app.core.errors import InvalidInput
+
 if TYPE_CHECKING:
     from rich.console import Console
-
-
-def register_api_commands(app: typer.Typer, bench_app: typer.Typer) -> None:
-    """Attach the play commands to the main app and the bench group."""
-    app.command("serve")(serve)
-    app.command("analytics")(analytics)
-    bench_app.command("ingest")(bench_ingest_command)
 
 
 def serve(
@@ -24,7 +19,7 @@ def serve(
 ) -> None:
     """Serve the HTTP API and the browser client (open http://HOST:PORT/)."""
     if not 0 < port < 65536:
-        raise ValueError(f"--port must be a TCP port, 1 to 65535, got {port}")
+        raise InvalidInput(f"--port must be a TCP port, 1 to 65535, got {port}")
     import uvicorn
 
     from app.api.app import create_app
@@ -38,7 +33,7 @@ def serve(
 
 def analytics(
     graph: str = typer.Argument(..., help="graph name (or id)"),
-    json_output: bool = typer.Option(False, "--json", help="print JSON instead of tables"),
+    json_output: bool = typer.Option(False, "--json", help=JSON_HELP),
     threshold: float | None = typer.Option(
         None, help="high-error threshold (default: settings, else the dynamics' default)"
     ),
@@ -53,6 +48,7 @@ def analytics(
     from app.config import get_settings
     from app.core.player_models import parse_player_model
     from app.db import session_factory
+    from app.liquid.devices import LiquidDevices
     from app.services.dynamics import make_dynamics
     from app.services.prediction import latest_play_prediction
     from app.store.analytics import graph_analytics
@@ -64,12 +60,17 @@ def analytics(
     with session_factory()() as session:
         if threshold is None:
             row = get_graph_row(session, graph)
-            dynamics = make_dynamics(row.dynamics, row.scene.get("preset"), row.scene.get("fluid"))
+            dynamics = make_dynamics(
+                row.dynamics,
+                row.scene.get("preset"),
+                row.scene.get("fluid"),
+                devices=LiquidDevices.from_settings(settings),
+            )
             threshold = settings.high_error_threshold or dynamics.high_error_threshold
         report = graph_analytics(session, graph, threshold)
         report["prediction"] = latest_play_prediction(session, settings, graph, player_model)
     if json_output:
-        typer.echo(json.dumps(report, indent=2))
+        typer.echo(to_json(report))
     else:
         _print_tables(report, top)
 
@@ -141,24 +142,3 @@ def _print_prediction(console: Console, prediction: dict[str, Any] | None) -> No
     if prediction["model_fit"] is not None:
         fit = prediction["model_fit"]
         console.print("model fit: " + " ".join(f"{k}={v}" for k, v in fit.items()), markup=False)
-
-
-def bench_ingest_command(
-    clients: int = typer.Option(200, help="concurrent players"),
-    uploads: int = typer.Option(2, help="traces per player (each also replayed once)"),
-    mean_steps: int = typer.Option(90, help="mean steps per trace"),
-    database_url: str = typer.Option("", help="database to load ('': a temporary SQLite)"),
-    json_output: bool = typer.Option(True, "--json/--no-json", help="print JSON (default)"),
-) -> None:
-    """Concurrent trace uploads on loopback: every upload accounted for, p99 latency."""
-    from app.bench.ingest import bench_ingest
-
-    result = bench_ingest(
-        clients=clients, uploads=uploads, mean_steps=mean_steps, database_url=database_url
-    )
-    if json_output:
-        typer.echo(json.dumps(result, indent=2))
-    else:
-        typer.echo(" ".join(f"{k}={v}" for k, v in result.items()))
-    if not result["ok"]:
-        raise typer.Exit(1)

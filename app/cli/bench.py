@@ -1,37 +1,70 @@
-"""``srg bench ...``: speed and memory figures as JSON (targets live here, never in tests)."""
+"""``srg bench ...``: speed and memory figures, always JSON on stdout (targets live here,
+never in tests).
+
+Each command checks its arguments before it starts the benchmark of :mod:`app.bench`, so
+bad input fails at once with an :class:`~app.core.errors.InvalidInput`.
+"""
 
 from __future__ import annotations
 
-import json
+from dataclasses import asdict
+from typing import Any
 
 import typer
 
-bench_app = typer.Typer(help="Benchmarks; each prints JSON.", no_args_is_help=True)
+from app.cli.liquid import FLUID_HELP, PRESET_HELP
+from app.cli.output import to_json
+from app.core.errors import InvalidInput
+from app.services.dynamics import (
+    DEFAULT_FLUID,
+    DEFAULT_LIQUID_PRESET,
+    check_fluid,
+    check_liquid_preset,
+)
+
+app = typer.Typer(help="Benchmarks; each prints JSON.", no_args_is_help=True)
 
 
-def _print(result: dict[str, object]) -> None:
-    typer.echo(json.dumps(result, indent=2, default=str))
+def _print(result: dict[str, Any]) -> None:
+    typer.echo(to_json(result))
 
 
-@bench_app.command("rank")
-def bench_rank_command(
+def _positive(option: str, value: int) -> int:
+    if value <= 0:
+        raise InvalidInput(f"{option} must be positive, got {value}")
+    return value
+
+
+def _positive_ints(option: str, value: str) -> list[int]:
+    """A comma-separated list of positive integers, or a one-line error."""
+    message = f"{option} takes comma-separated positive integers, got {value!r}"
+    try:
+        numbers = [int(part) for part in value.split(",")]
+    except ValueError:
+        raise InvalidInput(message) from None
+    if any(n <= 0 for n in numbers):
+        raise InvalidInput(message)
+    return numbers
+
+
+@app.command("rank")
+def rank(
     edges: int = typer.Option(1_000_000, help="edges of the synthetic grown graph"),
     controls: int = typer.Option(3, help="controls N"),
     seed: int = typer.Option(0),
-    json_output: bool = typer.Option(True, "--json/--no-json", help="print JSON (default)"),
 ) -> None:
     """One cold and one warm STATERANK (after one expansion), next to networkx.pagerank."""
     from app.bench.rank import bench_rank
 
     if edges < controls * 10:
-        raise ValueError(f"--edges must be at least {controls * 10}")
+        raise InvalidInput(f"--edges must be at least {controls * 10}")
     _print(bench_rank(n_edges=edges, n_controls=controls, seed=seed))
 
 
-@bench_app.command(
+@app.command(
     "experiment", context_settings={"allow_extra_args": True, "ignore_unknown_options": True}
 )
-def bench_experiment_command(ctx: typer.Context) -> None:
+def experiment(ctx: typer.Context) -> None:
     """Wall and CPU time of `srg experiment ARGS...` from an empty database.
 
     For example: srg bench experiment --dynamics liquid --preset tiny --seeds 0
@@ -39,8 +72,152 @@ def bench_experiment_command(ctx: typer.Context) -> None:
     """
     from app.bench.experiment import bench_experiment
 
-    if any(arg in ("--json", "--resume", "--name", "--out") for arg in ctx.args):
-        raise ValueError(
-            "the benchmark runs a fresh experiment: leave out --json, --resume, --name, --out"
-        )
+    refused = ("--json", "--result", "--resume", "--name", "--out")
+    if any(arg in refused for arg in ctx.args):
+        raise InvalidInput("the benchmark runs a fresh experiment: leave out " + ", ".join(refused))
     _print(bench_experiment(list(ctx.args)))
+
+
+@app.command("grow")
+def grow(
+    epochs: int = typer.Option(6, help="growth epochs per run"),
+    batch: int = typer.Option(8, help="expansions per epoch (and integrated per graph size)"),
+    workers: str = typer.Option("1,2", help="comma-separated worker-process counts"),
+    sizes: str | None = typer.Option(
+        None, help="graph sizes (edges) to integrate at [default: 1000,10000,100000]"
+    ),
+    frames: str | None = typer.Option(
+        None, help="graph sizes in simulated frames to integrate at, instead of --sizes"
+    ),
+    integration_only: bool = typer.Option(
+        False,
+        "--integration-only",
+        help="only the integrating step, on a graph of --dynamics (default: also throughput)",
+    ),
+    dynamics: str = typer.Option("toy", help="dynamics of the throughput runs: toy or liquid"),
+    preset: str | None = typer.Option(None, help="liquid preset (default tiny)"),
+) -> None:
+    """Expansions per minute on 1 and 2 worker processes; integration time vs graph size."""
+    from app.bench.grow import bench_grow
+    from app.config import get_settings
+    from app.liquid.devices import LiquidDevices
+    from app.services.dynamics import QUICK_LIQUID_PRESET, make_dynamics
+
+    if sizes is not None and frames is not None:
+        raise InvalidInput("give --sizes (edges) or --frames, not both")
+    _positive("--epochs", epochs)
+    _positive("--batch", batch)
+    if dynamics == "liquid":
+        preset = preset or QUICK_LIQUID_PRESET
+    settings = get_settings()
+    # bad names fail here, before any service starts
+    model = make_dynamics(dynamics, preset, devices=LiquidDevices.from_settings(settings))
+    edge_sizes = _positive_ints("--sizes", sizes or "1000,10000,100000")
+    frame_sizes = None if frames is None else _positive_ints("--frames", frames)
+    smallest = model.n_controls * (model.n_controls + 1) * model.frames_per_clip
+    if frame_sizes is not None and min(frame_sizes) < smallest:
+        raise InvalidInput(
+            f"--frames must be at least {smallest} (the initial tree), got {min(frame_sizes)}"
+        )
+    _print(
+        bench_grow(
+            settings,
+            dynamics=dynamics,
+            preset=preset,
+            epochs=epochs,
+            batch=batch,
+            worker_counts=_positive_ints("--workers", workers),
+            sizes=edge_sizes,
+            frames=frame_sizes,
+            integration_only=integration_only,
+        )
+    )
+
+
+@app.command("ingest")
+def ingest(
+    clients: int = typer.Option(200, help="concurrent players"),
+    uploads: int = typer.Option(2, help="traces per player (each also replayed once)"),
+    mean_steps: int = typer.Option(90, help="mean steps per trace"),
+    database_url: str = typer.Option("", help="database to load ('': a temporary SQLite)"),
+) -> None:
+    """Concurrent trace uploads on loopback: every upload accounted for, p99 latency.
+
+    Exit status 1 when an upload was lost or stored twice.
+    """
+    from app.bench.ingest import bench_ingest
+
+    result = bench_ingest(
+        clients=clients, uploads=uploads, mean_steps=mean_steps, database_url=database_url
+    )
+    _print(result)
+    if not result["ok"]:
+        raise typer.Exit(1)
+
+
+@app.command("sph")
+def sph(
+    preset: str = typer.Option(DEFAULT_LIQUID_PRESET, help=PRESET_HELP),
+    fluid: str = typer.Option(DEFAULT_FLUID, help=FLUID_HELP),
+    steps: int = typer.Option(300, help="substeps timed (rounded down to whole frames)"),
+    splishsplash: bool = typer.Option(
+        True, "--splishsplash/--no-splishsplash", help="also time SPlisHSPlasH's PCISPH"
+    ),
+) -> None:
+    """Particle-substeps per second of the PCISPH kernels (converged and at 3 iterations)."""
+    check_liquid_preset(preset)
+    check_fluid(fluid)
+    _positive("--steps", steps)
+    from app.bench.sph import bench_sph
+    from app.config import get_settings
+
+    device = get_settings().opencl_device
+    _print(bench_sph(preset, steps, fluid=fluid, device=device, compare_splishsplash=splishsplash))
+
+
+@app.command("clip")
+def clip(
+    preset: str = typer.Option(DEFAULT_LIQUID_PRESET, help=PRESET_HELP),
+    fluid: str = typer.Option(DEFAULT_FLUID, help=FLUID_HELP),
+    settle: float = typer.Option(1.0, help="seconds of settling first (half damped)"),
+    frames: int | None = typer.Option(
+        None, help="simulate this many frames of each clip and scale (default: all)"
+    ),
+) -> None:
+    """Seconds per clip of each stage of a liquid edge (SPH to WebP) and its bytes."""
+    check_liquid_preset(preset)
+    check_fluid(fluid)
+    if settle <= 0:
+        raise InvalidInput(f"--settle must be positive, got {settle}")
+    if frames is not None:
+        _positive("--frames", frames)
+    from app.bench.clip import bench_clip
+    from app.config import get_settings
+    from app.liquid.devices import LiquidDevices
+
+    devices = LiquidDevices.from_settings(get_settings())
+    _print(bench_clip(preset, fluid, devices=devices, settle=settle, frames=frames))
+
+
+@app.command("store")
+def store(
+    edges: int = typer.Option(100_000, help="edges of the synthetic graph"),
+    database_url: str | None = typer.Option(
+        None, help="a migrated database (default: a temporary SQLite file)"
+    ),
+    distinct_bundles: int | None = typer.Option(
+        None, help="clips share this many bundles (default: one per clip)"
+    ),
+) -> None:
+    """Seconds to save and to load a whole graph of N edges (the work is rolled back)."""
+    _positive("--edges", edges)
+    if distinct_bundles is not None:
+        _positive("--distinct-bundles", distinct_bundles)
+    from app.bench.store import bench_store
+
+    result = asdict(
+        bench_store(edges, database_url=database_url, distinct_bundles=distinct_bundles)
+    )
+    result["save_edges_per_s"] = result["n_edges"] / max(result["save_seconds"], 1e-12)
+    result["load_edges_per_s"] = result["n_edges"] / max(result["load_seconds"], 1e-12)
+    _print(result)

@@ -2,17 +2,20 @@
 
 from __future__ import annotations
 
-import json
 import os
+from functools import partial
 from pathlib import Path
 
 import typer
+
+from app.cli.output import progress_bar, write_result
+from app.services.dynamics import QUICK_LIQUID_PRESET
 
 
 def demo(
     name: str = typer.Option("demo", help="the demo's name; run again to go on from where it was"),
     dynamics: str = typer.Option("liquid", help="liquid or toy"),
-    preset: str = typer.Option("tiny", help="liquid preset: tiny, small or paper"),
+    preset: str = typer.Option(QUICK_LIQUID_PRESET, help="liquid preset: tiny, small or paper"),
     fluid: str | None = typer.Option(None, help="liquid fluid: low (default) or high"),
     checkpoints: str = typer.Option(
         "300,600,1000,1500", help="graph sizes (frames) where the bots play both graphs"
@@ -20,7 +23,9 @@ def demo(
     sessions: int = typer.Option(30, help="bot sessions per checkpoint"),
     seed: int = typer.Option(0),
     out: Path | None = typer.Option(None, help="directory for report.md (default var/demo)"),
-    json_path: str | None = typer.Option(None, "--json", help="also write the result as JSON"),
+    result_path: Path | None = typer.Option(
+        None, "--result", help="also write the JSON result to this file"
+    ),
 ) -> None:
     """BASELINE and SR-CROWD graphs grown side by side; watch the error fall as bots play.
 
@@ -29,8 +34,8 @@ def demo(
     from rich.console import Console
     from rich.table import Table
 
-    from app.cli.main import emit, progress_bar
     from app.config import get_settings
+    from app.liquid.devices import LiquidDevices
     from app.services.demo import (
         demo_plan,
         demo_rows,
@@ -40,18 +45,22 @@ def demo(
         write_demo_report,
     )
     from app.services.dynamics import make_dynamics
-    from app.services.experiment import grow_in_process, parse_checkpoints
-    from app.services.graphs import artifact_store
+    from app.services.experiment.plan import parse_checkpoints
+    from app.services.experiment.runs import grow_in_process
+    from app.services.loading import artifact_store
 
     plan = demo_plan(
         dynamics, preset, fluid, parse_checkpoints(checkpoints), sessions=sessions, seed=seed
     )
-    make_dynamics(plan.dynamics, plan.preset, plan.fluid)  # unknown preset, calibration
     settings = get_settings()
+    devices = LiquidDevices.from_settings(settings)
+    make_dynamics(plan.dynamics, plan.preset, plan.fluid, devices=devices)  # preset, calibration
     jobs = min(os.cpu_count() or 1, len(plan.runs))
     total = len(plan.runs) * plan.checkpoints[-1]
     with progress_bar(total, "baseline and sr-crowd: frames grown") as advance:
-        result = run_demo(name, plan, grow_in_process, jobs=jobs, progress=advance)
+        result = run_demo(
+            settings, name, plan, partial(grow_in_process, settings), jobs=jobs, progress=advance
+        )
     with progress_bar(unrendered_edges(name, plan), "animations rendered") as rendered:
         graph, published = publish_playable(settings, name, plan, rendered)
     table = Table(title=f"{name}: what goal-directed bots saw at each graph size")
@@ -81,8 +90,8 @@ def demo(
         out or settings.var_dir / "demo",
         artifact_store(settings).get_arrays,
     )
-    if json_path:
-        emit(json.loads(json.dumps(result, default=str)), json_path)
+    if result_path is not None:
+        write_result(result_path, result)
     typer.echo(f"report: {report}")
     typer.echo(
         f"play it: srg serve, then open http://127.0.0.1:8000/?graph={graph} "

@@ -1,4 +1,4 @@
-"""``srg db``, ``init``, ``grow``, ``publish``, ``play``, ``status``, ``gc``: persisted graphs.
+"""``srg init``, ``grow``, ``publish``, ``play``, ``status``, ``gc``: persisted graphs.
 
 Each command runs one service call in one transaction: it commits when the service
 returns and rolls back (writing nothing) when it raises.
@@ -6,67 +6,11 @@ returns and rolls back (writing nothing) when it raises.
 
 from __future__ import annotations
 
-import json
-from collections.abc import Callable
-from dataclasses import asdict, is_dataclass
-from typing import Any
-
 import typer
 
+from app.cli.output import JSON_HELP, emit, progress_bar, to_json
+from app.core.errors import InvalidInput
 from app.db import transaction
-
-db_app = typer.Typer(help="The database schema (Alembic migrations).", no_args_is_help=True)
-
-
-def emit(result: Any, as_json: bool) -> None:
-    data = asdict(result) if is_dataclass(result) and not isinstance(result, type) else result
-    if as_json:
-        typer.echo(json.dumps(data, indent=2, default=str))
-    else:
-        typer.echo(" ".join(f"{k}={v}" for k, v in data.items()))
-
-
-class RevisionError(ValueError):
-    """Alembic refused the revision asked for (unknown, or not reachable that way)."""
-
-
-def migrate(direction: str, revision: str) -> None:
-    """``alembic upgrade|downgrade revision`` on the configured database, errors in one line."""
-    from alembic.util import CommandError
-
-    from alembic import command
-    from app.config import get_settings
-    from app.db import alembic_config, parse_database_url
-
-    parse_database_url(get_settings().resolved_database_url)  # one line, before Alembic
-    try:
-        getattr(command, direction)(alembic_config(), revision)
-    except CommandError as exc:
-        raise RevisionError(f"cannot {direction} to {revision!r}: {exc}".splitlines()[0]) from None
-
-
-@db_app.command("upgrade")
-def db_upgrade(revision: str = typer.Argument("head", help="target revision")) -> None:
-    """Migrate the configured database up to ``revision`` (default: the latest)."""
-    from app.config import get_settings
-
-    migrate("upgrade", revision)
-    url = parse_url_for_display(get_settings().resolved_database_url)
-    typer.echo(f"database at {revision}: {url}", err=True)
-
-
-@db_app.command("downgrade")
-def db_downgrade(
-    revision: str = typer.Argument(..., help="target revision ('base': empty)"),
-) -> None:
-    """Migrate the configured database down to ``revision``."""
-    migrate("downgrade", revision)
-
-
-def parse_url_for_display(url: str) -> str:
-    from app.db import parse_database_url
-
-    return parse_database_url(url).render_as_string(hide_password=True)
 
 
 def init(
@@ -79,16 +23,16 @@ def init(
     player_model: str | None = typer.Option(
         None, help="crowd model sr-crowd learns: eq2 or logit (default SRG_PLAYER_MODEL, eq2)"
     ),
-    json_output: bool = typer.Option(False, "--json", help="print JSON"),
+    json_output: bool = typer.Option(False, "--json", help=JSON_HELP),
 ) -> None:
     """Create a graph: the initial tree of the dynamics, its leaves blended back."""
     from app.config import get_settings
     from app.core.player_models import parse_player_model
-    from app.services.dynamics import check_fluid
+    from app.services.dynamics import DEFAULT_LIQUID_PRESET, check_fluid
     from app.services.graphs import init_graph
 
     if dynamics == "liquid" and preset is None:
-        preset = "small"
+        preset = DEFAULT_LIQUID_PRESET
     if fluid is not None:
         check_fluid(fluid)
     if player_model is not None:  # '' too: it names no model, not the default
@@ -113,19 +57,18 @@ def grow(
     strategy: str | None = typer.Option(None, help="override the graph's strategy"),
     frames: int | None = typer.Option(None, help="budget in simulated frames"),
     expansions: int | None = typer.Option(None, help="budget in expansions"),
-    json_output: bool = typer.Option(False, "--json", help="print JSON"),
+    json_output: bool = typer.Option(False, "--json", help=JSON_HELP),
 ) -> None:
     """Grow a graph in-process (eagerly) by a budget of frames or expansions."""
-    from app.cli.main import progress_bar
     from app.config import get_settings
     from app.core.strategies import parse_strategy
     from app.services.graphs import grow_graph
 
     if frames is not None and expansions is not None:
-        raise ValueError("give --frames or --expansions, not both")
+        raise InvalidInput("give --frames or --expansions, not both")
     for option, budget in (("--frames", frames), ("--expansions", expansions)):
         if budget is not None and budget <= 0:  # before the bar: it never shows 0/-5
-            raise ValueError(f"{option} must be positive, got {budget}")
+            raise InvalidInput(f"{option} must be positive, got {budget}")
     if strategy is not None:
         parse_strategy(strategy)
     settings = get_settings()
@@ -146,10 +89,9 @@ def grow(
 
 def publish(
     name: str = typer.Argument(..., help="graph name or id"),
-    json_output: bool = typer.Option(False, "--json", help="print JSON"),
+    json_output: bool = typer.Option(False, "--json", help=JSON_HELP),
 ) -> None:
     """Relink every blend, render what is missing, freeze a publication for players."""
-    from app.cli.main import progress_bar
     from app.config import get_settings
     from app.services.graphs import count_missing_animations, publish_graph
     from app.store.graphs import get_graph_row
@@ -170,7 +112,7 @@ def play(
     mean_steps: int = typer.Option(90, help="mean session length in steps"),
     seed: int = typer.Option(0),
     url: str | None = typer.Option(None, help="play over HTTP against `srg serve` at this URL"),
-    json_output: bool = typer.Option(False, "--json", help="print JSON"),
+    json_output: bool = typer.Option(False, "--json", help=JSON_HELP),
 ) -> None:
     """Bots play the latest publication; their traces are stored like players' uploads."""
     from app.config import get_settings
@@ -200,7 +142,7 @@ def play(
 
 def status(
     name: str | None = typer.Argument(None, help="graph name or id (default: all graphs)"),
-    json_output: bool = typer.Option(False, "--json", help="print JSON"),
+    json_output: bool = typer.Option(False, "--json", help=JSON_HELP),
 ) -> None:
     """Sizes, publications, epochs and play (traces, players, last upload) of one graph or all."""
     from app.services.graphs import graph_summary, list_graphs
@@ -208,7 +150,7 @@ def status(
     with transaction() as session:
         rows = [graph_summary(session, name)] if name is not None else list_graphs(session)
     if json_output:
-        typer.echo(json.dumps(rows if name is None else rows[0], indent=2))
+        typer.echo(to_json(rows if name is None else rows[0]))
         return
     if not rows:
         typer.echo("no graphs yet: srg init NAME")
@@ -226,7 +168,7 @@ def gc(
         "(default SRG_ARTIFACT_GC_GRACE, 3600)",
     ),
     dry_run: bool = typer.Option(False, "--dry-run", help="count what would go; delete nothing"),
-    json_output: bool = typer.Option(False, "--json", help="print JSON"),
+    json_output: bool = typer.Option(False, "--json", help=JSON_HELP),
 ) -> None:
     """Delete artifact files and rows that nothing references (what an interrupted grow left).
 
@@ -235,7 +177,6 @@ def gc(
     reference survives: keep it above the longest step. Safe to run while graphs grow;
     ``srg beat`` also runs it every SRG_ARTIFACT_GC_INTERVAL seconds.
     """
-    from app.cli.main import progress_bar
     from app.config import get_settings
     from app.services.artifact_gc import collect_artifacts
     from app.services.graphs import artifact_store
@@ -248,11 +189,3 @@ def gc(
             settings, older_than=older_than, dry_run=dry_run, progress=advance
         )
     emit(result, json_output)
-
-
-def register_graph_commands(app: typer.Typer) -> None:
-    """Attach the graph commands to the main app."""
-    app.add_typer(db_app, name="db")
-    commands: list[Callable[..., None]] = [init, grow, publish, play, status, gc]
-    for command in commands:
-        app.command(command.__name__)(command)

@@ -17,7 +17,7 @@ from database_helpers import postgres_base_url, postgres_database
 from sqlalchemy import select
 from trace_helpers import looping_trace
 
-from app.cli.main import progress_bar
+from app.cli.output import progress_bar
 from app.config import Settings
 from app.db import make_engine, session_factory
 from app.models import Graph

@@ -20,7 +20,7 @@ from cli_helpers import SRG, ok, one_line_error, srg
 from sqlalchemy import create_engine, func, select
 
 from app.models import ExperimentCheckpoint, GrowthEpoch
-from app.services.experiment import comparable_figures
+from app.services.experiment.results import comparable_figures
 
 TOY_PLAN = ("--seeds", "0", "--checkpoints", "600,1500,2400", "--sessions", "10")
 LIQUID_PLAN = (
@@ -42,7 +42,7 @@ def differences(a: dict[str, Any], b: dict[str, Any]) -> list[str]:
 
 
 def run_json(var: Path, *args: str) -> dict[str, Any]:
-    ok(var, "experiment", *args, "--json", str(var / "result.json"))
+    ok(var, "experiment", *args, "--result", str(var / "result.json"))
     return dict(json.loads((var / "result.json").read_text()))
 
 

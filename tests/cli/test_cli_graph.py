@@ -115,7 +115,7 @@ def test_the_demo_grows_both_graphs_side_by_side_and_publishes_one_to_play(
     result_json = tmp_path / "demo.json"
     ok(tmp_path, "db", "upgrade")
     args = ["demo", "--dynamics", "toy", "--checkpoints", "300,900", "--sessions", "6"]
-    printed = ok(tmp_path, *args, "--out", str(out), "--json", str(result_json))
+    printed = ok(tmp_path, *args, "--out", str(out), "--result", str(result_json))
     result = json.loads(result_json.read_text())
     assert set(result["results"]) == {"baseline", "sr-crowd"}
     sizes = [row["size_frames"] for row in result["results"]["sr-crowd"]["0"]]
@@ -127,7 +127,7 @@ def test_the_demo_grows_both_graphs_side_by_side_and_publishes_one_to_play(
     playable = json.loads(ok(tmp_path, "status", "demo.sr-crowd.0", "--json"))
     assert playable["unrendered_edges"] == 0 and playable["latest_publication"] == 3
     # run again: the demo is stored, so it grows nothing and only publishes again
-    again = ok(tmp_path, *args, "--out", str(out), "--json", str(result_json))
+    again = ok(tmp_path, *args, "--out", str(out), "--result", str(result_json))
     assert "report:" in again
     assert json.loads(result_json.read_text())["results"] == result["results"]
     one_line_error(srg(tmp_path, "demo", "--sessions", "0"), "must be positive")

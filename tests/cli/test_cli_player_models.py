@@ -124,7 +124,7 @@ def test_an_experiment_plans_the_player_model_bot_and_fixed_graph_sessions(
     ok(tmp_path, "db", "upgrade")
     args = ("--seeds", "0", "--checkpoints", "300", "--sessions", "3", "--strategies", "baseline")
     chosen = ("--player-model", "logit", "--bot", "hesitant", "--fixed-graph-sessions", "4")
-    ok(tmp_path, "experiment", *args, *chosen, "--json", str(tmp_path / "result.json"))
+    ok(tmp_path, "experiment", *args, *chosen, "--result", str(tmp_path / "result.json"))
     result = json.loads((tmp_path / "result.json").read_text())
     plan = result["plan"]
     assert (plan["player_model"], plan["bot"], plan["fixed_graph_sessions"]) == (
@@ -138,4 +138,4 @@ def test_an_experiment_plans_the_player_model_bot_and_fixed_graph_sessions(
             srg(tmp_path, "experiment", "--resume", "--name", result["name"], *option),
             "--resume runs the stored plan",
         )
-    ok(tmp_path, "experiment", "--resume", "--name", result["name"], "--json", "-")
+    ok(tmp_path, "experiment", "--resume", "--name", result["name"], "--json")

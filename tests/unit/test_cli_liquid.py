@@ -12,8 +12,10 @@ import pytest
 import typer
 from typer.testing import CliRunner
 
-from app.cli.liquid import register_liquid_commands
+from app.cli.main import app as srg_app
+from app.core.errors import InvalidInput
 from app.liquid import adapter as liquid
+from app.liquid.devices import LiquidDevices
 from app.services.dynamics import (
     DEFAULT_FLUID,
     DYNAMICS_NAMES,
@@ -28,14 +30,11 @@ from app.services.dynamics import (
 
 @pytest.fixture(scope="module")
 def cli() -> typer.Typer:
-    """The liquid commands on their own app (``app.cli`` registers them the same way)."""
-    app = typer.Typer(pretty_exceptions_enable=False)
-    bench_app = typer.Typer()
-    app.add_typer(bench_app, name="bench")
-    register_liquid_commands(app, bench_app)
-    return app
+    """The whole ``srg`` app, run without the console script's error mapping."""
+    return srg_app
 
 
+DEVICES = LiquidDevices()
 UNKNOWN = "unknown preset 'huge' (known: tiny, small, paper)"
 UNKNOWN_FLUID = "unknown fluid 'bogus' (known: low, high)"
 
@@ -63,22 +62,21 @@ UNKNOWN_FLUID = "unknown fluid 'bogus' (known: low, high)"
         (["bench", "store", "--edges", "0"], "--edges must be positive, got 0"),
     ],
 )
-def test_bad_input_raises_a_one_line_value_error_before_any_work(
+def test_bad_input_raises_a_one_line_invalid_input_before_any_work(
     cli: typer.Typer, args: list[str], message: str
 ) -> None:
     result = CliRunner().invoke(cli, args)
     assert result.exit_code != 0
-    assert isinstance(result.exception, ValueError)
+    assert isinstance(result.exception, InvalidInput)
     assert str(result.exception) == message
     assert result.output == ""  # nothing started
 
 
 def test_main_prints_srg_error_and_exits_2(
-    cli: typer.Typer, monkeypatch: pytest.MonkeyPatch, capsys: pytest.CaptureFixture[str]
+    monkeypatch: pytest.MonkeyPatch, capsys: pytest.CaptureFixture[str]
 ) -> None:
     import app.cli.main
 
-    monkeypatch.setattr(app.cli.main, "app", cli)
     monkeypatch.setattr(sys, "argv", ["srg", "bench", "sph", "--preset", "huge"])
     with pytest.raises(SystemExit) as exit_info:
         app.cli.main.main()
@@ -112,33 +110,33 @@ def test_make_dynamics_knows_the_liquid_and_names_its_errors(
 ) -> None:
     assert DYNAMICS_NAMES == ("toy", "liquid")
     assert LIQUID_PRESETS == ("tiny", "small", "paper")
-    assert make_dynamics("liquid", "tiny").preset == "tiny"  # type: ignore[attr-defined]
-    assert make_dynamics("liquid").preset == "small"  # type: ignore[attr-defined]
+    assert make_dynamics("liquid", "tiny", devices=DEVICES).preset == "tiny"  # type: ignore[attr-defined]
+    assert make_dynamics("liquid", devices=DEVICES).preset == "small"  # type: ignore[attr-defined]
     with pytest.raises(UnknownPreset, match="unknown preset 'huge'"):
-        make_dynamics("liquid", "huge")
+        make_dynamics("liquid", "huge", devices=DEVICES)
 
     def missing(preset: str, fluid: str = "low") -> liquid.LiquidCalibration:
         raise liquid.MissingCalibration(f"no calibration for preset {preset!r}")
 
     monkeypatch.setattr(liquid, "load_calibration", missing)
     with pytest.raises(LookupError, match=r"run `srg calibrate --preset tiny` first"):
-        make_dynamics("liquid", "tiny")
+        make_dynamics("liquid", "tiny", devices=DEVICES)
     with pytest.raises(LookupError, match=r"run `srg calibrate --preset tiny --fluid high` first"):
-        make_dynamics("liquid", "tiny", "high")
+        make_dynamics("liquid", "tiny", "high", devices=DEVICES)
 
 
 def test_make_dynamics_takes_a_fluid_for_the_liquid_only() -> None:
     assert LIQUID_FLUIDS == ("low", "high") and DEFAULT_FLUID == "low"
     assert check_fluid("high") == "high"
-    high = make_dynamics("liquid", "tiny", "high")
+    high = make_dynamics("liquid", "tiny", "high", devices=DEVICES)
     assert high.fluid == "high"  # type: ignore[attr-defined]
     assert high.scene.name == "tilt-tank/tiny-high"  # type: ignore[attr-defined]
-    assert make_dynamics("liquid", "tiny").fluid == "low"  # type: ignore[attr-defined]
+    assert make_dynamics("liquid", "tiny", devices=DEVICES).fluid == "low"  # type: ignore[attr-defined]
     with pytest.raises(UnknownFluid, match=r"^unknown fluid 'bogus' \(known: low, high\)$"):
-        make_dynamics("liquid", "tiny", "bogus")
+        make_dynamics("liquid", "tiny", "bogus", devices=DEVICES)
     with pytest.raises(ValueError, match=r"^the toy has no fluid \(got 'high'\)"):
-        make_dynamics("toy", fluid="high")
-    assert make_dynamics("toy").name == "toy"
+        make_dynamics("toy", fluid="high", devices=DEVICES)
+    assert make_dynamics("toy", devices=DEVICES).name == "toy"
 
 
 def test_each_fluid_reads_its_own_calibration_file(tmp_path: Path) -> None:
@@ -155,7 +153,7 @@ def _fake_report(passed: bool) -> dict[str, Any]:
 
 
 def _fake_validate(passed: bool) -> Any:
-    return lambda preset, fluid: _fake_report(passed)
+    return lambda preset, fluid, device: _fake_report(passed)
 
 
 @pytest.mark.parametrize("passed", [True, False])
@@ -165,19 +163,19 @@ def test_validate_prints_the_report_and_exits_1_when_a_check_fails(
     from app.liquid import validation as sph_validation
 
     monkeypatch.setattr(sph_validation, "validate", _fake_validate(passed))
-    result = CliRunner().invoke(cli, ["validate", "--preset", "tiny", "--json", "-"])
+    result = CliRunner().invoke(cli, ["validate", "--preset", "tiny", "--json"])
     assert result.exit_code == (0 if passed else 1)
     assert json.loads(result.stdout) == _fake_report(passed)
 
 
-def test_validate_json_file_gets_the_report_and_stdout_a_line_per_check(
+def test_validate_result_file_gets_the_report_and_stdout_a_line_per_check(
     cli: typer.Typer, monkeypatch: pytest.MonkeyPatch, tmp_path: Path
 ) -> None:
     from app.liquid import validation as sph_validation
 
     monkeypatch.setattr(sph_validation, "validate", _fake_validate(False))
     target = tmp_path / "out" / "validate.json"
-    result = CliRunner().invoke(cli, ["validate", "--preset", "tiny", "--json", str(target)])
+    result = CliRunner().invoke(cli, ["validate", "--preset", "tiny", "--result", str(target)])
     assert result.exit_code == 1
     assert json.loads(target.read_text()) == _fake_report(False)
     assert result.stdout.splitlines()[:2] == ["twins: passed", "hydrostatic: FAILED"]
@@ -190,14 +188,14 @@ def test_validate_reports_a_check_that_does_not_apply_as_skipped(
 
     seen = []
 
-    def fake(preset: str, fluid: str) -> dict[str, Any]:
+    def fake(preset: str, fluid: str, device: str) -> dict[str, Any]:
         seen.append((preset, fluid))
         checks = {"twins": {"passed": True}, "dam_break": {"skipped": "water only"}}
         passed = all(sph_validation.check_passed(c) is not False for c in checks.values())
         return {"preset": preset, "fluid": fluid, "checks": checks, "passed": passed}
 
     monkeypatch.setattr(sph_validation, "validate", fake)
-    args = ["validate", "--preset", "tiny", "--fluid", "high", "--json", str(tmp_path / "v.json")]
+    args = ["validate", "--preset", "tiny", "--fluid", "high", "--result", str(tmp_path / "v.json")]
     result = CliRunner().invoke(cli, args)
     assert result.exit_code == 0 and seen == [("tiny", "high")]
     lines = result.stdout.splitlines()

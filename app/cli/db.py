@@ -1,0 +1,47 @@
+"""``srg db upgrade|downgrade``: the database schema, by Alembic's migrations."""
+
+from __future__ import annotations
+
+import typer
+
+from app.core.errors import InvalidInput
+
+app = typer.Typer(help="The database schema (Alembic migrations).", no_args_is_help=True)
+
+
+class RevisionError(InvalidInput):
+    """Alembic refused the revision asked for (unknown, or not reachable that way)."""
+
+
+def migrate(direction: str, revision: str) -> None:
+    """``alembic upgrade|downgrade revision`` on the configured database, errors in one line."""
+    from alembic.util import CommandError
+
+    from alembic import command
+    from app.config import get_settings
+    from app.db import alembic_config, parse_database_url
+
+    parse_database_url(get_settings().resolved_database_url)  # one line, before Alembic
+    try:
+        getattr(command, direction)(alembic_config(), revision)
+    except CommandError as exc:
+        raise RevisionError(f"cannot {direction} to {revision!r}: {exc}".splitlines()[0]) from None
+
+
+@app.command("upgrade")
+def upgrade(revision: str = typer.Argument("head", help="target revision")) -> None:
+    """Migrate the configured database up to ``revision`` (default: the latest)."""
+    from app.config import get_settings
+    from app.db import parse_database_url
+
+    migrate("upgrade", revision)
+    url = parse_database_url(get_settings().resolved_database_url)
+    typer.echo(f"database at {revision}: {url.render_as_string(hide_password=True)}", err=True)
+
+
+@app.command("downgrade")
+def downgrade(
+    revision: str = typer.Argument(..., help="target revision ('base': empty)"),
+) -> None:
+    """Migrate the configured database down to ``revision``."""
+    migrate("downgrade", revision)

@@ -1,0 +1,158 @@
+"""``srg experiment``: the paper's evaluation, one stored graph per strategy and seed."""
+
+from __future__ import annotations
+
+import json
+from pathlib import Path
+from typing import TYPE_CHECKING, Any
+
+import typer
+
+from app.cli.output import JSON_HELP, progress_bar, to_json, write_result
+from app.core.errors import InvalidInput
+
+if TYPE_CHECKING:
+    from app.services.experiment.plan import ExperimentPlan
+
+
+def experiment(
+    dynamics: str | None = typer.Option(None, help="dynamics to grow: toy (default) or liquid"),
+    preset: str | None = typer.Option(None, help="liquid preset: tiny, small or paper"),
+    fluid: str | None = typer.Option(None, help="liquid fluid: low (default) or high"),
+    quick: bool = typer.Option(False, "--quick", help="3 small checkpoints: minutes, not hours"),
+    strategies: str | None = typer.Option(
+        None, help="comma-separated strategies (default: all four)"
+    ),
+    seeds: str | None = typer.Option(None, help="comma-separated seeds (default 0,1,2)"),
+    checkpoints: str | None = typer.Option(None, help="comma-separated frame counts"),
+    sessions: int | None = typer.Option(None, help="bot sessions per checkpoint (default 30)"),
+    player_model: str | None = typer.Option(
+        None, help="crowd model sr-crowd learns: eq2 (default, the paper's) or logit"
+    ),
+    bot: str | None = typer.Option(
+        None,
+        help="bots that play every checkpoint: goal-directed (default), heuristic, random, "
+        "hesitant or avoider",
+    ),
+    fixed_graph_sessions: int | None = typer.Option(
+        None, help="bot sessions per half of the fixed-graph prediction setting (default 100)"
+    ),
+    name: str | None = typer.Option(
+        None, help="experiment name (default: from dynamics, preset and fluid)"
+    ),
+    resume: bool = typer.Option(
+        False, "--resume", help="finish the stored experiment NAME from its last checkpoint"
+    ),
+    jobs: int | None = typer.Option(
+        None, help="runs at once (default: the cores in-process; every run on workers)"
+    ),
+    json_output: bool = typer.Option(False, "--json", help=JSON_HELP),
+    result_path: Path | None = typer.Option(
+        None, "--result", help="also write the JSON result to this file"
+    ),
+    out: Path | None = typer.Option(
+        None, help="directory for plots and report.md (default var/experiment/NAME)"
+    ),
+) -> None:
+    """Grow one graph per strategy and seed through checkpoints; compare what bots see.
+
+    The paper's section 7 (docs/experiment.md). Graphs, traces and every checkpoint's
+    figures are stored, so an interrupted experiment continues with ``--resume``. With
+    SRG_BROKER_URL set, growth runs on the Celery workers.
+    """
+    import os
+    from functools import partial
+
+    from app.config import get_settings
+    from app.core.strategies import Strategy
+    from app.reports.experiment import write_report
+    from app.services.experiment.plan import create_experiment, stored_plan
+    from app.services.experiment.runs import Grower, grow_in_process, run_experiment
+    from app.services.loading import artifact_store
+    from app.services.ingredients import eq2_ingredients
+
+    if jobs is not None and jobs < 1:
+        raise InvalidInput(f"--jobs must be positive, got {jobs}")
+    options = (dynamics, preset, fluid, strategies, seeds, checkpoints, sessions)
+    model_options = (player_model, bot, fixed_graph_sessions)
+    name = name or "-".join(x for x in ("experiment", dynamics or "toy", preset, fluid) if x)
+    settings = get_settings()
+    if resume:
+        if quick or any(option is not None for option in (*options, *model_options)):
+            raise InvalidInput(
+                "--resume runs the stored plan: give only --name, --jobs, --json, --result, --out"
+            )
+        plan = stored_plan(name)
+    else:
+        plan = _experiment_plan(dynamics or "toy", quick, *options[1:], *model_options)
+        plan = create_experiment(settings, name, plan)
+    grower: Grower
+    if settings.eager:
+        grower = partial(grow_in_process, settings)
+        jobs = jobs or min(os.cpu_count() or 1, len(plan.runs))
+    else:
+        from app.tasks.growth import grow_on_workers
+
+        grower = grow_on_workers
+        jobs = jobs or len(plan.runs)
+    total = len(plan.runs) * plan.checkpoints[-1]
+    with progress_bar(total, f"{name}: frames grown") as advance:
+        result = run_experiment(settings, name, grower, jobs=jobs, progress=advance)
+    crowd = Strategy.SR_CROWD in plan.strategies and result["complete"]
+    report = write_report(
+        result,
+        out or settings.var_dir / "experiment" / name,
+        artifact_store(settings).get_arrays,
+        ingredients=eq2_ingredients(settings, name) if crowd else None,
+    )
+    if result_path is not None:
+        write_result(result_path, result)
+    if json_output:
+        typer.echo(to_json(result))
+    typer.echo(json.dumps(result["summary"], indent=2), err=json_output)
+    typer.echo(f"report: {report}", err=True)
+
+
+def _experiment_plan(
+    dynamics: str,
+    quick: bool,
+    preset: str | None,
+    fluid: str | None,
+    strategies: str | None,
+    seeds: str | None,
+    checkpoints: str | None,
+    sessions: int | None,
+    player_model: str | None,
+    bot: str | None,
+    fixed_graph_sessions: int | None,
+) -> ExperimentPlan:
+    from app.core.bots import parse_bot
+    from app.core.player_models import parse_player_model
+    from app.core.strategies import parse_strategy
+    from app.services.experiment.plan import ExperimentPlan, parse_checkpoints
+
+    changes: dict[str, Any] = {"preset": preset, "fluid": fluid}
+    if strategies is not None:
+        changes["strategies"] = tuple(parse_strategy(s.strip()) for s in strategies.split(","))
+    if seeds is not None:
+        try:
+            changes["seeds"] = tuple(int(s) for s in seeds.split(","))
+        except ValueError:
+            raise InvalidInput(f"seeds must be comma-separated integers, got {seeds!r}") from None
+    if checkpoints is not None:
+        changes["checkpoints"] = parse_checkpoints(checkpoints)
+    if sessions is not None:
+        changes["sessions"] = sessions
+    if player_model is not None:
+        changes["player_model"] = parse_player_model(player_model)
+    if bot is not None:
+        changes["bot"] = parse_bot(bot)
+    if fixed_graph_sessions is not None:
+        if fixed_graph_sessions < 1:
+            raise InvalidInput(
+                f"--fixed-graph-sessions must be positive, got {fixed_graph_sessions}"
+            )
+        changes["fixed_graph_sessions"] = fixed_graph_sessions
+    if quick:
+        return ExperimentPlan.quick(dynamics, **changes)
+    return ExperimentPlan(dynamics=dynamics, **changes)

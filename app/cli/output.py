@@ -1,0 +1,138 @@
+"""What every ``srg`` command prints: progress on stderr, results on stdout, errors in one line.
+
+The rule of ``--json``: a command prints a short human form of its result unless given
+``--json``, which prints the machine-readable JSON result on stdout instead. A command
+that also writes its result to a file takes the path as ``--result PATH``. Benchmarks
+always print JSON and take no ``--json``.
+
+Errors: an :class:`~app.core.errors.SrgError` (the user can act on it) and the library
+errors mapped below (a setting pydantic refused, a database that cannot be used, a server
+that cannot be reached) end the command with one ``srg: error: ...`` line on stderr and
+exit status 2. Any other exception is a bug and keeps its traceback.
+"""
+
+from __future__ import annotations
+
+import json
+import sys
+from collections.abc import Callable, Iterator
+from contextlib import contextmanager
+from dataclasses import asdict, is_dataclass
+from pathlib import Path
+from typing import TYPE_CHECKING, Any
+
+import typer
+from rich.console import Console
+from rich.progress import BarColumn, MofNCompleteColumn, Progress, TextColumn, TimeElapsedColumn
+
+from app.core.errors import SrgError
+
+if TYPE_CHECKING:
+    from sqlalchemy.exc import DBAPIError
+
+#: how ``--json`` is declared by every command that has it
+JSON_HELP = "print the JSON result instead of the human form"
+
+
+@contextmanager
+def progress_bar(total: int, label: str) -> Iterator[Callable[[int], None]]:
+    """A progress bar on stderr; yields the ``advance(n)`` callback services take.
+
+    What it shows stays within 0 and ``total`` (itself at least 0): a service may count
+    past its estimate (a frame budget is grown in whole expansions), never below 0.
+    """
+    total = max(total, 0)
+    done = 0
+    columns = (TextColumn(label), BarColumn(), MofNCompleteColumn(), TimeElapsedColumn())
+    with Progress(*columns, console=Console(stderr=True), transient=False) as bar:
+        task = bar.add_task(label, total=total)
+
+        def advance(n: int) -> None:
+            nonlocal done
+            done = min(max(done + n, 0), total)
+            bar.update(task, completed=done)
+
+        yield advance
+
+
+def to_json(data: Any) -> str:
+    """The JSON text of a result (dates and paths as strings), as scripts read it."""
+    return json.dumps(data, indent=2, default=str)
+
+
+def emit(result: Any, as_json: bool) -> None:
+    """Print a result (a dict or a dataclass): JSON, or one ``key=value`` line."""
+    data = asdict(result) if is_dataclass(result) and not isinstance(result, type) else result
+    if as_json:
+        typer.echo(to_json(data))
+    else:
+        typer.echo(" ".join(f"{k}={v}" for k, v in data.items()))
+
+
+def write_result(path: Path, data: Any) -> None:
+    """Write a result as JSON to the file of ``--result``, its directory made."""
+    path.parent.mkdir(parents=True, exist_ok=True)
+    path.write_text(to_json(data) + "\n")
+
+
+@contextmanager
+def user_errors_in_one_line() -> Iterator[None]:
+    """Turn the errors a user can act on into one ``srg: error:`` line and exit 2."""
+    try:
+        yield
+    except SystemExit:
+        raise
+    except Exception as exc:
+        message = user_error_message(exc)
+        if message is None:
+            raise
+        typer.echo(f"srg: error: {message}".splitlines()[0], err=True)
+        sys.exit(2)
+
+
+def user_error_message(exc: Exception) -> str | None:
+    """What ``exc`` tells the user, when it is theirs to act on; ``None`` for a bug."""
+    import httpx
+    from pydantic import ValidationError
+    from sqlalchemy.exc import DBAPIError, OperationalError
+
+    from app.config import Settings
+
+    if isinstance(exc, SrgError):
+        return str(exc.args[0] if exc.args else exc)
+    if isinstance(exc, ValidationError) and exc.title == Settings.__name__:
+        return "; ".join(
+            f"SRG_{'_'.join(str(part) for part in error['loc']).upper()}: {error['msg']}"
+            for error in exc.errors()
+        )
+    if isinstance(exc, DBAPIError):
+        mapped = database_user_error(exc)
+        if mapped is not None:
+            return mapped
+        if isinstance(exc, OperationalError):
+            return f"cannot use the database: {exc.orig}"
+        return None
+    if isinstance(exc, httpx.TransportError):
+        return f"cannot reach the server: {exc}"
+    return None
+
+
+def database_user_error(exc: DBAPIError) -> str | None:
+    """What a database error means to the user, when it is theirs to fix; else ``None``.
+
+    A database without srg's tables (never upgraded: "no such table", undefined_table)
+    and a file that is no database are; a constraint violated or a wrong statement is a
+    bug and keeps its traceback.
+    """
+    from app.config import get_settings
+    from app.db import UPGRADE_HINT, parse_database_url, raise_if_unusable, schema_missing
+
+    url = parse_database_url(get_settings().resolved_database_url)
+    shown = url.render_as_string(hide_password=True)
+    if schema_missing(exc):
+        return f"the database {shown} has no srg schema (or an older one): {UPGRADE_HINT}"
+    try:
+        raise_if_unusable(exc, url.database if url.get_backend_name() == "sqlite" else shown)
+    except SrgError as unusable:
+        return str(unusable)
+    return None
