@@ -29,6 +29,7 @@ from app.core.dynamics import ClipFeatures, SimClip
 from app.core.surface import pack_clip_fields
 from app.kernels.sph import SphSimulator
 from app.liquid.adapter import LiquidCalibration, LiquidDynamics, MissingCalibration
+from app.liquid.devices import LiquidDevices
 from app.render.animation import encode_poster, encode_strip
 from app.store.artifacts import encode_arrays
 
@@ -52,11 +53,12 @@ def _npz_bytes(array: np.ndarray) -> int:
     return len(buffer.getvalue())
 
 
-def _dynamics(preset: str, fluid: str) -> tuple[LiquidDynamics, str]:
+def _dynamics(preset: str, fluid: str, devices: LiquidDevices) -> tuple[LiquidDynamics, str]:
     try:
-        return LiquidDynamics(preset, fluid), "stored"
+        return LiquidDynamics(preset, fluid, devices=devices), "stored"
     except MissingCalibration:
-        return LiquidDynamics(preset, fluid, PLACEHOLDER_CALIBRATION), "placeholder"
+        dyn = LiquidDynamics(preset, fluid, PLACEHOLDER_CALIBRATION, devices=devices)
+        return dyn, "placeholder"
 
 
 def _median_seconds(fn: Callable[[], object], repeats: int = 21) -> float:
@@ -107,12 +109,19 @@ def _full_clip(frames: np.ndarray, k: int) -> np.ndarray:
 
 
 def bench_clip(
-    preset: str = "small", fluid: str = "low", *, settle: float = 1.0, frames: int | None = None
+    preset: str,
+    fluid: str,
+    *,
+    devices: LiquidDevices,
+    settle: float = 1.0,
+    frames: int | None = None,
 ) -> dict:
     """Time simulate (SPH), SDF, features, blend and render of one clip; size its data.
 
     Parameters
     ----------
+    devices : LiquidDevices
+        The OpenCL device and the Mitsuba variant timed.
     settle : float
         Seconds of settling before the clips, the first half damped.
     frames : int, optional
@@ -124,7 +133,7 @@ def bench_clip(
         ``seconds`` per clip by stage, ``bytes_per_frame`` by stored item and in total,
         and the sizes that explain them (particles, voxels, image size).
     """
-    dyn, calibration = _dynamics(preset, fluid)
+    dyn, calibration = _dynamics(preset, fluid, devices)
     sim = dyn.simulator
     k = dyn.frames_per_clip
     n = min(frames or k, k)

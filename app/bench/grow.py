@@ -42,20 +42,19 @@ from app.core.dynamics import Dynamics
 from app.core.graph import EdgeKind, StateGraph
 from app.core.growth import expand_blend_edge, initial_tree
 from app.db import make_engine, session_factory
+from app.liquid.devices import LiquidDevices
 
 ROOT = Path(__file__).resolve().parents[2]
-POSTGRES = os.environ.get(
-    "SRG_TEST_POSTGRES_URL", "postgresql+psycopg://postgres@127.0.0.1:5432/srg_bench"
-)
 
 
 @contextmanager
-def _database() -> Iterator[str]:
+def _database(server_url: str) -> Iterator[str]:
+    """A fresh, migrated database on the PostgreSQL server of ``server_url``, then dropped."""
     from alembic.config import Config
 
     from alembic import command
 
-    url = make_url(POSTGRES)
+    url = make_url(server_url)
     name = f"srg_bench_{uuid.uuid4().hex[:8]}"
     admin = make_engine(
         url.set(database="postgres").render_as_string(False), isolation_level="AUTOCOMMIT"
@@ -105,12 +104,22 @@ def _redis(directory: Path) -> Iterator[str]:
 
 
 def _throughput(
-    workers: int, epochs: int, batch: int, dynamics: str, preset: str | None
+    workers: int,
+    epochs: int,
+    batch: int,
+    dynamics: str,
+    preset: str | None,
+    *,
+    settings: Settings,
 ) -> dict[str, Any]:
-    from app.services.graphs import init_graph
+    from app.services.creation import init_graph
     from app.tasks.celery_app import make_celery
 
-    with tempfile.TemporaryDirectory() as tmp, _redis(Path(tmp)) as broker, _database() as url:
+    with (
+        tempfile.TemporaryDirectory() as tmp,
+        _redis(Path(tmp)) as broker,
+        _database(settings.test_postgres_url) as url,
+    ):
         fields = {
             "broker_url": broker,
             "result_backend": broker,
@@ -118,7 +127,7 @@ def _throughput(
             "var_dir": Path(tmp) / "var",
             "batch_size": batch,
         }
-        settings = Settings(**fields)  # type: ignore[arg-type]
+        settings = settings.model_copy(update=fields)
         sessions = session_factory(make_engine(url))
         with sessions() as session:
             graph_id = int(
@@ -132,6 +141,7 @@ def _throughput(
                 )["id"]
             )  # type: ignore[call-overload]
             session.commit()
+        # the worker is a child process: its configuration is its environment
         env = {k: v for k, v in os.environ.items() if not k.startswith("SRG_")}
         env.update({f"SRG_{k.upper()}": str(v) for k, v in fields.items()})
         celery = str(Path(sys.executable).with_name("celery"))
@@ -217,7 +227,7 @@ def _resident_kb() -> int:
 
 
 def _integrate_in_fresh_process(
-    fields: dict[str, Any], epoch_id: int, count: int, dynamics: tuple[str, str | None]
+    settings: Settings, epoch_id: int, count: int, dynamics: tuple[str, str | None]
 ) -> dict[str, Any]:
     """Integrate a planned epoch's expansions in order, as a freshly started worker does.
 
@@ -225,17 +235,16 @@ def _integrate_in_fresh_process(
     holding the loaded graph, not of the bench that built it. The dynamics (and
     the libraries it imports) is made before the "before" reading: a worker has it.
     """
-    from app.services import growth
+    from app.services import epochs, loading
 
-    growth.cached_dynamics(*dynamics)
-    settings = Settings(**fields)
+    loading.cached_dynamics(*dynamics, None, LiquidDevices.from_settings(settings))
     sessions = session_factory(make_engine(settings.database_url or ""))
     rss_before = _resident_kb()
     times = []
     for position in range(count):
         t0 = time.perf_counter()
         with sessions() as session:
-            growth.integrate_step(session, settings, epoch_id, position)
+            epochs.integrate_step(session, settings, epoch_id, position)
             session.commit()
         times.append(time.perf_counter() - t0)
     return {
@@ -260,6 +269,7 @@ def _cached_rates(seconds: np.ndarray) -> dict[str, float | None]:
 
 
 def _integration(
+    settings: Settings,
     *,
     edges: int | None = None,
     frames: int | None = None,
@@ -273,18 +283,20 @@ def _integration(
     then integrates them one transaction each: the first pays the graph load, the next
     reuse the cached graph (the steady state of the single writer).
     """
-    from app.services import growth
+    from app.services import clips, epochs, loading
     from app.store.artifacts import ArtifactStore
     from app.store.graphs import create_graph, save_graph
 
-    dynamics, bank = growth.cached_dynamics(dynamics_name, preset), MemoryClipBank()
+    devices = LiquidDevices.from_settings(settings)
+    dynamics = loading.cached_dynamics(dynamics_name, preset, None, devices)
+    bank = MemoryClipBank()
     start = time.perf_counter()
     graph = _grown_graph(dynamics, bank, edges=edges, frames=frames)
     build = time.perf_counter() - start
     scene: dict[str, object] = {"fps": dynamics.fps}
     if preset is not None:
         scene["preset"] = preset
-    with tempfile.TemporaryDirectory() as tmp, _database() as url:
+    with tempfile.TemporaryDirectory() as tmp, _database(settings.test_postgres_url) as url:
         fields: dict[str, Any] = {
             "database_url": url,
             "var_dir": Path(tmp),
@@ -292,7 +304,7 @@ def _integration(
             "growth_renders": False,
             "strategy": "max-error",
         }
-        settings = Settings(**fields)
+        settings = settings.model_copy(update=fields)
         candidates = _search_candidates(graph, settings.prefilter_k)
         sessions = session_factory(make_engine(url))
         with sessions() as session:
@@ -312,22 +324,22 @@ def _integration(
         size = {"frames": graph.size_frames, "edges": graph.n_edges, "clips": graph.n_clips}
         del graph, bank
         with sessions() as session:
-            plan = growth.plan_epoch(session, settings, graph_id)
+            plan = epochs.plan_epoch(session, settings, graph_id)
             session.commit()
         assert plan is not None
         with sessions() as session:
             for position in range(len(plan.expansions)):
                 for control in range(dynamics.n_controls):
-                    stage = growth.simulate_step(
+                    stage = clips.simulate_step(
                         session, settings, plan.epoch_id, position, control
                     )
-                    growth.sdf_step(session, settings, stage, plan.epoch_id, position, control)
+                    clips.sdf_step(session, settings, stage, plan.epoch_id, position, control)
             session.commit()
         spawn = multiprocessing.get_context("spawn")
         with ProcessPoolExecutor(max_workers=1, mp_context=spawn) as pool:
             run = pool.submit(
                 _integrate_in_fresh_process,
-                fields,
+                settings,
                 plan.epoch_id,
                 len(plan.expansions),
                 (dynamics_name, preset),
@@ -351,6 +363,7 @@ def _integration(
 
 def bench_grow(
     *,
+    settings: Settings,
     epochs: int,
     batch: int,
     worker_counts: list[int],
@@ -362,6 +375,10 @@ def bench_grow(
 ) -> dict[str, Any]:
     """Throughput on ``dynamics`` (and ``preset``); integration cost by graph size.
 
+    ``settings`` are the caller's: the scratch databases go to its ``test_postgres_url``
+    server, and every run's own settings are these with the run's database, broker and
+    sizes.
+
     The integration runs on graphs of ``sizes`` edges, or of ``frames`` frames when
     given (``batch`` expansions each). It is measured on the toy, except with
     ``integration_only``: then no throughput runs and the integration uses ``dynamics``.
@@ -369,6 +386,7 @@ def bench_grow(
     on = (dynamics, preset) if integration_only else ("toy", None)
     integration = [
         _integration(
+            settings,
             edges=size if frames is None else None,
             frames=size if frames is not None else None,
             expansions=batch,
@@ -383,7 +401,10 @@ def bench_grow(
         "cpus": os.cpu_count(),
         "throughput": []
         if integration_only
-        else [_throughput(w, epochs, batch, dynamics, preset) for w in worker_counts],
+        else [
+            _throughput(w, epochs, batch, dynamics, preset, settings=settings)
+            for w in worker_counts
+        ],
         "integration_dynamics": on[0],
         "integration": integration,
     }

@@ -37,9 +37,9 @@ def _time_steps(sim: SphSimulator, state: Any, steps: int) -> tuple[float, Any]:
     return time.perf_counter() - start, end
 
 
-def _ours(scene: Scene, steps: int, fixed_iterations: int | None) -> dict[str, Any]:
-    sim = SphSimulator(scene, fixed_iterations=fixed_iterations)
-    rest = SphSimulator(scene).settle(seconds=1.0, damped_seconds=0.5)
+def _ours(scene: Scene, steps: int, fixed_iterations: int | None, device: str) -> dict[str, Any]:
+    sim = SphSimulator(scene, fixed_iterations=fixed_iterations, device=device)
+    rest = SphSimulator(scene, device=device).settle(seconds=1.0, damped_seconds=0.5)
     seconds, _ = _time_steps(sim, rest, steps)
     substeps, iterations = sim.stats.substeps, sim.stats.mean_iterations
     clip_start = time.perf_counter()
@@ -132,10 +132,11 @@ def _log_value(log: str, prefix: str) -> float:
 
 
 def bench_sph(
-    preset: str, steps: int, compare_splishsplash: bool = True, fluid: str = "low"
+    preset: str, steps: int, *, fluid: str, device: str, compare_splishsplash: bool = True
 ) -> dict[str, Any]:
     """Time ``steps`` substeps of the tilt tank ``preset`` with ``fluid`` (after a short settle).
 
+    ``device`` names the OpenCL device (``app.kernels.context.select_device``).
     Returns our throughput converged to eta and at SPlisHSPlasH's iteration count
     (its PCISPH stops on the signed mean error, so it runs its minimum, 3), its
     throughput when installed, the ratios, and peak resident memory (MB).
@@ -144,10 +145,10 @@ def bench_sph(
     result: dict[str, Any] = {
         "preset": preset,
         "fluid": fluid,
-        "particles": SphSimulator(scene).n,
+        "particles": SphSimulator(scene, device=device).n,
         "dt": scene.dt,
-        "converged": _ours(scene, steps, None),
-        "fixed_3_iterations": _ours(scene, steps, 3),
+        "converged": _ours(scene, steps, None, device),
+        "fixed_3_iterations": _ours(scene, steps, 3, device),
     }
     if compare_splishsplash:
         ref = _splishsplash(scene, steps, 3)

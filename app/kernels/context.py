@@ -1,10 +1,10 @@
 """OpenCL device, context, queue and program cache.
 
-The device is the first whose name contains ``Settings.opencl_device`` (default ``''``:
-prefer PoCL's CPU device). Contexts are created lazily and keyed by process id, so a
-Celery worker forked from a parent that already used OpenCL builds its own context
-instead of inheriting one that does not survive ``fork``. Programs are built once per
-context and source/options.
+The device is the first whose name contains the caller's ``device`` string (the shells
+pass ``Settings.opencl_device``; ``''`` prefers PoCL's CPU device). Contexts are created
+lazily and keyed by process id and device, so a Celery worker forked from a parent that
+already used OpenCL builds its own context instead of inheriting one that does not
+survive ``fork``. Programs are built once per context and source/options.
 """
 
 from __future__ import annotations
@@ -15,8 +15,6 @@ from dataclasses import dataclass, field
 from importlib import resources
 
 import pyopencl as cl
-
-from app.config import get_settings
 
 log = logging.getLogger(__name__)
 
@@ -47,7 +45,7 @@ class ClRuntime:
         return self.programs[key]
 
 
-_RUNTIMES: dict[int, ClRuntime] = {}
+_RUNTIMES: dict[tuple[int, str], ClRuntime] = {}
 
 
 def select_device(name_contains: str) -> cl.Device:
@@ -67,11 +65,14 @@ def select_device(name_contains: str) -> cl.Device:
     return devices[0][1]
 
 
-def runtime() -> ClRuntime:
-    """This process's runtime, created on first call (and again after a fork)."""
-    pid = os.getpid()
-    if pid not in _RUNTIMES:
-        device = select_device(get_settings().opencl_device)
+def runtime(device_name: str = "") -> ClRuntime:
+    """This process's runtime on ``device_name``, created on first call (and after a fork).
+
+    ``device_name`` is as in :func:`select_device`.
+    """
+    key = (os.getpid(), device_name)
+    if key not in _RUNTIMES:
+        device = select_device(device_name)
         log.info(
             "OpenCL device %s on %s (%s)",
             device.name,
@@ -79,5 +80,5 @@ def runtime() -> ClRuntime:
             device.platform.version,
         )
         context = cl.Context([device])
-        _RUNTIMES[pid] = ClRuntime(device, context, cl.CommandQueue(context))
-    return _RUNTIMES[pid]
+        _RUNTIMES[key] = ClRuntime(device, context, cl.CommandQueue(context))
+    return _RUNTIMES[key]

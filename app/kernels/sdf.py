@@ -26,10 +26,13 @@ def _vec4(xyz: Sequence[float] | np.ndarray, dtype: type[np.generic]) -> np.ndar
 
 
 class SdfKernel:
-    """SDF of particle frames on one :class:`SurfaceGrid` on this process's device."""
+    """SDF of particle frames on one :class:`SurfaceGrid` on the OpenCL ``device``.
 
-    def __init__(self, grid: SurfaceGrid) -> None:
-        rt = runtime()
+    ``device`` is as in :func:`app.kernels.context.select_device`.
+    """
+
+    def __init__(self, grid: SurfaceGrid, device: str = "") -> None:
+        rt = runtime(device)
         self.grid = grid
         self.context, self.queue = rt.context, rt.queue
         self.kernel = cl.Kernel(rt.program("sdf.cl"), "zhu_bridson_sdf")

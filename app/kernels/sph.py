@@ -51,12 +51,15 @@ class SphSimulator:
     fixed_iterations : int or None
         If given, every substep runs exactly this many pressure iterations instead of
         iterating to ``scene.eta`` (benchmarks at equal iteration counts).
+    device : str
+        Substring of the OpenCL device's name; ``''`` prefers PoCL's CPU device
+        (:func:`app.kernels.context.select_device`).
     """
 
-    def __init__(self, scene: Scene, fixed_iterations: int | None = None) -> None:
+    def __init__(self, scene: Scene, fixed_iterations: int | None = None, device: str = "") -> None:
         self.scene = scene
         self.n = len(initial_particles(scene))
-        self.kernels = SphKernels(scene, self.n)
+        self.kernels = SphKernels(scene, self.n, device=device)
         self.fixed_iterations = fixed_iterations
         self.stats = SolverStats()
         self._errors = np.zeros(max(scene.max_iterations, 1), dtype=np.float32)

@@ -81,10 +81,19 @@ def _work_group(size: int) -> tuple[int] | None:
 
 
 class SphKernels:
-    """Particle buffers and kernel launches for one scene on this process's device."""
+    """Particle buffers and kernel launches for one scene on the OpenCL ``device``.
 
-    def __init__(self, scene: Scene, n_particles: int, build_options: tuple[str, ...] = ()) -> None:
-        rt = runtime()
+    ``device`` is as in :func:`app.kernels.context.select_device`.
+    """
+
+    def __init__(
+        self,
+        scene: Scene,
+        n_particles: int,
+        build_options: tuple[str, ...] = (),
+        device: str = "",
+    ) -> None:
+        rt = runtime(device)
         self.scene, self.n = scene, n_particles
         self.queue = rt.queue
         self.program = rt.program("sph.cl", build_options)

@@ -20,8 +20,8 @@ from pathlib import Path
 
 import numpy as np
 
-from app.config import get_settings
 from app.core.dynamics import ClipFeatures, SimClip
+from app.core.errors import NotFound
 from app.core.liquid_metrics import (
     LiquidMetricParams,
     blend_sdf,
@@ -41,12 +41,13 @@ from app.core.surface import (
 )
 from app.kernels.sdf import SdfKernel
 from app.kernels.sph import SphSimulator
+from app.liquid.devices import LiquidDevices
 from app.render.mitsuba_scene import LiquidRenderer, RenderSettings, pick_variant
 
 CALIBRATION_DIR = Path(__file__).resolve().parents[1] / "data" / "calibration"
 
 
-class MissingCalibration(LookupError):
+class MissingCalibration(NotFound):
     """The preset has no stored calibration: run ``srg calibrate --preset <preset>``."""
 
 
@@ -99,6 +100,8 @@ class LiquidDynamics:
         Defaults to the stored one of the preset and fluid.
     render_settings : RenderSettings, optional
         Image size and samples per pixel of :meth:`render`.
+    devices : LiquidDevices, optional
+        The OpenCL device and the Mitsuba variant; the shells pass the configured ones.
     """
 
     frames_per_clip: int
@@ -107,10 +110,11 @@ class LiquidDynamics:
 
     def __init__(
         self,
-        preset: str = "small",
+        preset: str,
         fluid: str = "low",
         calibration: LiquidCalibration | None = None,
         render_settings: RenderSettings | None = None,
+        devices: LiquidDevices | None = None,
     ) -> None:
         self.preset = preset
         self.fluid = fluid
@@ -121,6 +125,7 @@ class LiquidDynamics:
         self.n_controls = self.scene.n_controls
         self.fps = float(self.scene.fps)
         self.render_settings = render_settings or RenderSettings()
+        self.devices = devices or LiquidDevices()
         self.params = LiquidMetricParams(
             rest_kinetic=self.rest_kinetic,
             energy_weight=self.calibration.energy_weight,
@@ -153,20 +158,19 @@ class LiquidDynamics:
     @property
     def simulator(self) -> SphSimulator:
         if self._simulator is None:
-            self._simulator = SphSimulator(self.scene)
+            self._simulator = SphSimulator(self.scene, device=self.devices.opencl_device)
         return self._simulator
 
     @property
     def sdf_kernel(self) -> SdfKernel:
         if self._sdf is None:
-            self._sdf = SdfKernel(self.grid)
+            self._sdf = SdfKernel(self.grid, device=self.devices.opencl_device)
         return self._sdf
 
     @property
     def renderer(self) -> LiquidRenderer:
         if self._renderer is None:
-            settings = get_settings()
-            variant = pick_variant(settings.render_variant, settings.llvm_path)
+            variant = pick_variant(self.devices.render_variant, self.devices.llvm_path)
             self._renderer = LiquidRenderer(self.scene, self.grid, self.render_settings, variant)
         return self._renderer
 
@@ -181,8 +185,12 @@ class LiquidDynamics:
         """int8 SDF frames (k, X, Y, Z) of (k, n, 3) particle positions."""
         return quantise_sdf(self.grid, self.sdf_kernel.frames(positions))
 
+    def simulate_particles(self, state: np.ndarray, control: int) -> tuple[np.ndarray, np.ndarray]:
+        """PCISPH only: the (k, n, 3) particle positions of a clip's frames, its end state."""
+        return self.simulator.simulate_clip(state, control)
+
     def simulate(self, state: np.ndarray, control: int) -> SimClip:
-        positions, end_state = self.simulator.simulate_clip(state, control)
+        positions, end_state = self.simulate_particles(state, control)
         return SimClip(control=control, frames=self.surface_frames(positions), end_state=end_state)
 
     def features(self, clip: SimClip) -> ClipFeatures:

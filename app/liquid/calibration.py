@@ -39,7 +39,6 @@ from app.core.liquid_metrics import (
     fit_energy_weight,
     shape_distance,
 )
-from app.core.scene import kinetic_energy
 from app.liquid.adapter import (
     CALIBRATION_DIR,
     LiquidCalibration,
@@ -47,22 +46,13 @@ from app.liquid.adapter import (
     calibration_json,
     calibration_path,
 )
+from app.liquid.devices import LiquidDevices
 from app.liquid.threshold import ThresholdStudy, measure_blends, measure_visible_threshold
+from app.liquid.validation import measure_rest_kinetic
 
 #: kinetic energies of the pushed near-rest clips, in units of T0
 PUSH_ENERGIES = (0.0, 0.5, 1.0, 2.0, 4.0, 8.0)
 HIGH_ERROR_PERCENTILE = 90.0
-
-
-def measure_rest_kinetic(dyn: LiquidDynamics) -> tuple[np.ndarray, float]:
-    """The state after a 3 s settle and the max kinetic energy over its last second."""
-    sim = dyn.simulator
-    state = sim.settle(seconds=2.0)
-    energies = []
-    for _ in range(dyn.scene.fps):
-        _, state = sim.run(state, 0, 1)
-        energies.append(kinetic_energy(dyn.scene, state))
-    return state, max(energies)
 
 
 def pushed(dyn: LiquidDynamics, rest: np.ndarray, energy: float) -> np.ndarray:
@@ -80,7 +70,11 @@ def _nearest(values: np.ndarray, controls: list[int]) -> np.ndarray:
 
 
 def calibrate(
-    preset: str, fluid: str = "low", progress: Callable[[str], None] | None = None
+    preset: str,
+    fluid: str,
+    progress: Callable[[str], None] | None = None,
+    *,
+    devices: LiquidDevices,
 ) -> dict:
     """Measure T0, w_e, the crowd radius and the high-error threshold; write the JSON.
 
@@ -90,10 +84,11 @@ def calibrate(
     4-8 min on ``tiny`` and up to 18 min on ``small`` (2 loaded cores); the high fluid
     takes longer (more substeps, see ``app.core.scene.viscous_substeps``).
     """
-    probe = LiquidDynamics(preset, fluid, calibration=LiquidCalibration(0.0, 1.0, 0.0, 0.0))
-    rest, measured_t0 = measure_rest_kinetic(probe)
+    probe = LiquidDynamics(preset, fluid, LiquidCalibration(0.0, 1.0, 0.0, 0.0), devices=devices)
+    # T0 over the last second of a 3 s settle
+    rest, measured_t0 = measure_rest_kinetic(probe.simulator, probe.simulator.settle(seconds=2.0))
     t0 = probe.scene.rest_kinetic or measured_t0
-    dyn = LiquidDynamics(preset, fluid, calibration=LiquidCalibration(t0, 1.0, 0.0, 0.0))
+    dyn = LiquidDynamics(preset, fluid, LiquidCalibration(t0, 1.0, 0.0, 0.0), devices=devices)
 
     near_rest = [dyn.features(dyn.simulate(pushed(dyn, rest, f * t0), 0)) for f in PUSH_ENERGIES]
     pairs = list(itertools.combinations(near_rest, 2))
@@ -122,7 +117,7 @@ def calibrate(
     percentile = float(np.percentile(_nearest(dists, controls), HIGH_ERROR_PERCENTILE))
     # the threshold applies to the dist of the final constants, so measure it with them
     measured = LiquidDynamics(
-        preset, fluid, calibration=LiquidCalibration(t0, w_e, crowd_radius, 0.0)
+        preset, fluid, LiquidCalibration(t0, w_e, crowd_radius, 0.0), devices=devices
     )
     threshold, visible = measure_visible_threshold(measured, progress=progress)
     calibration = LiquidCalibration(
@@ -149,7 +144,11 @@ def calibrate(
 
 
 def calibrate_threshold(
-    preset: str, fluid: str = "low", progress: Callable[[str], None] | None = None
+    preset: str,
+    fluid: str,
+    progress: Callable[[str], None] | None = None,
+    *,
+    devices: LiquidDevices,
 ) -> tuple[dict[str, Any], ThresholdStudy]:
     """Re-measure only the high-error threshold; every other stored value stays as it is.
 
@@ -160,7 +159,7 @@ def calibrate_threshold(
     """
     path = calibration_path(preset, fluid)
     stored: dict[str, Any] = json.loads(path.read_text())
-    study = measure_blends(LiquidDynamics(preset, fluid), progress=progress)
+    study = measure_blends(LiquidDynamics(preset, fluid, devices=devices), progress=progress)
     if "percentile_threshold" not in stored and "visible_threshold" not in stored:
         stored["percentile_threshold"] = stored["high_error_threshold"]
     stored["high_error_threshold"] = study.threshold

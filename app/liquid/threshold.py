@@ -14,19 +14,19 @@ wrong or not, and the threshold is the dist where the two are equally likely
 A few blends spread over the range of dist are also rendered with Mitsuba: their mean
 RGB difference to the rendered simulation is reported next to the silhouette measures,
 and the silhouettes are checked against the renders (the pixels where the render differs
-from the empty tank).
+from the empty tank). The clips and the blends' measures are
+``app.liquid.threshold_blends``'s; this module fits the threshold and checks it.
 """
 
 from __future__ import annotations
 
-from collections.abc import Callable
 from dataclasses import asdict, dataclass, field
 from typing import Any
 
 import numpy as np
 from scipy.stats import spearmanr
 
-from app.core.dynamics import ClipFeatures, SimClip
+from app.core.dynamics import ClipFeatures
 from app.core.error_threshold import (
     DEFAULT_RIDGE,
     ThresholdFitError,
@@ -35,54 +35,26 @@ from app.core.error_threshold import (
     logistic_threshold,
     separating_threshold,
 )
-from app.core.silhouette import silhouette_projector, silhouettes, tank_camera
-from app.core.surface import dequantise_sdf, liquid_volumes, occupancy
-from app.core.visible_error import (
-    VisibilityCriterion,
-    VisibleArtifacts,
-    image_difference,
-    swelling,
-    visible_artifacts,
-)
+from app.core.silhouette import silhouettes
+from app.core.surface import dequantise_sdf
+from app.core.visible_error import VisibilityCriterion, VisibleArtifacts, image_difference
 from app.liquid.adapter import LiquidDynamics
+from app.liquid.threshold_blends import (
+    DEFAULT_CLIPS,
+    BlendRecord,
+    Progress,
+    measure_pairs,
+    no_progress,
+    pick_targets,
+    study_clips,
+)
 
-#: clips simulated for the study: a depth-2 tree (N + N^2 = 12) and random sequences
-DEFAULT_CLIPS = 48
-SEQUENCE_LENGTH = 9
-#: probability that a random sequence keeps its control from one clip to the next
-KEEP_CONTROL = 0.6
-#: targets of each dead-end clip: these ranks of dist (0 = best) and these quantiles
-TARGET_RANKS = (0, 1, 2)
-TARGET_QUANTILES = (0.25, 0.5, 0.75, 1.0)
 #: blends rendered with Mitsuba for the RGB comparison
 DEFAULT_RENDERED = 16
 BOOTSTRAP_RESAMPLES = 1000
 #: a pixel whose rendered colour differs from the empty tank's by more than this (0-255,
 #: any channel) counts as showing liquid in the render check; the 16 spp noise is ~20
 RENDER_LIQUID_LEVEL = 40
-
-Progress = Callable[[str], None]
-
-
-@dataclass(frozen=True)
-class BlendRecord:
-    """One measured blend: dead-end clip ``dead_end`` blended into clip ``target``."""
-
-    dead_end: int
-    target: int
-    control: int
-    rank: int
-    dist: float
-    mismatch: float
-    swelling: float
-    jump: float
-    volume_swelling: float
-    violations: tuple[str, ...]
-    image_difference: float | None = None
-
-    @property
-    def wrong(self) -> bool:
-        return bool(self.violations)
 
 
 @dataclass
@@ -103,61 +75,6 @@ class ThresholdStudy:
         return [
             {**asdict(b), "violations": list(b.violations), "wrong": b.wrong} for b in self.blends
         ]
-
-
-def _noop(message: str) -> None:
-    pass
-
-
-def study_clips(
-    dyn: LiquidDynamics, clips: int, seed: int, progress: Progress = _noop
-) -> list[SimClip]:
-    """``clips`` clips from the settled tank: the depth-2 tree first, then random sequences.
-
-    The tree's clips are those a fresh graph starts with; the sequences (the control
-    kept with probability :data:`KEEP_CONTROL`, else drawn uniformly) reach the sloshing
-    states that play visits.
-    """
-    rest = dyn.initial_state()
-    n = dyn.n_controls
-    out: list[SimClip] = []
-    firsts = [dyn.simulate(rest, c) for c in range(n)]
-    out += firsts[:clips]
-    for first in firsts:
-        for c in range(n):
-            if len(out) < clips:
-                out.append(dyn.simulate(first.end_state, c))
-    rng = np.random.default_rng(seed)
-    while len(out) < clips:
-        state, control = rest, int(rng.integers(n))
-        for _ in range(min(SEQUENCE_LENGTH, clips - len(out))):
-            if rng.random() >= KEEP_CONTROL:
-                control = int(rng.integers(n))
-            clip = dyn.simulate(state, control)
-            out.append(clip)
-            state = clip.end_state
-        progress(f"simulated {len(out)}/{clips} clips")
-    return out
-
-
-def pick_targets(dists: np.ndarray, controls: list[int]) -> list[tuple[int, int, int]]:
-    """(dead end, target, rank) triples: per clip, targets of its control at several ranks.
-
-    ``dists[i, j]`` is dist(i, j, control of j). A clip is never its own target; ranks
-    :data:`TARGET_RANKS` and the :data:`TARGET_QUANTILES` of each clip's ranking are
-    taken once each.
-    """
-    out = []
-    for i, control in enumerate(controls):
-        others = [j for j, c in enumerate(controls) if c == control and j != i]
-        if not others:
-            continue
-        ranked = sorted(others, key=lambda j: (dists[i, j], j))
-        last = len(ranked) - 1
-        ranks = set(r for r in TARGET_RANKS if r <= last)
-        ranks |= {int(round(q * last)) for q in TARGET_QUANTILES}
-        out += [(i, ranked[r], r) for r in sorted(ranks)]
-    return out
 
 
 def _stratified(values: np.ndarray, count: int) -> list[int]:
@@ -200,7 +117,7 @@ def measure_blends(
     ThresholdFitError
         Too few blends on either side of the criterion to place a threshold.
     """
-    say = progress or _noop
+    say = progress or no_progress
     criterion = criterion or VisibilityCriterion()
     sims = study_clips(dyn, clips, seed, say)
     feats: list[ClipFeatures] = [dyn.features(s) for s in sims]
@@ -214,38 +131,9 @@ def measure_blends(
     pairs = pick_targets(dists, controls)
     say(f"{len(sims)} clips, {len(pairs)} blends")
 
-    grid = dyn.grid
-    settings = dyn.render_settings
-    projector = silhouette_projector(
-        tank_camera(dyn.scene.tank, settings.width, settings.height), grid
-    )
-    sdf = [dequantise_sdf(grid, s.frames) for s in sims]
-    masks = [silhouettes(projector, phi) for phi in sdf]
-    volumes = [liquid_volumes(grid, occupancy(grid, phi)) for phi in sdf]
-
-    blends: list[BlendRecord] = []
-    blend_frames: list[np.ndarray] = []
-    for n, (i, j, rank) in enumerate(pairs):
-        frames = dyn.blend(sims[i].frames, sims[j].frames)
-        phi = dequantise_sdf(grid, frames)
-        artifacts = visible_artifacts(silhouettes(projector, phi), masks[i])
-        blends.append(
-            BlendRecord(
-                dead_end=i,
-                target=j,
-                control=controls[i],
-                rank=rank,
-                dist=float(dists[i, j]),
-                mismatch=artifacts.mismatch,
-                swelling=artifacts.swelling,
-                jump=artifacts.jump,
-                volume_swelling=swelling(liquid_volumes(grid, occupancy(grid, phi)), volumes[i]),
-                violations=criterion.violations(artifacts),
-            )
-        )
-        blend_frames.append(frames)
-        if (n + 1) % 50 == 0:
-            say(f"measured {n + 1}/{len(pairs)} blends")
+    measured = measure_pairs(dyn, sims, dists, pairs, criterion, say)
+    blends, blend_frames, masks = measured.records, measured.frames, measured.masks
+    grid, projector = dyn.grid, measured.projector
 
     dist = np.array([b.dist for b in blends])
     wrong = np.array([b.wrong for b in blends])
@@ -401,14 +289,3 @@ def measure_visible_threshold(
         dyn, clips=clips, seed=seed, rendered=rendered, examples=False, progress=progress
     )
     return study.threshold, study.details
-
-
-__all__ = [
-    "BlendRecord",
-    "ThresholdFitError",
-    "ThresholdStudy",
-    "measure_blends",
-    "measure_visible_threshold",
-    "pick_targets",
-    "study_clips",
-]

@@ -200,7 +200,7 @@ def check_hydrostatic(
     }
 
 
-def check_dam_break(preset: str = "small") -> dict[str, Any]:
+def check_dam_break(preset: str, device: str = "") -> dict[str, Any]:
     """Surge front of a column of width a, height 2a against Martin and Moyce (1952).
 
     The front is the largest x of any particle plus half a spacing; the comparison
@@ -212,7 +212,7 @@ def check_dam_break(preset: str = "small") -> dict[str, Any]:
     base_substeps = scene.substeps * scene.fps
     scene = replace(scene, fps=DAM_BREAK_FPS, substeps=math.ceil(base_substeps / DAM_BREAK_FPS))
     a = scene.extra["column_width"]
-    sim = SphSimulator(scene)
+    sim = SphSimulator(scene, device=device)
     t_end = 2.7 / math.sqrt(2 * GRAVITY / a)
     frames, _ = sim.run(initial_particles(scene), 0, math.ceil(t_end * scene.fps))
     t = np.arange(1, len(frames) + 1) / scene.fps
@@ -234,14 +234,20 @@ def check_dam_break(preset: str = "small") -> dict[str, Any]:
     }
 
 
-def measure_rest_kinetic(sim: SphSimulator, rest: np.ndarray, seconds: float = 1.0) -> float:
-    """T0: the largest kinetic energy over ``seconds`` of the settled tank (control 0)."""
+def measure_rest_kinetic(
+    sim: SphSimulator, rest: np.ndarray, seconds: float = 1.0
+) -> tuple[np.ndarray, float]:
+    """T0: the largest kinetic energy over ``seconds`` of the settled tank (control 0).
+
+    Returns the state at the end of those ``seconds`` with T0: calibration goes on from
+    there, validation keeps only T0.
+    """
     frames = round(seconds * sim.scene.fps)
     state, energies = rest, []
     for _ in range(frames):
         _, state = sim.run(state, 0, 1)
         energies.append(kinetic_energy(sim.scene, state))
-    return float(max(energies))
+    return state, float(max(energies))
 
 
 def check_tilt_release(
@@ -284,7 +290,7 @@ def _relative(a: np.ndarray, b: np.ndarray) -> float:
     return float(np.max(np.abs(a - b)) / max(np.max(np.abs(b)), 1e-30))
 
 
-def check_twins(scene: Scene, seed: int = 0) -> dict[str, Any]:
+def check_twins(scene: Scene, seed: int = 0, device: str = "") -> dict[str, Any]:
     """Each kernel against its NumPy twin on a perturbed, moving lattice (max-norm relative).
 
     Relative errors are ``max |kernel - twin| / max |twin|`` per quantity.
@@ -295,7 +301,7 @@ def check_twins(scene: Scene, seed: int = 0) -> dict[str, Any]:
     state = initial_particles(scene)
     state[:, :3] += rng.normal(0, 0.05 * scene.spacing, (len(state), 3))
     state[:, 3:] = rng.normal(0, 0.1, (len(state), 3))
-    k = SphKernels(scene, len(state))
+    k = SphKernels(scene, len(state), device=device)
     k.load(state)
     k.sort()
     k.find_neighbours()
@@ -347,22 +353,23 @@ def check_passed(check: dict[str, Any]) -> bool | None:
     return None if "skipped" in check else bool(check["passed"])
 
 
-def validate(preset: str = "small", fluid: str = "low") -> dict[str, Any]:
+def validate(preset: str, fluid: str, *, device: str) -> dict[str, Any]:
     """Every check that applies to ``fluid``, on the tilt tank (and dam break) of ``preset``.
 
     JSON-able; a check that does not apply is ``{"skipped": reason}``, and the report
-    passes when every other check passed.
+    passes when every other check passed. ``device`` names the OpenCL device
+    (``app.kernels.context.select_device``).
     """
     scene = tilt_tank(preset, fluid)
-    sim = SphSimulator(scene)
+    sim = SphSimulator(scene, device=device)
     rest = sim.settle()
-    rest_kinetic = measure_rest_kinetic(sim, rest)
+    _, rest_kinetic = measure_rest_kinetic(sim, rest)
     checks = {
-        "twins": check_twins(tilt_tank("tiny", fluid)),
+        "twins": check_twins(tilt_tank("tiny", fluid), device=device),
         "determinism": check_determinism(sim, rest),
         "hydrostatic": check_hydrostatic(sim, rest),
         "dam_break": (
-            check_dam_break(preset) if fluid == "low" else {"skipped": DAM_BREAK_WATER_ONLY}
+            check_dam_break(preset, device) if fluid == "low" else {"skipped": DAM_BREAK_WATER_ONLY}
         ),
         "tilt_release": check_tilt_release(sim, rest, rest_kinetic),
     }

@@ -8,7 +8,8 @@ from scipy.stats import spearmanr
 
 from app.core.visible_error import VisibilityCriterion, VisibleArtifacts
 from app.liquid.adapter import LiquidDynamics
-from app.liquid.threshold import measure_blends, pick_targets
+from app.liquid.threshold import measure_blends
+from app.liquid.threshold_blends import pick_targets
 
 
 def test_targets_run_from_the_best_to_the_worst_of_the_same_control() -> None:

@@ -1,0 +1,38 @@
+"""Where the liquid computes and renders: the OpenCL device and the Mitsuba variant.
+
+The shells read these from :class:`~app.config.Settings` and hand them down to the
+liquid (``make_dynamics``, ``srg calibrate``, ``srg validate``, the benchmarks), so that
+nothing below the shells looks the settings up itself. Frozen and hashable: a worker
+process caches one dynamics per preset, fluid and devices. This module imports neither
+PyOpenCL nor Mitsuba, so that code which only names the devices stays light.
+"""
+
+from __future__ import annotations
+
+from dataclasses import dataclass
+
+from app.config import Settings
+
+
+@dataclass(frozen=True)
+class LiquidDevices:
+    """The device choices of one process; the defaults are the embedded configuration's.
+
+    Attributes
+    ----------
+    opencl_device : str
+        Substring of the OpenCL device's name; ``''`` prefers PoCL's CPU device
+        (``app.kernels.context.select_device``).
+    render_variant : str
+        Mitsuba variant, or ``auto`` (``app.render.mitsuba_scene.pick_variant``).
+    llvm_path : str
+        libLLVM for Mitsuba's LLVM variant; ``''``: look in the system's library folders.
+    """
+
+    opencl_device: str = ""
+    render_variant: str = "auto"
+    llvm_path: str = ""
+
+    @classmethod
+    def from_settings(cls, settings: Settings) -> LiquidDevices:
+        return cls(settings.opencl_device, settings.render_variant, settings.llvm_path)
