@@ -86,6 +86,11 @@ class Settings(BaseSettings):
     test_simulate_delay: float = Field(
         0.0, description="TEST ONLY: seconds `simulate` sleeps first, to kill a worker mid-task"
     )
+    test_postgres_url: str = Field(
+        "postgresql+psycopg://postgres@127.0.0.1:5432/srg_test",
+        description="PostgreSQL server where the tests and `srg bench grow` create their "
+        "throwaway databases (its database name is replaced by theirs)",
+    )
 
     # API
     admin_token: str = Field(

@@ -121,7 +121,7 @@ def grow(
         )
     _print(
         bench_grow(
-            settings,
+            settings=settings,
             dynamics=dynamics,
             preset=preset,
             epochs=epochs,
