@@ -214,7 +214,7 @@ def session_factory(engine: Engine | None = None) -> sessionmaker[Session]:
 
 
 #: opens the unit of work of one step: :func:`transaction` (a fresh, durable one) or the
-#: caller's own (``app.services.growth.in_session``)
+#: caller's own (``app.services.epochs.in_session``)
 Scope = Callable[[], AbstractContextManager[Session]]
 
 
@@ -226,7 +226,7 @@ def transaction(factory: sessionmaker[Session] | None = None) -> Iterator[Sessio
     background growth, with the app's ``factory``). On SQLite it begins
     as a writer (:func:`begin_immediate`): our units of work read and then write, and
     a deferred one fails at once when another process committed in between; so keep
-    them short and compute outside them (``app.services.growth.run_epoch`` does).
+    them short and compute outside them (``app.services.epochs.run_epoch`` does).
     """
     with (factory or session_factory())() as session:
         begin_immediate(session)

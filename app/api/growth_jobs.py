@@ -4,7 +4,7 @@ this server without one.
 Growing by up to 10,000 expansions takes minutes to hours, far longer than an HTTP request
 should hold a connection and a worker thread, so the admin grow route only queues the
 growth and answers 202 with the epochs to poll. In the embedded mode the job runs
-:func:`app.services.graphs.grow_graph` after the response, one transaction per step, so
+:func:`app.services.growing.grow_graph` after the response, one transaction per step, so
 every finished step is kept if the server stops, and the next grow finishes the epoch that
 was interrupted. One job per graph at a time in a server process: two would run the
 same epoch twice over.
@@ -50,10 +50,10 @@ def grow_in_background(
 ) -> None:
     """Grow a claimed graph by ``expansions``, then release it; failures are logged only
     (nobody waits on a background job to raise to)."""
-    from app.services import graphs  # growth is loaded when something grows
+    from app.services import growing  # growth is loaded when something grows
 
     try:
-        result = graphs.grow_graph(scope, settings, name=graph_id, expansions=expansions)
+        result = growing.grow_graph(scope, settings, name=graph_id, expansions=expansions)
     except Exception:
         log.exception("background growth of graph %d failed", graph_id)
     else:

@@ -68,8 +68,8 @@ def experiment(
     from app.reports.experiment import write_report
     from app.services.experiment.plan import create_experiment, stored_plan
     from app.services.experiment.runs import Grower, grow_in_process, run_experiment
-    from app.services.loading import artifact_store
     from app.services.ingredients import eq2_ingredients
+    from app.services.loading import artifact_store
 
     if jobs is not None and jobs < 1:
         raise InvalidInput(f"--jobs must be positive, got {jobs}")

@@ -28,8 +28,8 @@ def init(
     """Create a graph: the initial tree of the dynamics, its leaves blended back."""
     from app.config import get_settings
     from app.core.player_models import parse_player_model
+    from app.services.creation import init_graph
     from app.services.dynamics import DEFAULT_LIQUID_PRESET, check_fluid
-    from app.services.graphs import init_graph
 
     if dynamics == "liquid" and preset is None:
         preset = DEFAULT_LIQUID_PRESET
@@ -62,7 +62,7 @@ def grow(
     """Grow a graph in-process (eagerly) by a budget of frames or expansions."""
     from app.config import get_settings
     from app.core.strategies import parse_strategy
-    from app.services.graphs import grow_graph
+    from app.services.growing import grow_graph
 
     if frames is not None and expansions is not None:
         raise InvalidInput("give --frames or --expansions, not both")
@@ -93,7 +93,8 @@ def publish(
 ) -> None:
     """Relink every blend, render what is missing, freeze a publication for players."""
     from app.config import get_settings
-    from app.services.graphs import count_missing_animations, publish_graph
+    from app.services.publishing import publish_graph
+    from app.store.animations import count_missing_animations
     from app.store.graphs import get_graph_row
 
     with transaction() as session:
@@ -125,7 +126,7 @@ def play(
             json_output,
         )
         return
-    from app.services.graphs import play_graph
+    from app.services.play import play_graph
 
     with transaction() as session:
         result = play_graph(
@@ -145,10 +146,12 @@ def status(
     json_output: bool = typer.Option(False, "--json", help=JSON_HELP),
 ) -> None:
     """Sizes, publications, epochs and play (traces, players, last upload) of one graph or all."""
-    from app.services.graphs import graph_summary, list_graphs
+    from app.services.status import graph_summary
+    from app.store.graphs import graph_ids
 
     with transaction() as session:
-        rows = [graph_summary(session, name)] if name is not None else list_graphs(session)
+        graphs = [name] if name is not None else graph_ids(session)
+        rows = [graph_summary(session, graph) for graph in graphs]
     if json_output:
         typer.echo(to_json(rows if name is None else rows[0]))
         return
@@ -179,7 +182,7 @@ def gc(
     """
     from app.config import get_settings
     from app.services.artifact_gc import collect_artifacts
-    from app.services.graphs import artifact_store
+    from app.services.loading import artifact_store
     from app.store.artifact_gc import count_fanout_directories
 
     settings = get_settings()

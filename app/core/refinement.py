@@ -15,6 +15,7 @@ import numpy as np
 from app.core.choice_model import ChoiceGraph, ChoiceModel, Kernel, PlayedGraph, fit_choice_model
 from app.core.clipbank import ClipBank
 from app.core.dynamics import Dynamics
+from app.core.errors import InvalidInput
 from app.core.graph import StateGraph
 from app.core.growth import (
     EpochOutcome,
@@ -36,6 +37,51 @@ from app.core.staterank import STATERANK_MAX_ITER, edge_probabilities, staterank
 from app.core.strategies import EdgeWeights, Strategy, edge_weights
 
 Trace = np.ndarray
+
+
+@dataclass(frozen=True)
+class GrowthBudget:
+    """How much to grow: a number of expansions, or a size in simulated frames to reach.
+
+    Frames to add are a size to reach from where growth starts (:meth:`of`); since an
+    expansion adds ``n_controls`` clips at once, growth by frames stops at the first
+    expansion that reaches the size.
+    """
+
+    expansions: int | None = None
+    to_frames: int | None = None
+
+    @staticmethod
+    def check(
+        *, frames: int | None = None, expansions: int | None = None, to_frames: int | None = None
+    ) -> None:
+        """Refuse anything but one positive budget (before any growth starts)."""
+        if sum(b is not None for b in (frames, expansions, to_frames)) != 1:
+            raise InvalidInput("give exactly one budget: frames, expansions or a size to reach")
+        if any(b is not None and b <= 0 for b in (frames, expansions, to_frames)):
+            raise InvalidInput("the growth budget must be positive")
+
+    @classmethod
+    def of(
+        cls,
+        size_frames: int,
+        *,
+        frames: int | None = None,
+        expansions: int | None = None,
+        to_frames: int | None = None,
+    ) -> GrowthBudget:
+        """The budget of growth starting at ``size_frames`` (see :meth:`check`)."""
+        cls.check(frames=frames, expansions=expansions, to_frames=to_frames)
+        if frames is not None:
+            return cls(to_frames=size_frames + frames)
+        return cls(expansions=expansions, to_frames=to_frames)
+
+    def left(self, size_frames: int, expanded: int, per_expansion: int) -> int:
+        """Expansions still to make once ``expanded`` grew the graph to ``size_frames``."""
+        if self.to_frames is not None:
+            return -(-(self.to_frames - size_frames) // per_expansion)
+        assert self.expansions is not None
+        return self.expansions - expanded
 
 
 @dataclass(frozen=True)
@@ -178,21 +224,12 @@ class Refiner:
         on_expansion: Callable[[Expansion], None] | None = None,
     ) -> list[EpochOutcome]:
         """Grow by a budget of simulated frames or of expansions (whichever is given)."""
-        if (frames is None) == (expansions is None):
-            raise ValueError("give exactly one budget: frames or expansions")
-        target_frames = self.graph.size_frames + frames if frames is not None else None
+        budget = GrowthBudget.of(self.graph.size_frames, frames=frames, expansions=expansions)
+        per_expansion = self.graph.n_controls * self.graph.frames_per_clip
         done = 0
         epochs = []
-
-        def budget_left() -> int:
-            if target_frames is not None:
-                per_expansion = self.graph.n_controls * self.graph.frames_per_clip
-                return -(-(target_frames - self.graph.size_frames) // per_expansion)
-            assert expansions is not None
-            return expansions - done
-
-        while budget_left() > 0:
-            epoch = self.plan_epoch(min(self.config.batch_size, budget_left()))
+        while (left := budget.left(self.graph.size_frames, done, per_expansion)) > 0:
+            epoch = self.plan_epoch(min(self.config.batch_size, left))
             if not epoch.expanded:
                 break
             for edge in epoch.expanded:

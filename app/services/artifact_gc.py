@@ -12,8 +12,9 @@ from dataclasses import dataclass
 from sqlalchemy.exc import IntegrityError
 
 from app.config import Settings
+from app.core.errors import Conflict, InvalidInput
 from app.db import transaction
-from app.services.graphs import artifact_store
+from app.services.loading import artifact_store
 from app.store.artifact_gc import (
     collect_orphaned_artifacts,
     remove_collected_files,
@@ -46,13 +47,13 @@ def collect_artifacts(
     """
     grace = settings.artifact_gc_grace if older_than is None else older_than
     if not grace >= 0:
-        raise ValueError(f"--older-than must be a number of seconds >= 0, not {grace}")
+        raise InvalidInput(f"--older-than must be a number of seconds >= 0, not {grace}")
     scan = scan_artifact_files(artifact_store(settings), older_than=grace, progress=progress)
     try:
         with transaction() as session:
             collection = collect_orphaned_artifacts(session, scan, dry_run=dry_run)
     except IntegrityError as exc:  # a step referenced one of them meanwhile (PostgreSQL)
-        raise ValueError("an artifact came into use while collecting; collect again") from exc
+        raise Conflict("an artifact came into use while collecting; collect again") from exc
     remove_collected_files(collection)  # only once the rows' deletion is committed
     return ArtifactGcResult(
         dry_run=dry_run,

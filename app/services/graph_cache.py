@@ -17,10 +17,10 @@ import weakref
 from collections.abc import Callable
 from dataclasses import dataclass
 
-from sqlalchemy import Connection, event, select
+from sqlalchemy import Connection, event
 from sqlalchemy.orm import Session
 
-from app.models import Graph
+from app.store.graphs import graph_revision
 
 Key = tuple[str, str, int]
 
@@ -47,14 +47,14 @@ class GraphCache:
         entry = self._entries.pop(key, None)
         if entry is None:
             return None
-        current = session.scalar(select(Graph.revision).where(Graph.id == graph_id))
+        current = graph_revision(session, graph_id)
         usable = entry.owner is None or entry.owner() is session
         return entry.value if usable and entry.revision == current else None
 
     def put(self, session: Session, graph_id: int, scope: str, value: object) -> None:
         """Keep ``value`` as the graph at the revision ``session`` now sees."""
         key = self.key(session, graph_id, scope)
-        revision = session.scalar(select(Graph.revision).where(Graph.id == graph_id))
+        revision = graph_revision(session, graph_id)
         if revision is None:
             return
         pending = session.in_transaction()

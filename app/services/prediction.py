@@ -20,7 +20,8 @@ from app.core.prediction import prediction_figures, split_half_correlation
 from app.core.publication import Publication
 from app.core.refinement import Refiner
 from app.core.strategies import Strategy
-from app.services.graphs import LoadedGraph, graph_play, open_graph, refiner_config
+from app.services.loading import LoadedGraph, open_graph
+from app.services.refining import graph_play, refiner_config
 
 
 def crowd_refiner(settings: Settings, loaded: LoadedGraph, model: PlayerModelKind) -> Refiner:

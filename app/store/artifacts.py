@@ -25,6 +25,7 @@ from pathlib import Path
 import numpy as np
 from sqlalchemy.orm import Session
 
+from app.core.errors import NotFound
 from app.models import Artifact
 from app.store._sql import insert_ignoring_duplicates
 
@@ -35,7 +36,7 @@ WRITER_THREADS = 8
 WRITE_CHUNK = 512
 
 
-class ArtifactNotFound(LookupError):
+class ArtifactNotFound(NotFound):
     """No file with that hash in the artifact store."""
 
 

@@ -6,12 +6,15 @@ in the database, a backstop behind the per-graph growth lock.
 
 from __future__ import annotations
 
+import time
 from enum import StrEnum
 
-from sqlalchemy import func, select
+from sqlalchemy import func, select, update
 from sqlalchemy.orm import Session
 
-from app.models import GrowthEpoch
+from app.core.errors import NotFound
+from app.models import ExpansionClip, GrowthEpoch
+from app.store._sql import insert_ignoring_duplicates
 
 
 class EpochStatus(StrEnum):
@@ -48,7 +51,7 @@ def finish_epoch(
     size_frames: int,
     status: EpochStatus = EpochStatus.FINISHED,
 ) -> None:
-    row = session.get_one(GrowthEpoch, epoch_id)
+    row = get_epoch(session, epoch_id)
     row.status = status
     row.expansions = expansions
     row.relinks = relinks
@@ -75,3 +78,109 @@ def epochs_after(session: Session, graph_id: int, after: int, limit: int) -> lis
             .limit(limit)
         )
     )
+
+
+class EpochNotFound(NotFound):
+    """No growth epoch with that id."""
+
+
+def get_epoch(session: Session, epoch_id: int) -> GrowthEpoch:
+    row = session.get(GrowthEpoch, epoch_id)
+    if row is None:
+        raise EpochNotFound(f"no growth epoch {epoch_id}")
+    return row
+
+
+def running_epoch(session: Session, graph_id: int) -> GrowthEpoch | None:
+    """The graph's running epoch, if one runs (the oldest, should there be two)."""
+    return session.scalars(
+        select(GrowthEpoch)
+        .where(GrowthEpoch.graph_id == graph_id, GrowthEpoch.status == EpochStatus.RUNNING)
+        .order_by(GrowthEpoch.number)
+    ).first()
+
+
+def epoch_count(session: Session, graph_id: int) -> int:
+    return int(session.scalar(select(func.count()).where(GrowthEpoch.graph_id == graph_id)) or 0)
+
+
+def latest_warm_start(session: Session, graph_id: int) -> str | None:
+    """The artifact of the last STATERANK pi stored on one of the graph's epochs."""
+    return session.scalar(
+        select(GrowthEpoch.warm_start)
+        .where(GrowthEpoch.graph_id == graph_id, GrowthEpoch.warm_start.is_not(None))
+        .order_by(GrowthEpoch.number.desc())
+        .limit(1)
+    )
+
+
+def record_plan(
+    session: Session,
+    epoch_id: int,
+    *,
+    plan: list[tuple[int, int]],
+    relinks: int,
+    warm_start: str | None,
+) -> GrowthEpoch:
+    """Write an opened epoch's plan, (edge, dead-end clip) in integration order."""
+    row = get_epoch(session, epoch_id)
+    row.plan = [list(pair) for pair in plan]
+    row.relinks = relinks
+    row.heartbeat = time.time()
+    if warm_start is not None:
+        row.warm_start = warm_start
+    session.flush()
+    return row
+
+
+def beat(session: Session, epoch_id: int) -> None:
+    """The epoch made progress now (what tells a stalled epoch from a slow one)."""
+    session.execute(
+        update(GrowthEpoch).where(GrowthEpoch.id == epoch_id).values(heartbeat=time.time())
+    )
+
+
+def stored_clips(session: Session, epoch_id: int) -> set[tuple[int, int]]:
+    """(position, control) of every clip of the epoch recorded so far."""
+    return {
+        (position, control)
+        for position, control in session.execute(
+            select(ExpansionClip.position, ExpansionClip.control).where(
+                ExpansionClip.epoch_id == epoch_id
+            )
+        )
+    }
+
+
+def expansion_clip(
+    session: Session, epoch_id: int, position: int, control: int
+) -> ExpansionClip | None:
+    return session.get(ExpansionClip, (epoch_id, position, control))
+
+
+def expansion_clips(session: Session, epoch_id: int, position: int) -> dict[int, ExpansionClip]:
+    """The recorded clips of one planned expansion, by control."""
+    return {
+        row.control: row
+        for row in session.scalars(
+            select(ExpansionClip).where(
+                ExpansionClip.epoch_id == epoch_id, ExpansionClip.position == position
+            )
+        )
+    }
+
+
+def record_clip(session: Session, epoch_id: int, position: int, control: int, clip: str) -> None:
+    """Note a planned clip's artifact on ``expansion_clips`` (once) and beat the heart."""
+    insert_ignoring_duplicates(
+        session,
+        ExpansionClip,
+        [{"epoch_id": epoch_id, "position": position, "control": control, "clip": clip}],
+    )
+    beat(session, epoch_id)
+
+
+def set_clip_animation(session: Session, clip: ExpansionClip, animation: str) -> None:
+    """Attach a recorded clip's animation strip (integration carries it to the clip)."""
+    clip.animation = animation
+    session.flush()

@@ -22,6 +22,7 @@ from sqlalchemy import func, select, update
 from sqlalchemy.orm import Session
 
 from app.core.clipbank import ClipBank
+from app.core.errors import Conflict, NotFound
 from app.core.graph import NO_TARGET, EdgeKind, StateGraph
 from app.models import Clip, Edge, Graph, Vertex
 from app.store._sql import bulk_insert
@@ -32,12 +33,16 @@ from app.store.clipbank import SHAPE_CACHE_BYTES, StoredClipBank, clip_bundle
 NO_CLIP = -1
 
 
-class GraphNotFound(LookupError):
+class GraphNotFound(NotFound):
     """No graph with that name or id."""
 
 
-class StaleGraph(RuntimeError):
-    """The in-memory graph is not based on the database's current revision of it."""
+class StaleGraph(Conflict):
+    """The in-memory graph is not based on the database's current revision of it.
+
+    Another writer saved the graph first: the work is redone on a reload (the tasks
+    retry it), and a user who meets it runs the command again.
+    """
 
 
 def create_graph(
@@ -98,6 +103,58 @@ def size_frames(session: Session, graph_id: int) -> int:
     """The graph's size in simulated frames: every stored clip, dead ends included."""
     clips = session.scalar(select(func.count()).where(Clip.graph_id == graph_id)) or 0
     return int(clips) * get_graph_row(session, graph_id).frames_per_clip
+
+
+def graph_exists(session: Session, name: str) -> bool:
+    return session.scalar(select(Graph.id).where(Graph.name == name)) is not None
+
+
+def graph_ids(session: Session) -> list[int]:
+    """Every stored graph's id, oldest first."""
+    return list(session.scalars(select(Graph.id).order_by(Graph.id)))
+
+
+def growing_graph_ids(session: Session) -> list[int]:
+    """The graphs beat grows (``growing = true``)."""
+    return list(session.scalars(select(Graph.id).where(Graph.growing.is_(True))))
+
+
+def mark_growing(session: Session, name_or_id: str | int, growing: bool) -> Graph:
+    row = get_graph_row(session, name_or_id)
+    row.growing = growing
+    session.flush()
+    return row
+
+
+def graph_revision(session: Session, graph_id: int) -> int | None:
+    """The graph's saved revision (None: no such graph), without loading its row."""
+    return session.scalar(select(Graph.revision).where(Graph.id == graph_id))
+
+
+def edge_kind_counts(session: Session, graph_id: int) -> dict[int, int]:
+    """How many stored edges of each kind (``EdgeKind`` values) the graph has."""
+    return {
+        kind: count
+        for kind, count in session.execute(
+            select(Edge.kind, func.count()).where(Edge.graph_id == graph_id).group_by(Edge.kind)
+        )
+    }
+
+
+def stored_edge_kind(session: Session, row: Graph, edge: int) -> int | None:
+    """The stored kind of one edge (by index), read without loading the graph."""
+    return session.scalar(
+        select(Edge.kind).where(
+            Edge.graph_id == row.id,
+            Edge.vertex == edge // row.n_controls,
+            Edge.control == edge % row.n_controls,
+        )
+    )
+
+
+def clip_bundle_digest(session: Session, graph_id: int, clip: int) -> str | None:
+    """The artifact holding one stored clip (frames, end state, features)."""
+    return session.scalar(select(Clip.bundle).where(Clip.graph_id == graph_id, Clip.idx == clip))
 
 
 @dataclass(frozen=True)
@@ -189,31 +246,6 @@ def require_saved(session: Session, graph_id: int, graph: StateGraph) -> None:
         or not np.array_equal(persisted.edges, _edge_table(graph))
     ):
         raise StaleGraph(f"graph {graph_id} has unsaved or stale changes; save or reload it")
-
-
-def set_animations(
-    session: Session,
-    graph_id: int,
-    *,
-    clips: Mapping[int, str] | None = None,
-    edges: Mapping[int, str] | None = None,
-) -> None:
-    """Attach rendered animation artifacts to clips (by index) and edges (by edge index)."""
-    row = get_graph_row(session, graph_id)
-    if clips:
-        session.execute(
-            update(Clip),
-            [{"graph_id": graph_id, "idx": i, "animation": h} for i, h in clips.items()],
-        )
-    if edges:
-        n = row.n_controls
-        session.execute(
-            update(Edge),
-            [
-                {"graph_id": graph_id, "vertex": e // n, "control": e % n, "animation": h}
-                for e, h in edges.items()
-            ],
-        )
 
 
 def load_graph(

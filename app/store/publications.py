@@ -11,6 +11,7 @@ import numpy as np
 from sqlalchemy import func, select
 from sqlalchemy.orm import Session
 
+from app.core.errors import NotFound
 from app.core.graph import StateGraph
 from app.core.publication import Publication, freeze
 from app.models import Edge, PublicationEdge
@@ -19,8 +20,12 @@ from app.store._sql import bulk_insert
 from app.store.graphs import get_graph_row, require_saved
 
 
-class PublicationNotFound(LookupError):
+class PublicationNotFound(NotFound):
     """No publication with that id."""
+
+
+class NothingPublished(NotFound):
+    """The graph has no publication to play yet."""
 
 
 def publish(session: Session, graph_id: int, graph: StateGraph) -> int:
@@ -73,10 +78,15 @@ def publish(session: Session, graph_id: int, graph: StateGraph) -> int:
     return row.id
 
 
-def load_publication(session: Session, publication_id: int) -> Publication:
+def get_publication(session: Session, publication_id: int) -> PublicationRow:
     row = session.get(PublicationRow, publication_id)
     if row is None:
         raise PublicationNotFound(f"no publication {publication_id}")
+    return row
+
+
+def load_publication(session: Session, publication_id: int) -> Publication:
+    row = get_publication(session, publication_id)
     n_controls = get_graph_row(session, row.graph_id).n_controls
     edges = session.execute(
         select(
@@ -104,3 +114,16 @@ def latest_publication(session: Session, graph_id: int) -> PublicationRow | None
         .order_by(PublicationRow.number.desc())
         .limit(1)
     ).one_or_none()
+
+
+def latest_publication_id(session: Session, graph: str | int) -> int:
+    """The id of the latest publication of the graph named (or numbered) ``graph``.
+
+    :class:`~app.store.graphs.GraphNotFound` without the graph, :class:`NothingPublished`
+    before its first publication.
+    """
+    row = get_graph_row(session, graph)
+    latest = latest_publication(session, row.id)
+    if latest is None:
+        raise NothingPublished(f"graph {row.name!r} has no publication yet: run `srg publish`")
+    return latest.id

@@ -17,6 +17,7 @@ from sqlalchemy import distinct, func, select
 from sqlalchemy.exc import IntegrityError
 from sqlalchemy.orm import Session
 
+from app.core.errors import Conflict, InvalidInput
 from app.core.publication import Publication
 from app.models import Player, Trace, TraceStep
 from app.models import Publication as PublicationRow
@@ -27,11 +28,11 @@ PLAYER_KINDS = ("human", "bot")
 MAX_KEY_LENGTH = 128
 
 
-class InvalidTrace(ValueError):
+class InvalidTrace(InvalidInput):
     """The trace cannot be stored as given; the message says why."""
 
 
-class IdempotencyConflict(InvalidTrace):
+class IdempotencyConflict(Conflict):
     """The idempotency key was already used for a different trace."""
 
 

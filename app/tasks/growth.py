@@ -1,4 +1,5 @@
-"""The growth tasks: thin wrappers of :mod:`app.services.growth`, ids in and ids out.
+"""The growth tasks: thin wrappers of :mod:`app.services.epochs` and its steps, ids in
+and ids out.
 
 Each task opens one session, runs one step, commits. Arrays never travel through Redis:
 a step writes them to the artifact store and returns the digest. The epoch's canvas is
@@ -20,16 +21,16 @@ import time
 from collections.abc import Callable
 from typing import Any
 
-from celery import chain, chord
+from celery import chain, chord, group
 from celery.canvas import Signature
 from celery.utils.log import get_task_logger
-from sqlalchemy import select
 from sqlalchemy.exc import IntegrityError, OperationalError
 
 from app.config import get_settings
 from app.db import transaction
-from app.services import growth
-from app.store.graphs import StaleGraph, get_graph_row, size_frames
+from app.services import between_epochs, clips, epochs
+from app.store.epochs import running_epoch
+from app.store.graphs import StaleGraph, get_graph_row, growing_graph_ids, size_frames
 from app.tasks.celery_app import celery_app
 from app.tasks.liveness import epoch_work_alive
 
@@ -46,7 +47,7 @@ def simulate(epoch_id: int, position: int, control: int) -> str:
     Toy: the whole clip. Liquid: PCISPH only (particle positions and end state).
     """
     with transaction() as session:
-        return growth.simulate_step(session, get_settings(), epoch_id, position, control)
+        return clips.simulate_step(session, get_settings(), epoch_id, position, control)
 
 
 @celery_app.task(name="srg.sdf")
@@ -56,14 +57,14 @@ def sdf(stage: str, epoch_id: int, position: int, control: int) -> str:
     Records the clip on ``expansion_clips``; returns the clip artifact's digest.
     """
     with transaction() as session:
-        return growth.sdf_step(session, get_settings(), stage, epoch_id, position, control)
+        return clips.sdf_step(session, get_settings(), stage, epoch_id, position, control)
 
 
 @celery_app.task(name="srg.render")
 def render(clip: str, epoch_id: int, position: int, control: int) -> str:
     """Render the clip's animation strip (stored, attached at integration)."""
     with transaction() as session:
-        return growth.render_step(session, get_settings(), clip, epoch_id, position, control)
+        return clips.render_step(session, get_settings(), clip, epoch_id, position, control)
 
 
 @celery_app.task(name="srg.integrate", bind=True)
@@ -73,8 +74,8 @@ def integrate(self: Any, epoch_id: int, position: int, renders: bool | None = No
     renders = settings.growth_renders if renders is None else renders
     try:
         with transaction() as session:
-            outcome = growth.integrate_step(session, settings, epoch_id, position)
-    except growth.ExpansionNotReady as exc:
+            outcome = epochs.integrate_step(session, settings, epoch_id, position)
+    except epochs.ExpansionNotReady as exc:
         if exc.missing:
             missing = [(position, c) for c in exc.missing]
             clip_pipelines(epoch_id, missing, renders=renders).apply_async()
@@ -98,14 +99,14 @@ def integrate(self: Any, epoch_id: int, position: int, renders: bool | None = No
 def blend(epoch_id: int) -> int:
     """Render eq. 8's blend of the epoch's new BLEND edges; how many were rendered."""
     with transaction() as session:
-        return growth.blend_step(session, get_settings(), epoch_id)
+        return epochs.blend_step(session, get_settings(), epoch_id)
 
 
 @celery_app.task(name="srg.rank")
 def rank(graph_id: int) -> str | None:
     """STATERANK of the graph now (warm-started), stored: the ``pi`` artifact's digest."""
     with transaction() as session:
-        return growth.rank_graph(session, get_settings(), graph_id)
+        return between_epochs.rank_graph(session, get_settings(), graph_id)
 
 
 @celery_app.task(name="srg.relink", bind=True)
@@ -114,8 +115,8 @@ def relink(self: Any, graph_id: int) -> int:
     settings = get_settings()
     try:
         with transaction() as session:
-            return growth.relink_graph(session, settings, graph_id)
-    except growth.EpochRunning as exc:
+            return between_epochs.relink_graph(session, settings, graph_id)
+    except between_epochs.EpochRunning as exc:
         raise self.retry(exc=exc, countdown=settings.beat_interval) from exc
 
 
@@ -125,8 +126,8 @@ def publish(self: Any, graph_id: int) -> int:
     settings = get_settings()
     try:
         with transaction() as session:
-            return growth.publish_between_epochs(session, settings, graph_id)
-    except growth.EpochRunning as exc:
+            return between_epochs.publish_between_epochs(session, settings, graph_id)
+    except between_epochs.EpochRunning as exc:
         raise self.retry(exc=exc, countdown=settings.beat_interval) from exc
 
 
@@ -143,7 +144,7 @@ def grow_epoch(graph_id: int, count: int | None = None, renders: bool | None = N
     lost = _quiet_epoch_lost(graph_id, settings.epoch_check_after)
     try:
         with transaction() as session:
-            plan = growth.plan_epoch(session, settings, graph_id, count=count, work_lost=lost)
+            plan = epochs.plan_epoch(session, settings, graph_id, count=count, work_lost=lost)
     except IntegrityError:  # another tick opened the same epoch number first
         return None
     if plan is None:
@@ -159,7 +160,7 @@ def grow_epoch(graph_id: int, count: int | None = None, renders: bool | None = N
     )
     if plan.expansions:
         with transaction() as session:
-            work = growth.epoch_work(session, plan.epoch_id)
+            work = epochs.epoch_work(session, plan.epoch_id)
         epoch_canvas(work, renders=renders).apply_async()
     return plan.epoch_id
 
@@ -171,7 +172,7 @@ def _quiet_epoch_lost(graph_id: int, check_after: float) -> bool:
     the graph's row lock is not held meanwhile (plan_epoch checks the quiet time again).
     """
     with transaction() as session:
-        running = growth.running_epoch(session, graph_id)
+        running = running_epoch(session, graph_id)
         if running is None or time.time() - (running.heartbeat or 0.0) < check_after:
             return False
         epoch_id = running.id
@@ -184,10 +185,8 @@ def _quiet_epoch_lost(graph_id: int, check_after: float) -> bool:
 @celery_app.task(name="srg.schedule_growth")
 def schedule_growth() -> list[int]:
     """Beat's tick: one ``grow_epoch`` per graph with ``growing = true``."""
-    from app.models import Graph
-
     with transaction() as session:
-        ids = list(session.scalars(select(Graph.id).where(Graph.growing.is_(True))))
+        ids = growing_graph_ids(session)
     for graph_id in ids:
         grow_epoch.delay(graph_id)
     return ids
@@ -195,8 +194,6 @@ def schedule_growth() -> list[int]:
 
 def clip_pipelines(epoch_id: int, clips: list[tuple[int, int]], *, renders: bool) -> Signature:
     """``simulate | sdf | render`` for each (position, control), as one group."""
-    from celery import group
-
     return group(clip_pipeline(epoch_id, p, c, renders=renders) for p, c in clips)
 
 
@@ -207,7 +204,7 @@ def clip_pipeline(epoch_id: int, position: int, control: int, *, renders: bool) 
     return chain(*steps)
 
 
-def epoch_canvas(work: growth.EpochWork, *, renders: bool) -> Signature:
+def epoch_canvas(work: epochs.EpochWork, *, renders: bool) -> Signature:
     """The flat canvas of what is left of an epoch (see the module docstring)."""
     integrations = [integrate.si(work.epoch_id, p, renders) for p in work.pending]
     tail = [blend.si(work.epoch_id)] if renders else []
@@ -259,7 +256,7 @@ def _wait_for_epochs(graph_id: int, check_after: float) -> None:
     seen: tuple[int, float | None] | None = None
     while True:
         with transaction() as session:
-            running = growth.running_epoch(session, graph_id)
+            running = running_epoch(session, graph_id)
             state = None if running is None else (running.id, running.heartbeat)
         if state is None:
             return

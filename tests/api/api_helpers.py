@@ -16,7 +16,7 @@ from app.api.deps import get_session, growth_scope
 from app.config import Settings
 from app.core.publication import Publication
 from app.models import Player, Trace, TraceStep
-from app.services.growth import in_session
+from app.services.epochs import in_session
 
 ADMIN_TOKEN = "test-admin-token"
 

@@ -11,8 +11,8 @@ from fastapi.testclient import TestClient
 from sqlalchemy.orm import Session
 
 from app.bench.ingest import build_toy_graph
+from app.store.animations import set_animations
 from app.store.artifacts import ArtifactStore
-from app.store.graphs import set_animations
 from app.store.publications import load_publication, publish
 
 

@@ -17,7 +17,7 @@ from fastapi.testclient import TestClient
 from sqlalchemy import func, select
 from sqlalchemy.orm import Session
 
-import app.services.graphs
+import app.services.growing
 import app.tasks.growth
 from app.api.app import create_app
 from app.api.local_server import serve_in_thread
@@ -25,7 +25,7 @@ from app.config import Settings
 from app.db import make_engine, session_factory
 from app.models import Base
 from app.models import Publication as PublicationRow
-from app.services.graphs import init_graph
+from app.services.creation import init_graph
 from app.store.epochs import start_epoch
 
 ADMIN = {"Authorization": f"Bearer {ADMIN_TOKEN}"}
@@ -167,13 +167,13 @@ def test_over_http_the_grow_request_returns_before_the_growth_runs(
 ) -> None:
     """The finding: the route grew inside the request (up to 10,000 expansions)."""
     release = threading.Event()
-    grow_graph = app.services.graphs.grow_graph
+    grow_graph = app.services.growing.grow_graph
 
     def held_grow_graph(*args: Any, **kwargs: Any) -> Any:
         assert release.wait(30), "the test never released the growth"
         return grow_graph(*args, **kwargs)
 
-    monkeypatch.setattr(app.services.graphs, "grow_graph", held_grow_graph)
+    monkeypatch.setattr(app.services.growing, "grow_graph", held_grow_graph)
     with serve_in_thread(create_app(served)) as base_url, httpx.Client(base_url=base_url) as http:
         reply = http.post("/api/graphs/g/grow", json={"expansions": 6}, headers=ADMIN, timeout=10)
         assert reply.status_code == 202, reply.text

@@ -24,8 +24,8 @@ from app.core.graph import EdgeKind
 from app.db import make_engine, session_factory
 from app.models import Base, Trace, TraceStep
 from app.render.animation import STRIP_MEDIA_TYPE, encode_strip
+from app.store.animations import set_animations
 from app.store.artifacts import ArtifactStore
-from app.store.graphs import set_animations
 from app.store.publications import load_publication, publish
 
 CHROMIUM = Path("/usr/bin/chromium")

@@ -15,6 +15,7 @@ from app.core.graph import StateGraph
 from app.core.growth import best_target, expand_blend_edge, relink_all
 from app.core.toy import ToyDynamics
 from app.models import Edge, Graph
+from app.store.animations import set_animations
 from app.store.artifacts import ArtifactStore
 from app.store.clipbank import MIN_SHAPE_ENTRIES
 from app.store.graphs import (
@@ -24,7 +25,6 @@ from app.store.graphs import (
     get_graph_row,
     load_graph,
     save_graph,
-    set_animations,
 )
 
 Toy = tuple[ToyDynamics, StateGraph, MemoryClipBank]

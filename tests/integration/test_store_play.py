@@ -13,9 +13,10 @@ from app.core.growth import expand_blend_edge
 from app.core.publication import freeze
 from app.core.toy import ToyDynamics
 from app.models import GrowthEpoch, Player, PublicationEdge, Trace, TraceStep
+from app.store.animations import set_animations
 from app.store.artifacts import ArtifactStore
 from app.store.epochs import EpochStatus, finish_epoch, start_epoch
-from app.store.graphs import StaleGraph, create_graph, save_graph, set_animations
+from app.store.graphs import StaleGraph, create_graph, save_graph
 from app.store.publications import (
     PublicationNotFound,
     latest_publication,

@@ -13,9 +13,11 @@ from tasks_cluster import Cluster, wait_for
 from app.config import Settings
 from app.db import make_engine, session_factory
 from app.models import Clip, Edge, GrowthEpoch, Vertex
+from app.services.creation import init_graph
+from app.services.epochs import in_session
 from app.services.graph_cache import graph_cache
-from app.services.graphs import grow_graph, init_graph, open_graph
-from app.services.growth import in_session
+from app.services.growing import grow_graph
+from app.services.loading import open_graph
 from app.store.epochs import EpochStatus
 from app.tasks.celery_app import make_celery
 

@@ -187,7 +187,7 @@ def test_two_beat_ticks_at_once_open_one_epoch(
     cluster.start_worker("w2", concurrency=1)
     app = client(cluster)
     with cluster.session() as session:
-        from app.services.growth import set_growing
+        from app.services.between_epochs import set_growing
 
         set_growing(session, graph_id, True)
         session.commit()

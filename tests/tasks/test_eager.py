@@ -25,7 +25,7 @@ from app.core.refinement import RefinerConfig
 from app.core.toy import ToyDynamics
 from app.db import get_engine, session_factory, transaction
 from app.models import Graph, GrowthEpoch
-from app.services import graphs, growth
+from app.services import clips, epochs, growing, refining
 from app.store.artifacts import ArtifactStore
 from app.store.graphs import create_graph, load_graph, save_graph
 from app.store.occupancy_cache import RedisShapeCache
@@ -97,36 +97,36 @@ def test_integrating_twice_changes_nothing(settings: Settings) -> None:
 def test_integration_waits_for_clips_and_for_plan_order(settings: Settings) -> None:
     graph_id = seed_graph(settings)
     with session_factory()() as session:
-        plan = growth.plan_epoch(session, settings, graph_id)
+        plan = epochs.plan_epoch(session, settings, graph_id)
         session.commit()
     assert plan is not None and len(plan.expansions) == 4
-    with session_factory()() as session, pytest.raises(growth.ExpansionNotReady) as missing:
-        growth.integrate_step(session, settings, plan.epoch_id, 0)
+    with session_factory()() as session, pytest.raises(epochs.ExpansionNotReady) as missing:
+        epochs.integrate_step(session, settings, plan.epoch_id, 0)
     assert missing.value.missing == [0, 1, 2]
     with session_factory()() as session:
         for control in range(3):
-            stage = growth.simulate_step(session, settings, plan.epoch_id, 1, control)
-            growth.sdf_step(session, settings, stage, plan.epoch_id, 1, control)
+            stage = clips.simulate_step(session, settings, plan.epoch_id, 1, control)
+            clips.sdf_step(session, settings, stage, plan.epoch_id, 1, control)
         session.commit()
-    with session_factory()() as session, pytest.raises(growth.ExpansionNotReady) as early:
-        growth.integrate_step(session, settings, plan.epoch_id, 1)
+    with session_factory()() as session, pytest.raises(epochs.ExpansionNotReady) as early:
+        epochs.integrate_step(session, settings, plan.epoch_id, 1)
     assert early.value.waiting_for == 0
 
 
 def test_a_running_epoch_blocks_a_second_until_it_stalls(settings: Settings) -> None:
     graph_id = seed_graph(settings)
     with session_factory()() as session:
-        first = growth.plan_epoch(session, settings, graph_id)
+        first = epochs.plan_epoch(session, settings, graph_id)
         session.commit()
     assert first is not None
     with session_factory()() as session:
-        assert growth.plan_epoch(session, settings, graph_id) is None
+        assert epochs.plan_epoch(session, settings, graph_id) is None
     stalled = settings.model_copy(update={"epoch_resend_after": 0.0})
     with session_factory()() as session:
-        again = growth.plan_epoch(session, stalled, graph_id)
+        again = epochs.plan_epoch(session, stalled, graph_id)
         session.commit()
         assert again is not None and again.resent and again.epoch_id == first.epoch_id
-        work = growth.epoch_work(session, first.epoch_id)
+        work = epochs.epoch_work(session, first.epoch_id)
     assert work.pending == [0, 1, 2, 3] and len(work.missing_clips) == 12
     with session_factory()() as session:
         numbers = session.scalars(select(GrowthEpoch.number)).all()
@@ -138,16 +138,16 @@ def test_growth_goes_on_when_staterank_fails_and_says_so(
 ) -> None:
     """STATERANK forced to miss convergence: every epoch still grows, on the fallback."""
     graph_id = seed_graph(settings)
-    configured = graphs.refiner_config
+    configured = refining.refiner_config
 
     def one_iteration(
         settings: Settings, dynamics: Dynamics, model: PlayerModelKind = PlayerModelKind.EQ2
     ) -> RefinerConfig:
         return replace(configured(settings, dynamics, model), staterank_max_iter=1)
 
-    monkeypatch.setattr(graphs, "refiner_config", one_iteration)
-    with caplog.at_level(logging.WARNING, logger="app.services.growth"):
-        result = graphs.grow_graph(transaction, settings, name=graph_id, expansions=8)
+    monkeypatch.setattr(refining, "refiner_config", one_iteration)
+    with caplog.at_level(logging.WARNING, logger="app.services.epochs"):
+        result = growing.grow_graph(transaction, settings, name=graph_id, expansions=8)
     assert (result.epochs, result.expansions) == (2, 8)
     assert len(result.ranking_fallbacks) == 2
     assert all("did not converge in 1 iterations" in f for f in result.ranking_fallbacks)

@@ -42,7 +42,7 @@ EPOCHS_LISTED = 100
     responses=error_responses(404, 413, s404="no such graph", s413="a body over max_body_bytes"),
 )
 def publish(name: str, request: Request, session: Session = Depends(get_session)) -> AdminResult:
-    from app.services.graphs import publish_graph
+    from app.services.publishing import publish_graph
 
     result = publish_graph(session, request.app.state.settings, name=name)
     session.commit()
@@ -139,7 +139,7 @@ def epochs(
 
 def _running_epoch(session: Session, graph_id: int) -> int | None:
     """The number of the graph's running epoch, if one runs."""
-    from app.services.growth import running_epoch
+    from app.store.epochs import running_epoch
 
     running = running_epoch(session, graph_id)
     return None if running is None else running.number

@@ -1,0 +1,185 @@
+"""The per-clip steps of an epoch: simulate, surface (the liquid's SDF), render.
+
+Each step reads and writes artifacts only, and the last two note the clip on an
+``expansion_clips`` row, so a worker can run any of them for any planned clip, and a
+redelivered step finds its work done. Simulating needs no database at all
+(:func:`simulate_job`), so the eager path computes outside any transaction.
+"""
+
+from __future__ import annotations
+
+import time
+from dataclasses import dataclass
+from typing import Protocol, runtime_checkable
+
+import numpy as np
+from sqlalchemy.orm import Session
+
+from app.config import Settings
+from app.core.dynamics import ClipFeatures, Dynamics, SimClip
+from app.core.errors import NotFound
+from app.models import Graph
+from app.services.animations import frames_strip
+from app.services.loading import artifact_store, graph_dynamics
+from app.store.epochs import (
+    expansion_clip,
+    get_epoch,
+    record_clip,
+    set_clip_animation,
+)
+from app.store.graphs import clip_bundle_digest, get_graph_row
+
+
+@runtime_checkable
+class SurfacedDynamics(Protocol):
+    """A dynamics whose clips are particles first and surfaces second (the liquid).
+
+    Its two stages run as two steps, so a worker with OpenCL for the SDF need not be the
+    one that ran PCISPH; a dynamics without them (the toy) simulates whole clips.
+    """
+
+    def simulate_particles(
+        self, state: np.ndarray, control: int
+    ) -> tuple[np.ndarray, np.ndarray]: ...
+
+    def surface_frames(self, positions: np.ndarray) -> np.ndarray: ...
+
+
+@dataclass(frozen=True)
+class ClipJob:
+    """What simulating one planned clip needs, read from the database beforehand."""
+
+    dynamics: Dynamics
+    state: np.ndarray
+    control: int
+
+
+def planned_clip(session: Session, epoch_id: int, position: int) -> tuple[Graph, int]:
+    """The graph of the epoch and the dead-end clip its expansion ``position`` starts from."""
+    epoch = get_epoch(session, epoch_id)
+    row = get_graph_row(session, epoch.graph_id)
+    plan = epoch.plan or []
+    if not 0 <= position < len(plan):
+        raise NotFound(f"epoch {epoch_id} plans no expansion {position}")
+    return row, int(plan[position][1])
+
+
+def clip_job(
+    session: Session, settings: Settings, epoch_id: int, position: int, control: int
+) -> ClipJob | str:
+    """The start state and dynamics of a planned clip, or its digest once recorded."""
+    if (stored := expansion_clip(session, epoch_id, position, control)) is not None:
+        return stored.clip  # a redelivery after the clip was recorded
+    row, dead_end = planned_clip(session, epoch_id, position)
+    bundle = clip_bundle_digest(session, row.id, dead_end)
+    if bundle is None:
+        raise NotFound(f"graph {row.id} has no clip {dead_end}")
+    state = artifact_store(settings).get_arrays(bundle, ("end_state",))["end_state"]
+    return ClipJob(graph_dynamics(row, settings), state, control)
+
+
+def simulate_job(job: ClipJob) -> dict[str, np.ndarray]:
+    """The simulated stage of a clip, no database needed.
+
+    A :class:`SurfacedDynamics` (the liquid): the particle positions of the k frames and
+    the end state, the surface is :func:`finish_clip`'s. Any other: the whole clip.
+    """
+    dynamics = job.dynamics
+    if isinstance(dynamics, SurfacedDynamics):
+        positions, end_state = dynamics.simulate_particles(job.state, job.control)
+        return {
+            "positions": positions,
+            "end_state": end_state,
+            "control": np.asarray(job.control, dtype=np.int64),
+        }
+    sim = dynamics.simulate(job.state, job.control)
+    return clip_arrays(sim, dynamics.features(sim))
+
+
+def finish_clip(dynamics: Dynamics, stage: dict[str, np.ndarray]) -> dict[str, np.ndarray] | None:
+    """The clip (surface frames and features) of a simulated stage.
+
+    None when the stage already is the clip (a dynamics that is not surfaced).
+    """
+    if not isinstance(dynamics, SurfacedDynamics) or "positions" not in stage:
+        return None
+    frames = dynamics.surface_frames(stage["positions"])
+    sim = SimClip(control=int(stage["control"]), frames=frames, end_state=stage["end_state"])
+    return clip_arrays(sim, dynamics.features(sim))
+
+
+def clip_arrays(sim: SimClip, features: ClipFeatures) -> dict[str, np.ndarray]:
+    """Everything integrating a clip needs of it, exactly (no float rounding)."""
+    return {
+        "control": np.asarray(sim.control, dtype=np.int64),
+        "frames": np.asarray(sim.frames),
+        "end_state": np.asarray(sim.end_state),
+        "kinetic": np.asarray(features.kinetic, dtype=np.float64),
+        "potential": np.asarray(features.potential, dtype=np.float64),
+        "occupancy": np.asarray(features.occupancy),
+        "descriptor": np.asarray(features.descriptor),
+        "score": np.asarray(features.score, dtype=np.float64),
+    }
+
+
+def clip_from_arrays(arrays: dict[str, np.ndarray]) -> tuple[SimClip, ClipFeatures]:
+    """The clip and features that :func:`clip_arrays` stored."""
+    control = int(arrays["control"])
+    sim = SimClip(control=control, frames=arrays["frames"], end_state=arrays["end_state"])
+    features = ClipFeatures(
+        control=control,
+        kinetic=float(arrays["kinetic"]),
+        potential=arrays["potential"],
+        occupancy=arrays["occupancy"],
+        descriptor=arrays["descriptor"],
+        score=float(arrays["score"]),
+    )
+    return sim, features
+
+
+def simulate_step(
+    session: Session, settings: Settings, epoch_id: int, position: int, control: int
+) -> str:
+    """Simulate one clip of a planned expansion; return its stage artifact's digest."""
+    job = clip_job(session, settings, epoch_id, position, control)
+    if isinstance(job, str):
+        return job
+    if settings.test_simulate_delay > 0:  # test-only: a window to kill the worker in
+        time.sleep(settings.test_simulate_delay)
+    return artifact_store(settings).put_arrays(simulate_job(job), session=session)
+
+
+def sdf_step(
+    session: Session,
+    settings: Settings,
+    stage: str,
+    epoch_id: int,
+    position: int,
+    control: int,
+) -> str:
+    """Turn a simulated stage into a clip and record it; return the clip artifact."""
+    stored = expansion_clip(session, epoch_id, position, control)
+    if stored is not None:
+        return stored.clip
+    row, _ = planned_clip(session, epoch_id, position)
+    artifacts = artifact_store(settings)
+    clip = finish_clip(graph_dynamics(row, settings), artifacts.get_arrays(stage))
+    digest = stage if clip is None else artifacts.put_arrays(clip, session=session)
+    record_clip(session, epoch_id, position, control, digest)
+    return digest
+
+
+def render_step(
+    session: Session, settings: Settings, clip: str, epoch_id: int, position: int, control: int
+) -> str:
+    """Render a recorded clip's animation strip (once); return the clip artifact."""
+    found = expansion_clip(session, epoch_id, position, control)
+    if found is None:
+        raise NotFound(f"epoch {epoch_id} has no clip {control} of expansion {position}")
+    if found.animation is None:
+        row, _ = planned_clip(session, epoch_id, position)
+        artifacts = artifact_store(settings)
+        frames = artifacts.get_arrays(found.clip, ("frames",))["frames"]
+        strip = frames_strip(session, artifacts, graph_dynamics(row, settings), frames)
+        set_clip_animation(session, found, strip)
+    return clip

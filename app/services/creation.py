@@ -1,0 +1,108 @@
+"""Creating a graph: the initial tree (paper Fig. 3), its leaves blended back."""
+
+from __future__ import annotations
+
+from sqlalchemy import String
+from sqlalchemy.exc import IntegrityError
+from sqlalchemy.orm import Session
+
+from app.config import Settings
+from app.core.clipbank import MemoryClipBank
+from app.core.errors import Conflict, InvalidInput
+from app.core.growth import initial_tree
+from app.core.names import check_name
+from app.core.player_models import parse_player_model
+from app.core.strategies import parse_strategy
+from app.liquid.devices import LiquidDevices
+from app.models import Graph
+from app.services.dynamics import make_dynamics
+from app.services.loading import artifact_store
+from app.services.status import graph_summary
+from app.store.graphs import create_graph, graph_exists, save_graph
+
+#: the most simulated clips ``srg init --depth`` may ask of the initial tree; past it the
+#: tree grows as N^depth and a typo would run for ever (growth refines from there)
+MAX_INITIAL_CLIPS = 1_000
+
+
+class GraphExists(Conflict):
+    """A graph of that name is already stored."""
+
+
+def graph_name_length() -> int:
+    """The length of the graphs' name column: the longest name every backend stores."""
+    column = Graph.__table__.c.name.type
+    assert isinstance(column, String) and column.length is not None
+    return column.length
+
+
+def check_initial_depth(depth: int, n_controls: int) -> None:
+    """Refuse an initial tree too shallow to blend (depth < 2) or past MAX_INITIAL_CLIPS."""
+    if depth < 2:
+        raise InvalidInput("the initial tree needs depth >= 2 so that leaves have SIM targets")
+    clips, level, deepest = 0, 1, 1
+    for _ in range(1, depth):
+        level *= n_controls
+        clips += level
+        if clips > MAX_INITIAL_CLIPS:
+            raise InvalidInput(
+                f"depth {depth} makes an initial tree of more than {MAX_INITIAL_CLIPS} "
+                f"simulated clips for {n_controls} controls: at most depth {deepest}"
+            )
+        deepest += 1
+
+
+def init_graph(
+    session: Session,
+    settings: Settings,
+    *,
+    name: str,
+    dynamics: str = "toy",
+    preset: str | None = None,
+    fluid: str | None = None,
+    strategy: str = "sr-crowd",
+    depth: int = 2,
+    seed: int = 0,
+    player_model: str | None = None,
+) -> dict[str, object]:
+    """Store the initial tree of a new graph; return its summary.
+
+    ``player_model`` is the crowd model sr-crowd learns (default ``SRG_PLAYER_MODEL``).
+
+    Everything is checked before anything is written: the name (:func:`check_name`, the
+    same on every backend), the strategy, the dynamics with its preset and fluid (the
+    toy has neither), the depth and the artifact directory.
+    """
+    check_name(name, what="graph", max_length=graph_name_length())
+    chosen = parse_strategy(strategy)
+    crowd_model = parse_player_model(player_model or settings.player_model)
+    if dynamics == "toy" and preset is not None:
+        raise InvalidInput(f"the toy has no preset (got {preset!r}); presets are the liquid's")
+    if graph_exists(session, name):
+        raise GraphExists(f"a graph named {name!r} already exists")
+    model = make_dynamics(dynamics, preset, fluid, devices=LiquidDevices.from_settings(settings))
+    check_initial_depth(depth, model.n_controls)
+    artifacts = artifact_store(settings)
+    bank = MemoryClipBank()
+    graph = initial_tree(model, bank, depth=depth, prefilter_k=settings.prefilter_k)
+    scene: dict[str, object] = {"fps": model.fps}
+    if preset is not None:
+        scene["preset"] = preset
+    if fluid is not None:
+        scene["fluid"] = fluid
+    try:
+        graph_id = create_graph(
+            session,
+            name=name,
+            dynamics=dynamics,
+            n_controls=model.n_controls,
+            frames_per_clip=model.frames_per_clip,
+            scene=scene,
+            seed=seed,
+            strategy=chosen.value,
+            player_model=crowd_model.value,
+        )
+    except IntegrityError:
+        raise GraphExists(f"a graph named {name!r} already exists") from None
+    save_graph(session, graph_id, graph, bank, artifacts)
+    return graph_summary(session, graph_id)

@@ -1,0 +1,109 @@
+"""Growing a stored graph in-process by a budget, epoch by epoch (``srg grow``).
+
+Each epoch is the very unit the Celery ``grow_epoch`` task runs (:mod:`app.services.epochs`),
+so a graph grows the same whether the CLI, the API's embedded server or the workers
+grow it.
+"""
+
+from __future__ import annotations
+
+from dataclasses import dataclass, field
+
+from app.config import Settings
+from app.core.errors import Conflict
+from app.core.refinement import GrowthBudget
+from app.core.strategies import parse_strategy
+from app.db import Scope
+from app.services.animations import Progress
+from app.services.epochs import plan_epoch, run_epoch
+from app.store.epochs import get_epoch, running_epoch
+from app.store.graphs import get_graph_row, size_frames
+
+
+@dataclass
+class GrowResult:
+    graph: str
+    strategy: str
+    epochs: int = 0
+    expansions: int = 0
+    relinks: int = 0
+    size_frames: int = 0
+    epoch_ids: list[int] = field(default_factory=list)
+    #: "epoch <id>: <why>" for each epoch ranked by a fallback (STATERANK did not converge)
+    ranking_fallbacks: list[str] = field(default_factory=list)
+
+
+class GrowthBusy(Conflict):
+    """An epoch of the graph is running on the workers; eager growth would race it."""
+
+
+def grow_graph(
+    scope: Scope,
+    settings: Settings,
+    *,
+    name: str | int,
+    strategy: str | None = None,
+    frames: int | None = None,
+    expansions: int | None = None,
+    to_frames: int | None = None,
+    renders: bool | None = None,
+    batch_size: int | None = None,
+    progress: Progress | None = None,
+) -> GrowResult:
+    """Grow in-process by a budget (frames, expansions, or up to a size), epoch by epoch.
+
+    Without a budget: one batch (``settings.batch_size`` expansions). Each epoch is
+    planned (rank, pick the top BLEND edges, relink lazily), each clip simulated, the
+    expansions integrated in plan order, and animations rendered when ``renders``
+    (default ``settings.growth_renders``). Every step runs in a ``scope()``:
+    :func:`app.db.transaction` makes each step durable (an interrupted grow keeps its
+    finished steps, and the next grow first finishes the interrupted epoch);
+    :func:`app.services.epochs.in_session` runs all in one caller-owned transaction.
+    """
+    if frames is None and expansions is None and to_frames is None:
+        expansions = settings.batch_size
+    GrowthBudget.check(frames=frames, expansions=expansions, to_frames=to_frames)
+    renders = settings.growth_renders if renders is None else renders
+    batch = batch_size or settings.batch_size
+    with scope() as session:
+        row = get_graph_row(session, name)
+        graph_id, n_controls, frames_per_clip = row.id, row.n_controls, row.frames_per_clip
+        chosen = parse_strategy(strategy) if strategy else parse_strategy(row.strategy)
+        size = size_frames(session, graph_id)
+        interrupted = running_epoch(session, graph_id) if settings.eager else None
+        interrupted_id = None if interrupted is None else interrupted.id
+    result = GrowResult(graph=str(row.name), strategy=chosen.value)
+    per_expansion = n_controls * frames_per_clip
+
+    def advance(_: object) -> None:
+        if progress is not None:
+            progress(1 if expansions is not None else per_expansion)
+
+    if interrupted_id is not None:  # embedded: nobody else can be running it
+        result.expansions += len(
+            run_epoch(scope, settings, interrupted_id, renders=renders, on_expansion=advance)
+        )
+        size = _epoch_size(scope, interrupted_id)
+    budget = GrowthBudget.of(size, frames=frames, expansions=expansions, to_frames=to_frames)
+    while (left := budget.left(size, result.expansions, per_expansion)) > 0:
+        with scope() as session:
+            plan = plan_epoch(session, settings, graph_id, count=min(left, batch), strategy=chosen)
+        if plan is None:
+            raise GrowthBusy(f"graph {result.graph!r} has an epoch running on the workers")
+        done = run_epoch(scope, settings, plan.epoch_id, renders=renders, on_expansion=advance)
+        size = _epoch_size(scope, plan.epoch_id)
+        result.epochs += 1
+        result.expansions += len(done)
+        result.relinks += plan.relinks
+        result.epoch_ids.append(plan.epoch_id)
+        if plan.ranking_fallback is not None:
+            result.ranking_fallbacks.append(f"epoch {plan.epoch_id}: {plan.ranking_fallback}")
+        if not plan.expansions:
+            break
+    result.size_frames = size
+    return result
+
+
+def _epoch_size(scope: Scope, epoch_id: int) -> int:
+    with scope() as session:
+        return get_epoch(session, epoch_id).size_frames

@@ -1,0 +1,73 @@
+"""Bots playing a graph's latest publication in-process (``srg play``).
+
+Their traces are stored as uploads, exactly as the browser client's are, so growth
+learns from them the same way (docs/play.md).
+"""
+
+from __future__ import annotations
+
+import uuid
+from dataclasses import dataclass
+
+import numpy as np
+from sqlalchemy.orm import Session
+
+from app.config import Settings
+from app.core.bots import parse_bot, play_sessions
+from app.core.errors import InvalidInput
+from app.core.metrics import high_error_fraction, observed_mean_error
+from app.services.loading import graph_dynamics
+from app.store.graphs import get_graph_row
+from app.store.publications import latest_publication_id, load_publication
+from app.store.traces import bot_player, record_trace
+
+
+@dataclass
+class PlayResult:
+    graph: str
+    publication_id: int
+    traces: int
+    steps: int
+    observed_mean_error: float
+    high_error_fraction: float
+    mean_score_per_step: float
+
+
+def play_graph(
+    session: Session,
+    settings: Settings,
+    *,
+    name: str | int,
+    bot: str = "goal-directed",
+    sessions: int = 20,
+    mean_steps: int = 90,
+    seed: int = 0,
+) -> PlayResult:
+    """Bots play the latest publication in-process; their traces are stored as uploads."""
+    kind = parse_bot(bot)
+    if sessions <= 0 or mean_steps < 2:
+        raise InvalidInput("sessions must be positive and mean steps at least 2")
+    row = get_graph_row(session, name)
+    publication_id = latest_publication_id(session, row.id)
+    publication = load_publication(session, publication_id)
+    traces = play_sessions(publication, kind, sessions=sessions, mean_steps=mean_steps, seed=seed)
+    player_id = bot_player(session, f"bot-{kind.value}")
+    run = uuid.uuid4().hex  # each play is new play data, as each browser session is
+    for index, trace in enumerate(traces):
+        key = f"local-{run}-{index}"
+        record_trace(session, publication_id, player_id, key, trace, publication=publication)
+    threshold = settings.high_error_threshold or graph_dynamics(row, settings).high_error_threshold
+    steps = np.concatenate(traces)
+    return PlayResult(
+        graph=row.name,
+        publication_id=publication_id,
+        traces=len(traces),
+        steps=len(steps),
+        observed_mean_error=observed_mean_error(traces, publication.edge_err, row.n_controls),
+        high_error_fraction=high_error_fraction(
+            traces, publication.edge_err, row.n_controls, threshold
+        ),
+        mean_score_per_step=float(
+            publication.edge_score[steps[:, 0] * row.n_controls + steps[:, 1]].mean()
+        ),
+    )

@@ -1,0 +1,63 @@
+"""Publishing a graph: pre-publish relinking, every missing animation, a frozen copy.
+
+Players and bots only ever play publications (docs/play.md), so growth can go on
+rewriting the live graph under them.
+"""
+
+from __future__ import annotations
+
+from dataclasses import dataclass
+
+from sqlalchemy.orm import Session
+
+from app.config import Settings
+from app.core.growth import relink_all
+from app.services.animations import Progress, render_missing_animations
+from app.services.loading import LoadedGraph, open_graph
+from app.store.graphs import save_graph
+from app.store.publications import get_publication, publish
+
+
+@dataclass
+class PublishResult:
+    graph: str
+    publication_id: int
+    number: int
+    relinked: int
+    rendered: int
+    size_frames: int
+
+
+def relink_blends(session: Session, settings: Settings, loaded: LoadedGraph) -> int:
+    """Relink every BLEND edge to its best target now and save what moved; how many."""
+    moved = relink_all(loaded.graph, loaded.bank, loaded.dynamics, prefilter_k=settings.prefilter_k)
+    if moved:
+        save_graph(session, loaded.row.id, loaded.graph, loaded.bank, loaded.artifacts)
+    return len(moved)
+
+
+def publish_graph(
+    session: Session,
+    settings: Settings,
+    *,
+    name: str | int,
+    render: bool = True,
+    progress: Progress | None = None,
+) -> PublishResult:
+    """Pre-publish relinking, animations for every edge, then a frozen publication.
+
+    ``render=False`` freezes the graph without animations: the experiment's bots play
+    edges, not pictures, and rendering would cost more than growing.
+    """
+    loaded = open_graph(session, settings, name)
+    relinked = relink_blends(session, settings, loaded)
+    rendered = render_missing_animations(session, loaded, progress) if render else 0
+    publication_id = publish(session, loaded.row.id, loaded.graph)
+    return PublishResult(
+        graph=loaded.row.name,
+        publication_id=publication_id,
+        number=get_publication(session, publication_id).number,
+        relinked=relinked,
+        rendered=rendered,
+        size_frames=loaded.graph.size_frames,
+    )

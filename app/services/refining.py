@@ -1,0 +1,89 @@
+"""A stored graph's refiner: its strategy, the settings' constants and the crowd's traces.
+
+Growth ranks with it, prediction and the experiment read its player model; all build it
+here, so a graph is refined the same way wherever it is.
+"""
+
+from __future__ import annotations
+
+import numpy as np
+from sqlalchemy.orm import Session
+
+from app.config import Settings
+from app.core.dynamics import Dynamics
+from app.core.player_models import PlayerModelKind, parse_player_model
+from app.core.publication import Publication
+from app.core.refinement import Refiner, RefinerConfig
+from app.core.strategies import EdgeWeights, Strategy, edge_weights, parse_strategy
+from app.services.loading import LoadedGraph
+from app.store.epochs import latest_warm_start
+from app.store.publications import load_publication
+from app.store.traces import load_traces, played_publications
+
+
+def refiner_config(
+    settings: Settings, dynamics: Dynamics, player_model: PlayerModelKind = PlayerModelKind.EQ2
+) -> RefinerConfig:
+    return RefinerConfig(
+        alpha=settings.alpha,
+        crowd_radius=settings.crowd_radius or dynamics.crowd_radius,
+        crowd_eps=settings.crowd_eps,
+        default_session_steps=settings.restart_steps,
+        max_session_steps=settings.max_session_steps,
+        prefilter_k=settings.prefilter_k,
+        batch_size=settings.batch_size,
+        player_model=player_model,
+    )
+
+
+def graph_play(session: Session, graph_id: int) -> list[tuple[Publication, list[np.ndarray]]]:
+    """Every publication of the graph that was played, with its traces, oldest first.
+
+    Vertex ids are stable across publications (vertices are only appended), so traces of
+    any of them read on the graph as it is now; the publication says what players saw.
+    """
+    return [
+        (load_publication(session, publication_id), load_traces(session, [publication_id]))
+        for publication_id in played_publications(session, graph_id)
+    ]
+
+
+def refiner_for(
+    session: Session, settings: Settings, loaded: LoadedGraph, strategy: Strategy | None = None
+) -> Refiner:
+    """The graph's refiner, with the crowd's traces when its strategy learns from them."""
+    strategy = strategy or parse_strategy(loaded.row.strategy)
+    refiner = Refiner(
+        loaded.graph,
+        loaded.bank,
+        loaded.dynamics,
+        strategy,
+        refiner_config(settings, loaded.dynamics, parse_player_model(loaded.row.player_model)),
+    )
+    if strategy.learns_from_traces and refiner.config.player_model is PlayerModelKind.LOGIT:
+        for publication, traces in graph_play(session, loaded.row.id):
+            refiner.learn(traces, publication)
+    elif strategy.learns_from_traces:  # eq. 2 reads no publication: one query for all traces
+        refiner.learn(load_traces(session, played_publications(session, loaded.row.id)))
+    return refiner
+
+
+def rank_stored(session: Session, loaded: LoadedGraph, refiner: Refiner) -> EdgeWeights:
+    """Edge weights under the refiner's strategy, STATERANK warm-started from the pi the
+    graph's last ranking stored (when it still fits the graph)."""
+    return edge_weights(
+        refiner.strategy,
+        loaded.graph,
+        refiner.player_model(),
+        restart=refiner.restart,
+        warm_start=_warm_start(session, loaded),
+        max_iter=refiner.config.staterank_max_iter,
+    )
+
+
+def _warm_start(session: Session, loaded: LoadedGraph) -> np.ndarray | None:
+    digest = latest_warm_start(session, loaded.row.id)
+    if digest is None:
+        return None
+    pi = loaded.artifacts.get_arrays(digest, ("pi",))["pi"]
+    return pi if pi.size <= loaded.graph.n_vertices else None

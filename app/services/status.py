@@ -1,0 +1,35 @@
+"""What ``srg status`` shows of a graph: sizes, publications, epochs and play."""
+
+from __future__ import annotations
+
+from sqlalchemy.orm import Session
+
+from app.core.graph import EdgeKind
+from app.store.animations import count_missing_animations
+from app.store.epochs import epoch_count
+from app.store.graphs import edge_kind_counts, get_graph_row, size_frames
+from app.store.publications import latest_publication
+from app.store.traces import play_summary
+
+
+def graph_summary(session: Session, name: str | int) -> dict[str, object]:
+    """Sizes from the stored rows, the latest publication, epochs, play."""
+    row = get_graph_row(session, name)
+    kinds = edge_kind_counts(session, row.id)
+    latest = latest_publication(session, row.id)
+    return {
+        "id": row.id,
+        "name": row.name,
+        "dynamics": row.dynamics,
+        "preset": row.scene.get("preset"),
+        "strategy": row.strategy,
+        "player_model": row.player_model,
+        "growing": row.growing,
+        "size_frames": size_frames(session, row.id),
+        "sim_edges": int(kinds.get(int(EdgeKind.SIM), 0)),
+        "blend_edges": int(kinds.get(int(EdgeKind.BLEND), 0)),
+        "epochs": epoch_count(session, row.id),
+        "latest_publication": None if latest is None else latest.number,
+        "unrendered_edges": count_missing_animations(session, row.id),
+        "play": play_summary(session, row.id),
+    }

@@ -1,0 +1,80 @@
+"""Which clips and edges have an animation strip, and attaching new ones.
+
+A SIM edge shows its clip's strip (rendered once per clip, kept on the clip row); a BLEND
+edge shows its own blend. Saving a changed edge drops its strip
+(:func:`app.store.graphs.save_graph`), so these queries find what to render again.
+"""
+
+from __future__ import annotations
+
+from collections.abc import Iterable, Mapping
+
+from sqlalchemy import func, select, update
+from sqlalchemy.orm import Session
+
+from app.core.graph import EdgeKind
+from app.models import Clip, Edge
+from app.store.graphs import get_graph_row
+
+
+def set_animations(
+    session: Session,
+    graph_id: int,
+    *,
+    clips: Mapping[int, str] | None = None,
+    edges: Mapping[int, str] | None = None,
+) -> None:
+    """Attach rendered animation artifacts to clips (by index) and edges (by edge index)."""
+    row = get_graph_row(session, graph_id)
+    if clips:
+        session.execute(
+            update(Clip),
+            [{"graph_id": graph_id, "idx": i, "animation": h} for i, h in clips.items()],
+        )
+    if edges:
+        n = row.n_controls
+        session.execute(
+            update(Edge),
+            [
+                {"graph_id": graph_id, "vertex": e // n, "control": e % n, "animation": h}
+                for e, h in edges.items()
+            ],
+        )
+
+
+def edges_without_animation(
+    session: Session,
+    graph_id: int,
+    n_controls: int,
+    *,
+    vertices: Iterable[int] | None = None,
+    kind: EdgeKind | None = None,
+) -> list[int]:
+    """The graph's edges (by index) that have no strip, optionally only of ``vertices``
+    and of one ``kind``."""
+    stmt = select(Edge.vertex, Edge.control).where(
+        Edge.graph_id == graph_id, Edge.animation.is_(None)
+    )
+    if vertices is not None:
+        stmt = stmt.where(Edge.vertex.in_(list(vertices)))
+    if kind is not None:
+        stmt = stmt.where(Edge.kind == int(kind))
+    return [vertex * n_controls + control for vertex, control in session.execute(stmt)]
+
+
+def clip_animations(session: Session, graph_id: int) -> dict[int, str]:
+    """The strip of every clip that has one, by clip index."""
+    rows = session.execute(
+        select(Clip.idx, Clip.animation).where(
+            Clip.graph_id == graph_id, Clip.animation.is_not(None)
+        )
+    )
+    return {clip: animation for clip, animation in rows if animation is not None}
+
+
+def count_missing_animations(session: Session, graph_id: int) -> int:
+    """How many of the graph's edges have no strip yet."""
+    count = session.scalar(
+        select(func.count()).where(Edge.graph_id == graph_id, Edge.animation.is_(None))
+    )
+    return int(count or 0)

@@ -1,0 +1,32 @@
+"""The graph lock: one writer of a graph's structure at a time.
+
+Planning an epoch, integrating an expansion, relinking and publishing all rewrite the
+graph from the copy they loaded; they take this lock first, so two of them never write
+diffs against the same revision.
+"""
+
+from __future__ import annotations
+
+from sqlalchemy import select
+from sqlalchemy.orm import Session
+
+from app.db import begin_immediate
+from app.models import Graph
+from app.store.graphs import GraphNotFound
+
+
+def lock_graph(session: Session, graph_id: int) -> Graph:
+    """The graph row, locked until the transaction ends.
+
+    PostgreSQL: ``SELECT ... FOR UPDATE``. SQLite has no row locks: the transaction is
+    begun IMMEDIATE (the database's write lock), which must happen before any statement
+    of the transaction, so call this first.
+    """
+    begin_immediate(session)
+    stmt = select(Graph).where(Graph.id == graph_id).execution_options(populate_existing=True)
+    if session.get_bind().dialect.name != "sqlite":
+        stmt = stmt.with_for_update()
+    row = session.scalars(stmt).one_or_none()
+    if row is None:
+        raise GraphNotFound(f"no graph {graph_id!r}")
+    return row
