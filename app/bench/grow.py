@@ -23,19 +23,14 @@ import subprocess
 import sys
 import tempfile
 import time
-import uuid
 from collections import deque
-from collections.abc import Iterator
 from concurrent.futures import ProcessPoolExecutor
-from contextlib import contextmanager
 from pathlib import Path
 from typing import Any
 
 import numpy as np
-from sqlalchemy import text
-from sqlalchemy.engine import make_url
-from tenacity import Retrying, retry_if_exception_type, stop_after_delay, wait_fixed
 
+from app.bench.scratch import scratch_database, scratch_redis
 from app.config import Settings
 from app.core.clipbank import MemoryClipBank
 from app.core.dynamics import Dynamics
@@ -45,62 +40,6 @@ from app.db import make_engine, session_factory
 from app.liquid.devices import LiquidDevices
 
 ROOT = Path(__file__).resolve().parents[2]
-
-
-@contextmanager
-def _database(server_url: str) -> Iterator[str]:
-    """A fresh, migrated database on the PostgreSQL server of ``server_url``, then dropped."""
-    from alembic.config import Config
-
-    from alembic import command
-
-    url = make_url(server_url)
-    name = f"srg_bench_{uuid.uuid4().hex[:8]}"
-    admin = make_engine(
-        url.set(database="postgres").render_as_string(False), isolation_level="AUTOCOMMIT"
-    )
-    with admin.connect() as connection:
-        connection.execute(text(f'CREATE DATABASE "{name}"'))
-    created = url.set(database=name).render_as_string(hide_password=False)
-    engine = make_engine(created)
-    with engine.begin() as connection:
-        config = Config(str(ROOT / "alembic.ini"))
-        config.attributes["connection"] = connection
-        config.attributes["configure_logger"] = False
-        command.upgrade(config, "head")
-    engine.dispose()
-    try:
-        yield created
-    finally:
-        with admin.connect() as connection:
-            connection.execute(text(f'DROP DATABASE IF EXISTS "{name}" WITH (FORCE)'))
-        admin.dispose()
-
-
-@contextmanager
-def _redis(directory: Path) -> Iterator[str]:
-    import socket
-
-    import redis
-
-    with socket.socket() as sock:
-        sock.bind(("127.0.0.1", 0))
-        port = sock.getsockname()[1]
-    process = subprocess.Popen(
-        ["redis-server", "--port", str(port), "--save", "", "--dir", str(directory)],
-        stdout=subprocess.DEVNULL,
-    )
-    try:
-        Retrying(
-            stop=stop_after_delay(5),
-            wait=wait_fixed(0.1),
-            retry=retry_if_exception_type(redis.RedisError),
-            reraise=True,
-        )(redis.Redis(port=port).ping)
-        yield f"redis://127.0.0.1:{port}/0"
-    finally:
-        process.terminate()
-        process.wait()
 
 
 def _throughput(
@@ -117,8 +56,8 @@ def _throughput(
 
     with (
         tempfile.TemporaryDirectory() as tmp,
-        _redis(Path(tmp)) as broker,
-        _database(settings.test_postgres_url) as url,
+        scratch_redis(Path(tmp)) as broker,
+        scratch_database(settings.test_postgres_url) as url,
     ):
         fields = {
             "broker_url": broker,
@@ -296,7 +235,7 @@ def _integration(
     scene: dict[str, object] = {"fps": dynamics.fps}
     if preset is not None:
         scene["preset"] = preset
-    with tempfile.TemporaryDirectory() as tmp, _database(settings.test_postgres_url) as url:
+    with tempfile.TemporaryDirectory() as tmp, scratch_database(settings.test_postgres_url) as url:
         fields: dict[str, Any] = {
             "database_url": url,
             "var_dir": Path(tmp),
@@ -330,9 +269,7 @@ def _integration(
         with sessions() as session:
             for position in range(len(plan.expansions)):
                 for control in range(dynamics.n_controls):
-                    stage = clips.simulate_step(
-                        session, settings, plan.epoch_id, position, control
-                    )
+                    stage = clips.simulate_step(session, settings, plan.epoch_id, position, control)
                     clips.sdf_step(session, settings, stage, plan.epoch_id, position, control)
             session.commit()
         spawn = multiprocessing.get_context("spawn")

@@ -29,6 +29,7 @@ from app.api.local_server import serve_in_thread
 from app.config import Settings
 from app.core.bots import BotKind, play_sessions
 from app.core.clipbank import MemoryClipBank
+from app.core.errors import InvalidInput
 from app.core.graph import StateGraph
 from app.core.growth import expand_blend_edge, initial_tree
 from app.core.toy import ToyDynamics
@@ -135,7 +136,7 @@ def bench_ingest(
 ) -> dict[str, Any]:
     """Run the load and return counts, throughput and latency percentiles (JSON-ready)."""
     if clients < 1 or uploads < 1:
-        raise ValueError("--clients and --uploads must be at least 1")
+        raise InvalidInput("--clients and --uploads must be at least 1")
     with tempfile.TemporaryDirectory(prefix="srg-bench-ingest-") as tmp:
         url = database_url or f"sqlite:///{Path(tmp) / 'bench.sqlite3'}"
         settings = Settings(

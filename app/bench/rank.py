@@ -12,6 +12,7 @@ import time
 import numpy as np
 import scipy.sparse as sp
 
+from app.core.errors import InvalidInput
 from app.core.player_models import heuristic_player_model
 from app.core.staterank import StateRankResult, staterank
 
@@ -44,7 +45,7 @@ def bench_rank(n_edges: int = 1_000_000, n_controls: int = 3, seed: int = 0) -> 
         counts and residuals.
     """
     if n_controls < 1 or n_edges < 2 * n_controls:
-        raise ValueError(f"need n_controls >= 1 and n_edges >= 2 * n_controls, got {n_edges}")
+        raise InvalidInput(f"need n_controls >= 1 and n_edges >= 2 * n_controls, got {n_edges}")
     rng = np.random.default_rng(seed)
     n_vertices = n_edges // n_controls
     restart = 1.0 / SESSION_STEPS

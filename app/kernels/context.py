@@ -16,6 +16,8 @@ from importlib import resources
 
 import pyopencl as cl
 
+from app.core.errors import Unavailable
+
 log = logging.getLogger(__name__)
 
 #: explicit build options: IEEE float32 semantics (no fast-math), for reproducible output
@@ -52,13 +54,13 @@ def select_device(name_contains: str) -> cl.Device:
     """First device whose name contains ``name_contains``; '' prefers a PoCL CPU device."""
     devices = [(p, d) for p in cl.get_platforms() for d in p.get_devices()]
     if not devices:
-        raise RuntimeError("no OpenCL device found")
+        raise Unavailable("no OpenCL device found")
     if name_contains:
         for _, d in devices:
             if name_contains.lower() in d.name.lower():
                 return d
         names = [d.name for _, d in devices]
-        raise RuntimeError(f"no OpenCL device matches {name_contains!r}; have {names}")
+        raise Unavailable(f"no OpenCL device matches {name_contains!r}; have {names}")
     for p, d in devices:
         if "portable computing language" in p.name.lower() and d.type & cl.device_type.CPU:
             return d

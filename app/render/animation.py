@@ -15,6 +15,8 @@ import io
 import numpy as np
 from PIL import Image
 
+from app.core.errors import InvalidInput
+
 STRIP_MEDIA_TYPE = "image/webp"
 POSTER_MEDIA_TYPE = "image/webp"
 #: lossy WebP quality: at 160 x 120 it keeps a frame near 3 KB with no visible blocking
@@ -42,7 +44,7 @@ def decode_strip(data: bytes, frames: int) -> np.ndarray:
     strip = np.asarray(Image.open(io.BytesIO(data)).convert("RGB"))
     h, total, _ = strip.shape
     if total % frames:
-        raise ValueError(f"a strip {total} px wide does not hold {frames} equal frames")
+        raise InvalidInput(f"a strip {total} px wide does not hold {frames} equal frames")
     return strip.reshape(h, frames, total // frames, 3).transpose(1, 0, 2, 3)
 
 

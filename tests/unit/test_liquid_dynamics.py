@@ -5,9 +5,11 @@ from __future__ import annotations
 import numpy as np
 import pytest
 
+from app.config import Settings
 from app.core.dynamics import Dynamics, SimClip
 from app.core.surface import dequantise_sdf, liquid_volumes, occupancy
 from app.liquid.adapter import LiquidDynamics, load_calibration
+from app.liquid.devices import LiquidDevices
 
 
 @pytest.fixture(scope="module")
@@ -73,3 +75,11 @@ def test_blend_of_nearby_clips(dyn: LiquidDynamics, rest: np.ndarray, tilted: Si
     bound = np.maximum(volumes(dyn, tilted.frames), volumes(dyn, later.frames))
     assert np.all(volumes(dyn, blended) <= 1.10 * bound)
     assert dyn.dist(dyn.features(tilted), dyn.features(later), 1) > 0.0
+
+
+def test_the_devices_default_to_the_embedded_configuration() -> None:
+    # a liquid made without devices runs where an unconfigured srg runs it
+    assert LiquidDevices() == LiquidDevices.from_settings(Settings.model_construct())
+    assert LiquidDynamics("tiny").devices == LiquidDevices()
+    chosen = LiquidDevices(opencl_device="cpu", render_variant="scalar_rgb")
+    assert LiquidDynamics("tiny", devices=chosen).devices is chosen

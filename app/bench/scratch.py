@@ -1,0 +1,78 @@
+"""Throwaway services for the benchmarks: a migrated PostgreSQL database, a Redis server.
+
+Each lives for one ``with`` block and leaves nothing behind, so a benchmark never touches
+the user's own database or broker.
+"""
+
+from __future__ import annotations
+
+import subprocess
+import uuid
+from collections.abc import Iterator
+from contextlib import contextmanager
+from pathlib import Path
+
+from sqlalchemy import text
+from sqlalchemy.engine import make_url
+from tenacity import Retrying, retry_if_exception_type, stop_after_delay, wait_fixed
+
+from app.db import make_engine
+
+ROOT = Path(__file__).resolve().parents[2]
+
+
+@contextmanager
+def scratch_database(server_url: str) -> Iterator[str]:
+    """A fresh, migrated database on the PostgreSQL server of ``server_url``, then dropped."""
+    from alembic.config import Config
+
+    from alembic import command
+
+    url = make_url(server_url)
+    name = f"srg_bench_{uuid.uuid4().hex[:8]}"
+    admin = make_engine(
+        url.set(database="postgres").render_as_string(False), isolation_level="AUTOCOMMIT"
+    )
+    with admin.connect() as connection:
+        connection.execute(text(f'CREATE DATABASE "{name}"'))
+    created = url.set(database=name).render_as_string(hide_password=False)
+    engine = make_engine(created)
+    with engine.begin() as connection:
+        config = Config(str(ROOT / "alembic.ini"))
+        config.attributes["connection"] = connection
+        config.attributes["configure_logger"] = False
+        command.upgrade(config, "head")
+    engine.dispose()
+    try:
+        yield created
+    finally:
+        with admin.connect() as connection:
+            connection.execute(text(f'DROP DATABASE IF EXISTS "{name}" WITH (FORCE)'))
+        admin.dispose()
+
+
+@contextmanager
+def scratch_redis(directory: Path) -> Iterator[str]:
+    """A private ``redis-server`` on a free port (no persistence), stopped afterwards."""
+    import socket
+
+    import redis
+
+    with socket.socket() as sock:
+        sock.bind(("127.0.0.1", 0))
+        port = sock.getsockname()[1]
+    process = subprocess.Popen(
+        ["redis-server", "--port", str(port), "--save", "", "--dir", str(directory)],
+        stdout=subprocess.DEVNULL,
+    )
+    try:
+        Retrying(
+            stop=stop_after_delay(5),
+            wait=wait_fixed(0.1),
+            retry=retry_if_exception_type(redis.RedisError),
+            reraise=True,
+        )(redis.Redis(port=port).ping)
+        yield f"redis://127.0.0.1:{port}/0"
+    finally:
+        process.terminate()
+        process.wait()
