@@ -18,6 +18,8 @@ import time
 from pathlib import Path
 from typing import Any
 
+from app.core.errors import InvalidInput
+
 SRG = str(Path(sys.executable).with_name("srg"))
 
 
@@ -38,7 +40,7 @@ def bench_experiment(arguments: list[str]) -> dict[str, Any]:
         )
         wall = time.perf_counter() - started
         if done.returncode != 0:
-            raise ValueError(done.stderr.strip().splitlines()[-1].removeprefix("srg: error: "))
+            raise InvalidInput(done.stderr.strip().splitlines()[-1].removeprefix("srg: error: "))
         after = resource.getrusage(resource.RUSAGE_CHILDREN)
         result = json.loads(out.read_text())
     cpu = (after.ru_utime - before.ru_utime) + (after.ru_stime - before.ru_stime)
