@@ -8,19 +8,12 @@ from sqlalchemy import func, select
 from sqlalchemy.orm import Session
 
 from app.api.schemas import EdgeOut, GraphSummary, PublicationOut
-from app.core.errors import NotFound
 from app.core.graph import EdgeKind
 from app.models import Artifact, Graph, PublicationEdge
 from app.models import Publication as PublicationRow
-from app.store.graphs import get_graph_row
-from app.store.publications import latest_publication
 
 DEFAULT_FPS = 30.0
 ANIMATION_MEDIA_PREFIX = "image/"
-
-
-class NoPublication(NotFound):
-    """The graph exists but has never been published."""
 
 
 def list_graphs(session: Session) -> list[GraphSummary]:
@@ -50,14 +43,6 @@ def list_graphs(session: Session) -> list[GraphSummary]:
         )
         for name, dynamics, n_controls, frames, publication_id in rows
     ]
-
-
-def latest_publication_id(session: Session, graph_name: str) -> tuple[Graph, int]:
-    graph = get_graph_row(session, graph_name)
-    row = latest_publication(session, graph.id)
-    if row is None:
-        raise NoPublication(f"graph {graph.name!r} has no publication yet")
-    return graph, row.id
 
 
 def publication_out(session: Session, graph: Graph, publication_id: int) -> PublicationOut:

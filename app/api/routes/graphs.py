@@ -9,8 +9,10 @@ from app.api.cache import FrozenCache
 from app.api.deps import get_session
 from app.api.encoding import EncodedJson, accepts_gzip, etag_matches
 from app.api.errors import error_responses
-from app.api.queries import latest_publication_id, list_graphs, publication_out
+from app.api.queries import list_graphs, publication_out
 from app.api.schemas import GraphSummary, PublicationOut
+from app.store.graphs import get_graph_row
+from app.store.publications import latest_publication_id
 
 router = APIRouter(prefix="/api/graphs", tags=["graphs"])
 
@@ -39,7 +41,8 @@ def latest_publication(
     ``no-cache``: browsers revalidate (``If-None-Match``, answered 304 while the
     publication is still the latest), because a newer one may appear any time.
     """
-    graph, publication_id = latest_publication_id(session, name)
+    graph = get_graph_row(session, name)
+    publication_id = latest_publication_id(session, graph.id)
     rendered: FrozenCache[EncodedJson] = request.app.state.publication_json
     encoded = rendered.get_or_load(
         publication_id,
