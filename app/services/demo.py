@@ -24,23 +24,19 @@ from app.core.strategies import Strategy
 from app.db import transaction
 from app.models import Graph, PublicationEdge
 from app.reports.experiment import ArraysLoader, write_report
-from app.services.experiment import (
+from app.services.dynamics import QUICK_LIQUID_PRESET
+from app.services.experiment.plan import (
     ExperimentExists,
     ExperimentPlan,
-    Grower,
     NothingToResume,
-    Progress,
     create_experiment,
-    run_experiment,
     run_graph_name,
     stored_plan,
 )
-from app.services.graphs import (
-    PublishResult,
-    artifact_store,
-    count_missing_animations,
-    publish_graph,
-)
+from app.services.experiment.runs import Grower, Progress, run_experiment
+from app.services.loading import artifact_store
+from app.services.publishing import PublishResult, publish_graph
+from app.store.animations import count_missing_animations
 
 #: graph sizes (frames) where bots play: on `tiny` the two strategies part by 1,500
 DEMO_CHECKPOINTS = (300, 600, 1_000, 1_500)
@@ -64,7 +60,7 @@ class DemoRow:
 
 def demo_plan(
     dynamics: str = "liquid",
-    preset: str | None = "tiny",
+    preset: str | None = QUICK_LIQUID_PRESET,
     fluid: str | None = None,
     checkpoints: tuple[int, ...] = DEMO_CHECKPOINTS,
     sessions: int = 30,
@@ -82,6 +78,7 @@ def demo_plan(
 
 
 def run_demo(
+    settings: Settings,
     name: str,
     plan: ExperimentPlan,
     grower: Grower,
@@ -93,13 +90,13 @@ def run_demo(
     try:
         stored = stored_plan(name)
     except NothingToResume:
-        create_experiment(name, plan)
+        create_experiment(settings, name, plan)
     else:
         if replace(stored, high_error_threshold=None) != plan:
             raise ExperimentExists(
                 f"a demo named {name!r} was run with other settings: choose another --name"
             )
-    return run_experiment(name, grower, jobs=jobs, progress=progress)
+    return run_experiment(settings, name, grower, jobs=jobs, progress=progress)
 
 
 def publish_playable(

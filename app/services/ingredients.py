@@ -14,9 +14,8 @@ from __future__ import annotations
 from typing import Any
 
 import numpy as np
-from sqlalchemy import select
 
-from app.config import get_settings
+from app.config import Settings
 from app.core.player_models import (
     crowd_player_model,
     heuristic_player_model,
@@ -27,9 +26,10 @@ from app.core.player_models import (
 from app.core.prediction import prediction_figures
 from app.core.strategies import Strategy
 from app.db import transaction
-from app.models import ExperimentCheckpoint
-from app.services.experiment import experiment_id, run_graph_name
-from app.services.graphs import open_graph, refiner_config
+from app.services.experiment.plan import run_graph_name, stored_experiment_id
+from app.services.loading import open_graph
+from app.services.refining import refiner_config
+from app.store.experiments import checkpoint_rows
 from app.store.publications import load_publication
 from app.store.traces import load_traces
 
@@ -47,19 +47,12 @@ VARIANTS = (
 )
 
 
-def eq2_ingredients(name: str) -> list[dict[str, Any]]:
+def eq2_ingredients(settings: Settings, name: str) -> list[dict[str, Any]]:
     """One row per (seed, checkpoint, variant) of the experiment's sr-crowd runs."""
-    settings = get_settings()
     rows: list[dict[str, Any]] = []
     with transaction() as session:
-        checkpoints = session.scalars(
-            select(ExperimentCheckpoint)
-            .where(
-                ExperimentCheckpoint.experiment_id == experiment_id(session, name),
-                ExperimentCheckpoint.strategy == Strategy.SR_CROWD.value,
-            )
-            .order_by(ExperimentCheckpoint.seed, ExperimentCheckpoint.checkpoint)
-        ).all()
+        stored = stored_experiment_id(session, name)
+        checkpoints = checkpoint_rows(session, stored, strategy=Strategy.SR_CROWD.value)
         for checkpoint in checkpoints:
             earlier = [
                 c.publication_id

@@ -3,6 +3,7 @@
 from __future__ import annotations
 
 import json
+from functools import partial
 from pathlib import Path
 from typing import Any
 
@@ -17,13 +18,10 @@ from app.core.player_models import PlayerModelKind, robust_session_length
 from app.core.publication import Publication
 from app.core.strategies import Strategy
 from app.db import get_engine
-from app.services import experiment
-from app.services.experiment import (
-    ExperimentPlan,
-    create_experiment,
-    parse_checkpoints,
-    run_experiment,
-)
+from app.services.experiment import checkpoint
+from app.services.experiment.plan import ExperimentPlan, create_experiment, parse_checkpoints
+from app.services.experiment.results import PREDICTION_KEYS, prediction_summary
+from app.services.experiment.runs import grow_in_process, run_experiment
 
 
 @pytest.mark.parametrize("text", ["", "a,b", "300,200", "0,100", "100,100"])
@@ -57,15 +55,17 @@ def test_prediction_is_for_the_publication_played_from_earlier_traces(
         predictions.append(np.asarray(predicted))
         return evaluate_checkpoint(traces, err, n, predicted, *a, **k)
 
-    monkeypatch.setattr(experiment, "play_sessions", recording_play)
-    monkeypatch.setattr(experiment, "evaluate_checkpoint", recording_evaluate)
+    monkeypatch.setattr(checkpoint, "play_sessions", recording_play)
+    monkeypatch.setattr(checkpoint, "evaluate_checkpoint", recording_evaluate)
     plan = ExperimentPlan(
         strategies=(Strategy.SR_CROWD,), seeds=(1,), checkpoints=(600, 1_500), sessions=10,
         mean_steps=30,
     )  # fmt: skip
-    create_experiment("prediction", plan)
+    settings = get_settings()
+    create_experiment(settings, "prediction", plan)
     progress: list[int] = []
-    result = run_experiment("prediction", progress=progress.append)
+    grower = partial(grow_in_process, settings)
+    result = run_experiment(settings, "prediction", grower, progress=progress.append)
     rows = result["results"]["sr-crowd"]["1"]
     assert sum(progress) >= 1_500
     assert any(int(row["relinked_before_publish"]) > 0 for row in rows)  # type: ignore[call-overload]
@@ -80,7 +80,6 @@ def test_prediction_is_for_the_publication_played_from_earlier_traces(
         np.testing.assert_allclose(pi, (1.0 - rho) * inflow + restart, atol=1e-8)
         assert row["predicted_expected_error"] == pytest.approx(float(prob @ publication.edge_err))
     # the second prediction knows the first publication's sessions, not its own
-    settings = get_settings()
     first = robust_session_length(
         sessions[0], default=settings.restart_steps, ceiling=settings.max_session_steps
     )
@@ -151,12 +150,10 @@ def test_a_stored_plan_with_an_unknown_model_or_bot_is_refused(
 
 def prediction_row(value: float, *, fixed: float | None = None) -> dict[str, Any]:
     """A checkpoint's row whose prediction figures are ``value`` plus the key's index."""
-    row: dict[str, Any] = {
-        key: value + index for index, key in enumerate(experiment.PREDICTION_KEYS)
-    }
+    row: dict[str, Any] = {key: value + index for index, key in enumerate(PREDICTION_KEYS)}
     if fixed is not None:
         row["fixed_graph"] = {
-            **{key: fixed + index for index, key in enumerate(experiment.PREDICTION_KEYS)},
+            **{key: fixed + index for index, key in enumerate(PREDICTION_KEYS)},
             "observed_split_half_correlation": fixed + 0.5,
         }
     return row
@@ -177,7 +174,7 @@ def test_prediction_summary_lists_the_last_checkpoints_per_seed_in_seed_order() 
             "0": [prediction_row(40.0)],
         },
     }
-    summary = experiment.prediction_summary(results)
+    summary = prediction_summary(results)
     grown = summary["grown_graph"]
     assert set(grown) == {"baseline", "sr-crowd", "sr-heuristic"}
     assert grown["baseline"]["seeds"] == ["2", "0"]
@@ -196,6 +193,6 @@ def test_prediction_summary_lists_the_last_checkpoints_per_seed_in_seed_order() 
 def test_prediction_summary_keeps_figures_a_row_lacks_as_none() -> None:
     row = prediction_row(1.0)
     del row["predicted_mass_unvisited"]  # baseline learns nothing: no unvisited mass
-    summary = experiment.prediction_summary({"baseline": {"0": [row]}})
+    summary = prediction_summary({"baseline": {"0": [row]}})
     assert summary["grown_graph"]["baseline"]["predicted_mass_unvisited"] == [None]
     assert summary["fixed_graph"] == {}

@@ -1,0 +1,178 @@
+"""The runs of an experiment through their checkpoints, resumable, in parallel processes.
+
+Growth goes through a :data:`Grower`: in-process (:func:`grow_in_process`), or the
+Celery ``grow_epoch`` workflow on workers (``app.tasks.growth.grow_on_workers``), which
+the shell picks. Runs are independent, so they go to parallel processes; a run skips
+the checkpoints already stored, which is what makes ``--resume`` work
+(docs/experiment.md).
+"""
+
+from __future__ import annotations
+
+import resource
+import time
+from collections.abc import Callable
+from multiprocessing import get_context
+from typing import Any
+
+from app.config import Settings
+from app.core.strategies import parse_strategy
+from app.db import transaction
+from app.services.creation import init_graph
+from app.services.experiment.checkpoint import checkpoint_figures
+from app.services.experiment.plan import (
+    ExperimentPlan,
+    run_graph_name,
+    stored_experiment_id,
+    stored_plan,
+)
+from app.services.experiment.results import collect
+from app.services.growing import grow_graph
+from app.services.loading import artifact_store
+from app.store.experiments import add_checkpoint, done_checkpoints, frames_of_graphs
+from app.store.graphs import graph_exists
+
+#: seconds between two looks at the run processes (and the frames they grew)
+PROGRESS_POLL = 1.0
+
+Progress = Callable[[int], None]
+#: grows the stored graph ``name`` to at least ``to_frames`` frames, ``batch`` blends an epoch
+Grower = Callable[[str, int, int, Progress | None], None]
+
+
+def grow_in_process(
+    settings: Settings, name: str, to_frames: int, batch: int, progress: Progress | None
+) -> None:
+    """Grow in this process, every step its own transaction, without renders.
+
+    A :data:`Grower` once its settings are bound (``functools.partial``, which a
+    spawned run process can unpickle).
+    """
+    grow_graph(
+        transaction,
+        settings,
+        name=name,
+        to_frames=to_frames,
+        renders=False,
+        batch_size=batch,
+        progress=progress,
+    )
+
+
+def run_experiment(
+    settings: Settings,
+    name: str,
+    grower: Grower,
+    *,
+    jobs: int = 1,
+    progress: Progress | None = None,
+) -> dict[str, Any]:
+    """Run (or finish) every run of a stored experiment; return :func:`collect`'s result.
+
+    ``jobs > 1`` runs that many (strategy, seed) runs at once in spawned processes
+    (PyOpenCL contexts do not survive a fork); progress then comes from the database.
+    """
+    plan = stored_plan(name)
+    started = time.perf_counter()
+    if jobs <= 1:
+        for strategy, seed in plan.runs:
+            run_one(settings, name, strategy.value, seed, grower, progress)
+    else:
+        _run_in_processes(settings, name, plan, grower, jobs, progress)
+    return collect(settings, name, seconds=time.perf_counter() - started)
+
+
+def _run_in_processes(
+    settings: Settings,
+    name: str,
+    plan: ExperimentPlan,
+    grower: Grower,
+    jobs: int,
+    progress: Progress | None,
+) -> None:
+    """The runs in a pool of spawned processes; the first failure stops them all (what
+    they finished is stored, so ``--resume`` goes on from there)."""
+    with get_context("spawn").Pool(jobs, maxtasksperchild=1) as pool:  # exit: terminate
+        pending = [
+            pool.apply_async(run_one, (settings, name, strategy.value, seed, grower, None))
+            for strategy, seed in plan.runs
+        ]
+        reported = 0
+        while pending:
+            time.sleep(PROGRESS_POLL)
+            for finished in [run for run in pending if run.ready()]:
+                finished.get()  # re-raises a run's error here
+                pending.remove(finished)
+            if progress is not None:
+                grown = frames_grown(name, plan)
+                progress(grown - reported)
+                reported = grown
+
+
+def frames_grown(name: str, plan: ExperimentPlan) -> int:
+    """Frames stored so far over every run's graph (what the progress bar counts)."""
+    with transaction() as session:
+        return frames_of_graphs(session, [run_graph_name(name, s, seed) for s, seed in plan.runs])
+
+
+def run_one(
+    settings: Settings,
+    name: str,
+    strategy_name: str,
+    seed: int,
+    grower: Grower,
+    progress: Progress | None = None,
+) -> None:
+    """One run through its checkpoints, skipping those already stored (a resume)."""
+    strategy = parse_strategy(strategy_name)
+    plan = stored_plan(name)
+    graph = run_graph_name(name, strategy, seed)
+    with transaction() as session:
+        stored_id = stored_experiment_id(session, name)
+        done = done_checkpoints(session, stored_id, strategy.value, seed)
+        exists = graph_exists(session, graph)
+    if not exists:
+        with transaction() as session:
+            summary = init_graph(
+                session,
+                settings,
+                name=graph,
+                dynamics=plan.dynamics,
+                preset=plan.preset,
+                fluid=plan.fluid,
+                strategy=strategy.value,
+                seed=seed,
+                player_model=plan.player_model.value,
+            )
+        if progress is not None:
+            progress(int(summary["size_frames"]))  # type: ignore[call-overload]
+    for index, checkpoint in enumerate(plan.checkpoints):
+        if index in done:
+            continue
+        started = time.perf_counter()
+        grower(graph, checkpoint, plan.batch_size, progress)
+        grow_seconds = time.perf_counter() - started
+        with transaction() as session:
+            figures, arrays = checkpoint_figures(
+                session, settings, plan, graph, strategy, seed, index
+            )
+            figures["grow_seconds"] = round(grow_seconds, 3)
+            figures["checkpoint_seconds"] = round(time.perf_counter() - started, 3)
+            figures["resident_mb"] = round(_resident_mb(), 1)
+            add_checkpoint(
+                session,
+                stored_id,
+                strategy=strategy.value,
+                seed=seed,
+                checkpoint=index,
+                graph_id=figures.pop("graph_id"),
+                publication_id=figures["publication_id"],
+                figures=figures,
+                arrays=artifact_store(settings).put_arrays(arrays, session=session),
+                seconds=figures["checkpoint_seconds"],
+            )
+
+
+def _resident_mb() -> float:
+    """Peak resident memory of this process (Linux reports ru_maxrss in KiB)."""
+    return resource.getrusage(resource.RUSAGE_SELF).ru_maxrss / 1024.0
