@@ -16,13 +16,11 @@ from pathlib import Path
 from typing import Any
 
 import numpy as np
-from sqlalchemy import select
 from sqlalchemy.orm import Session
 
 from app.config import Settings
 from app.core.strategies import Strategy
 from app.db import transaction
-from app.models import Graph, PublicationEdge
 from app.reports.experiment import ArraysLoader, write_report
 from app.services.dynamics import QUICK_LIQUID_PRESET
 from app.services.experiment.plan import (
@@ -36,7 +34,8 @@ from app.services.experiment.plan import (
 from app.services.experiment.runs import Grower, Progress, run_experiment
 from app.services.loading import artifact_store
 from app.services.publishing import PublishResult, publish_graph
-from app.store.animations import count_missing_animations
+from app.store.animations import count_missing_animations, publication_animations
+from app.store.graphs import get_graph_row, graph_exists
 
 #: graph sizes (frames) where bots play: on `tiny` the two strategies part by 1,500
 DEMO_CHECKPOINTS = (300, 600, 1_000, 1_500)
@@ -110,11 +109,11 @@ def publish_playable(
 
 def unrendered_edges(name: str, plan: ExperimentPlan) -> int:
     """Edges of the playable graph without an animation yet (what publishing renders)."""
+    graph = run_graph_name(name, PLAYABLE, plan.seeds[0])
     with transaction() as session:
-        graph = session.scalar(
-            select(Graph.id).where(Graph.name == run_graph_name(name, PLAYABLE, plan.seeds[0]))
-        )
-        return 0 if graph is None else count_missing_animations(session, graph)
+        if not graph_exists(session, graph):
+            return 0
+        return count_missing_animations(session, get_graph_row(session, graph).id)
 
 
 def demo_rows(result: dict[str, Any]) -> list[DemoRow]:
@@ -158,7 +157,6 @@ def contact_sheet(
     """Middle frames of the latest publication's most visited animations, in a grid."""
     from app.render.animation import decode_strip
     from app.store.analytics import visit_counts
-    from app.store.graphs import get_graph_row
     from app.store.publications import latest_publication
 
     row = get_graph_row(session, name)
@@ -166,15 +164,9 @@ def contact_sheet(
     if latest is None:
         return None
     visited = [int(v["vertex"]) for v in visit_counts(session, row.id)]
-    animations = session.execute(
-        select(PublicationEdge.vertex, PublicationEdge.animation).where(
-            PublicationEdge.publication_id == latest.id, PublicationEdge.animation.is_not(None)
-        )
-    ).all()
     by_vertex: dict[int, str] = {}
-    for vertex, animation in animations:
-        if animation is not None:
-            by_vertex.setdefault(vertex, animation)
+    for vertex, animation in publication_animations(session, latest.id):
+        by_vertex.setdefault(vertex, animation)
     chosen = [by_vertex[v] for v in visited if v in by_vertex][:edges] or list(by_vertex.values())[
         :edges
     ]

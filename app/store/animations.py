@@ -13,7 +13,7 @@ from sqlalchemy import func, select, update
 from sqlalchemy.orm import Session
 
 from app.core.graph import EdgeKind
-from app.models import Clip, Edge
+from app.models import Clip, Edge, PublicationEdge
 from app.store.graphs import get_graph_row
 
 
@@ -78,3 +78,14 @@ def count_missing_animations(session: Session, graph_id: int) -> int:
         select(func.count()).where(Edge.graph_id == graph_id, Edge.animation.is_(None))
     )
     return int(count or 0)
+
+
+def publication_animations(session: Session, publication_id: int) -> list[tuple[int, str]]:
+    """(vertex, strip) of every edge of the publication that has a strip."""
+    rows = session.execute(
+        select(PublicationEdge.vertex, PublicationEdge.animation).where(
+            PublicationEdge.publication_id == publication_id,
+            PublicationEdge.animation.is_not(None),
+        )
+    )
+    return [(vertex, animation) for vertex, animation in rows if animation is not None]

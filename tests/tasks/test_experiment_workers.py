@@ -18,7 +18,7 @@ from sqlalchemy import func, select
 from tasks_cluster import Cluster
 
 from app.models import ExperimentCheckpoint, GrowthEpoch
-from app.services.experiment import comparable_figures
+from app.services.experiment.results import comparable_figures
 
 pytestmark = [pytest.mark.slow, pytest.mark.postgres, pytest.mark.redis]
 SRG = str(Path(sys.executable).with_name("srg"))
@@ -30,7 +30,7 @@ PLAN = (
 
 def experiment(env: dict[str, str], out: Path) -> dict[str, Any]:
     done = subprocess.run(
-        [SRG, "experiment", *PLAN, "--json", str(out)],
+        [SRG, "experiment", *PLAN, "--result", str(out)],
         env=env,
         capture_output=True,
         text=True,
