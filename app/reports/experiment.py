@@ -1,4 +1,4 @@
-"""Plots and a markdown report of an experiment (the dict of ``services.experiment.collect``).
+"""Plots and a markdown report of an experiment (``app.services.experiment.results.collect``).
 
 The figures are the paper's: Fig. 5 (mean observed error against graph size), Fig. 6
 (high-error fraction), Fig. 7 (error histograms at the last checkpoint), Figs. 8/9
