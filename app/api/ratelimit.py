@@ -21,20 +21,22 @@ import ipaddress
 import logging
 import math
 import time
-from collections.abc import Sequence
-from typing import Literal
+from collections.abc import Callable, Sequence
+from typing import Literal, TypeVar
 
 from fastapi import Depends, Request
 from limits import RateLimitItem, RateLimitItemPerMinute, parse_many
-from limits.errors import StorageError
+from limits.errors import ConfigurationError, StorageError
 from limits.storage import MemoryStorage, MovingWindowSupport, Storage, storage_from_string
 from limits.strategies import MovingWindowRateLimiter
 
 from app.api.deps import current_player
 from app.api.errors import ApiError
 from app.config import Settings
+from app.core.errors import InvalidInput
 
 log = logging.getLogger(__name__)
+T = TypeVar("T")
 
 Network = ipaddress.IPv4Network | ipaddress.IPv6Network
 #: seconds a request waits at most for the shared storage before it counts as down
@@ -49,11 +51,13 @@ class RateLimits:
         self.player_uploads: list[RateLimitItem] = [
             RateLimitItemPerMinute(settings.uploads_per_minute)
         ]
-        self.address_uploads = parse_many(settings.address_upload_rate)
-        self.registrations = parse_many(settings.registration_rate)
-        self.trusted_proxies = parse_networks(settings.trusted_proxies)
-        uri = settings.rate_limit_storage or settings.resolved_redis_url or "memory://"
-        self.storage = _storage(uri)
+        self.address_uploads = _setting("address_upload_rate", parse_many, settings)
+        self.registrations = _setting("registration_rate", parse_many, settings)
+        self.trusted_proxies = _setting("trusted_proxies", parse_networks, settings)
+        if settings.rate_limit_storage:
+            self.storage = _setting("rate_limit_storage", _storage, settings)
+        else:
+            self.storage = _storage(settings.resolved_redis_url or "memory://")
         self.shared = not isinstance(self.storage, MemoryStorage)
         self._limiter = MovingWindowRateLimiter(self.storage)
         self._fallback = MovingWindowRateLimiter(MemoryStorage())
@@ -97,6 +101,15 @@ class RateLimits:
         self._storage_down = True
 
 
+def _setting(name: str, parse: Callable[[str], T], settings: Settings) -> T:
+    """The setting ``name`` parsed; a value the parser refuses is the operator's to fix, so
+    it is an :class:`InvalidInput` naming the variable (``srg serve`` says it in one line)."""
+    try:
+        return parse(getattr(settings, name))
+    except (ValueError, ConfigurationError) as exc:
+        raise InvalidInput(f"SRG_{name.upper()}: {exc}") from None
+
+
 def _storage(uri: str) -> Storage:
     options: dict[str, float | str | bool] = {"wrap_exceptions": True}
     if uri.startswith(("redis://", "rediss://", "redis+unix://")):
@@ -111,7 +124,7 @@ def _storage(uri: str) -> Storage:
 
 
 def parse_networks(spec: str) -> tuple[Network, ...]:
-    """``"10.0.0.0/8, 127.0.0.1"`` as networks; a bad entry is a ValueError at startup."""
+    """``"10.0.0.0/8, 127.0.0.1"`` as networks; a bad entry is a ``ValueError``."""
     return tuple(
         ipaddress.ip_network(part.strip(), strict=False) for part in spec.split(",") if part.strip()
     )

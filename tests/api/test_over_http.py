@@ -9,7 +9,7 @@ import pytest
 from sqlalchemy import func, select
 
 from app.api.app import create_app
-from app.api.client import play_over_http
+from app.api.client import ServerError, play_over_http
 from app.api.local_server import serve_in_thread
 from app.bench.ingest import bench_ingest, build_toy_graph
 from app.config import Settings
@@ -50,7 +50,7 @@ def test_bots_play_over_http_and_every_trace_is_stored(settings: Settings) -> No
 def test_an_unknown_graph_over_http_names_the_server_error(settings: Settings) -> None:
     with (
         serve_in_thread(create_app(settings)) as base_url,
-        pytest.raises(RuntimeError, match="404 no graph 'nope'"),
+        pytest.raises(ServerError, match="404 no graph 'nope'"),
     ):
         play_over_http(base_url, "nope", "random", 1, 5, seed=0)
 

@@ -17,8 +17,9 @@ from database_helpers import postgres_base_url, postgres_database
 from sqlalchemy import select
 from trace_helpers import looping_trace
 
-from app.cli.output import progress_bar
+from app.cli.output import progress_bar, user_error_message
 from app.config import Settings
+from app.core.errors import InvalidInput, NotFound
 from app.db import make_engine, session_factory
 from app.models import Graph
 from app.store.publications import latest_publication, load_publication
@@ -305,3 +306,36 @@ def test_status_shows_play_traces_players_and_the_last_upload(tmp_path: Path) ->
 def test_a_setting_of_the_wrong_type_is_named_in_one_line(tmp_path: Path) -> None:
     done = srg(tmp_path, "status", SRG_BATCH_SIZE="abc")
     one_line_error(done, "SRG_BATCH_SIZE: Input should be a valid integer")
+
+
+@pytest.mark.parametrize(
+    ("variable", "value"),
+    [
+        ("SRG_TRUSTED_PROXIES", "10.0.0.300"),
+        ("SRG_REGISTRATION_RATE", "often"),
+        ("SRG_RATE_LIMIT_STORAGE", "bogus://nowhere"),
+    ],
+)
+def test_serve_names_a_setting_it_cannot_read_in_one_line(
+    tmp_path: Path, variable: str, value: str
+) -> None:
+    one_line_error(srg(tmp_path, "serve", **{variable: value}), variable)
+
+
+# ---- what is the user's to fix, and what is a bug --------------------------------------
+def test_only_srg_errors_and_the_mapped_library_errors_are_the_users() -> None:
+    assert user_error_message(InvalidInput("a bad name")) == "a bad name"
+    assert user_error_message(NotFound("no graph 'x'")) == "no graph 'x'"
+    for bug in (ValueError("a bug"), LookupError("a bug"), RuntimeError("a bug")):
+        assert user_error_message(bug) is None
+
+
+def test_a_bug_keeps_its_traceback(tmp_path: Path, monkeypatch: pytest.MonkeyPatch) -> None:
+    import app.cli.graph
+
+    def broken() -> None:
+        raise ValueError("a bug, not the user's")
+
+    monkeypatch.setattr(app.cli.graph, "transaction", broken)
+    with pytest.raises(ValueError, match="a bug"):
+        srg(tmp_path, "status")

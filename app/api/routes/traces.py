@@ -24,7 +24,7 @@ from app.api.retry import in_transaction
 from app.api.schemas import TraceStored, TraceUpload
 from app.core.publication import Publication
 from app.store.publications import load_publication
-from app.store.traces import IdempotencyConflict, InvalidTrace, record_trace
+from app.store.traces import record_trace
 
 router = APIRouter(prefix="/api/traces", tags=["traces"])
 
@@ -89,22 +89,18 @@ def upload_trace(
             f"step {step} does not follow the edges of publication {upload.publication_id}: {why}",
             details={"step": step, "vertex": int(steps[step, 0]), "control": int(steps[step, 1])},
         )
-    try:
-        trace_id, created = in_transaction(
+    # a reused key with other steps (409) or a trace the store refuses (422): SrgErrors
+    trace_id, created = in_transaction(
+        session,
+        lambda: record_trace(
             session,
-            lambda: record_trace(
-                session,
-                upload.publication_id,
-                player_id,
-                upload.idempotency_key,
-                steps,
-                publication=publication,
-            ),
-        )
-    except IdempotencyConflict as exc:
-        raise ApiError(409, str(exc)) from None
-    except InvalidTrace as exc:
-        raise ApiError(422, str(exc)) from None
+            upload.publication_id,
+            player_id,
+            upload.idempotency_key,
+            steps,
+            publication=publication,
+        ),
+    )
     response.status_code = 201 if created else 200
     return TraceStored(
         trace_id=trace_id,
