@@ -6,7 +6,7 @@ from typing import TYPE_CHECKING, Any
 
 import typer
 
-from app.cli.output import JSON_HELP, to_json
+from app.cli.output import JSON_HELP, emit
 from app.core.errors import InvalidInput
 
 if TYPE_CHECKING:
@@ -70,7 +70,7 @@ def analytics(
         report = graph_analytics(session, graph, threshold)
         report["prediction"] = latest_play_prediction(session, settings, graph, player_model)
     if json_output:
-        typer.echo(to_json(report))
+        emit(report, as_json=True)
     else:
         _print_tables(report, top)
 

@@ -8,12 +8,11 @@ bad input fails at once with an :class:`~app.core.errors.InvalidInput`.
 from __future__ import annotations
 
 from dataclasses import asdict
-from typing import Any
 
 import typer
 
 from app.cli.liquid import FLUID_HELP, PRESET_HELP
-from app.cli.output import to_json
+from app.cli.output import emit
 from app.core.errors import InvalidInput
 from app.services.dynamics import (
     DEFAULT_FLUID,
@@ -23,10 +22,6 @@ from app.services.dynamics import (
 )
 
 app = typer.Typer(help="Benchmarks; each prints JSON.", no_args_is_help=True)
-
-
-def _print(result: dict[str, Any]) -> None:
-    typer.echo(to_json(result))
 
 
 def _positive(option: str, value: int) -> int:
@@ -58,7 +53,7 @@ def rank(
 
     if edges < controls * 10:
         raise InvalidInput(f"--edges must be at least {controls * 10}")
-    _print(bench_rank(n_edges=edges, n_controls=controls, seed=seed))
+    emit(bench_rank(n_edges=edges, n_controls=controls, seed=seed), as_json=True)
 
 
 @app.command(
@@ -75,7 +70,7 @@ def experiment(ctx: typer.Context) -> None:
     refused = ("--json", "--result", "--resume", "--name", "--out")
     if any(arg in refused for arg in ctx.args):
         raise InvalidInput("the benchmark runs a fresh experiment: leave out " + ", ".join(refused))
-    _print(bench_experiment(list(ctx.args)))
+    emit(bench_experiment(list(ctx.args)), as_json=True)
 
 
 @app.command("grow")
@@ -119,7 +114,7 @@ def grow(
         raise InvalidInput(
             f"--frames must be at least {smallest} (the initial tree), got {min(frame_sizes)}"
         )
-    _print(
+    emit(
         bench_grow(
             settings=settings,
             dynamics=dynamics,
@@ -130,7 +125,8 @@ def grow(
             sizes=edge_sizes,
             frames=frame_sizes,
             integration_only=integration_only,
-        )
+        ),
+        as_json=True,
     )
 
 
@@ -150,7 +146,7 @@ def ingest(
     result = bench_ingest(
         clients=clients, uploads=uploads, mean_steps=mean_steps, database_url=database_url
     )
-    _print(result)
+    emit(result, as_json=True)
     if not result["ok"]:
         raise typer.Exit(1)
 
@@ -172,7 +168,8 @@ def sph(
     from app.config import get_settings
 
     device = get_settings().opencl_device
-    _print(bench_sph(preset, steps, fluid=fluid, device=device, compare_splishsplash=splishsplash))
+    result = bench_sph(preset, steps, fluid=fluid, device=device, compare_splishsplash=splishsplash)
+    emit(result, as_json=True)
 
 
 @app.command("clip")
@@ -196,7 +193,7 @@ def clip(
     from app.liquid.devices import LiquidDevices
 
     devices = LiquidDevices.from_settings(get_settings())
-    _print(bench_clip(preset, fluid, devices=devices, settle=settle, frames=frames))
+    emit(bench_clip(preset, fluid, devices=devices, settle=settle, frames=frames), as_json=True)
 
 
 @app.command("store")
@@ -220,4 +217,4 @@ def store(
     )
     result["save_edges_per_s"] = result["n_edges"] / max(result["save_seconds"], 1e-12)
     result["load_edges_per_s"] = result["n_edges"] / max(result["load_seconds"], 1e-12)
-    _print(result)
+    emit(result, as_json=True)

@@ -8,7 +8,7 @@ from typing import TYPE_CHECKING, Any
 
 import typer
 
-from app.cli.output import JSON_HELP, progress_bar, to_json, write_result
+from app.cli.output import JSON_HELP, emit, progress_bar, write_result
 from app.core.errors import InvalidInput
 
 if TYPE_CHECKING:
@@ -108,7 +108,7 @@ def experiment(
     if result_path is not None:
         write_result(result_path, result)
     if json_output:
-        typer.echo(to_json(result))
+        emit(result, as_json=True)
     typer.echo(json.dumps(result["summary"], indent=2), err=json_output)
     typer.echo(f"report: {report}", err=True)
 

@@ -8,7 +8,7 @@ from __future__ import annotations
 
 import typer
 
-from app.cli.output import JSON_HELP, emit, progress_bar, to_json
+from app.cli.output import JSON_HELP, emit, progress_bar
 from app.core.errors import InvalidInput
 from app.db import transaction
 
@@ -153,14 +153,14 @@ def status(
         graphs = [name] if name is not None else graph_ids(session)
         rows = [graph_summary(session, graph) for graph in graphs]
     if json_output:
-        typer.echo(to_json(rows if name is None else rows[0]))
+        emit(rows if name is None else rows[0], as_json=True)
         return
     if not rows:
         typer.echo("no graphs yet: srg init NAME")
     for row in rows:
         play = row.pop("play")
         assert isinstance(play, dict)
-        emit({**row, **play}, False)
+        emit({**row, **play}, as_json=False)
 
 
 def gc(

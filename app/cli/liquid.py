@@ -12,7 +12,7 @@ from typing import Any
 
 import typer
 
-from app.cli.output import JSON_HELP, emit, to_json, write_result
+from app.cli.output import JSON_HELP, emit, write_result
 from app.core.errors import InvalidInput
 from app.services.dynamics import (
     DEFAULT_FLUID,
@@ -34,9 +34,9 @@ def _verdict(check: dict[str, Any]) -> str:
 def _print_constants(stored: dict[str, Any], json_output: bool) -> None:
     """The constants as JSON, or their top-level figures on one line (details: ``--json``)."""
     if json_output:
-        typer.echo(to_json(stored))
+        emit(stored, as_json=True)
     else:
-        emit({k: v for k, v in stored.items() if not isinstance(v, dict | list)}, False)
+        emit({k: v for k, v in stored.items() if not isinstance(v, dict | list)}, as_json=False)
 
 
 def validate(
@@ -63,7 +63,7 @@ def validate(
     if result_path is not None:
         write_result(result_path, report)
     if json_output:
-        typer.echo(to_json(report))
+        emit(report, as_json=True)
     else:
         for name, check in report["checks"].items():
             typer.echo(f"{name}: {_verdict(check)}")

@@ -55,16 +55,17 @@ def progress_bar(total: int, label: str) -> Iterator[Callable[[int], None]]:
         yield advance
 
 
-def to_json(data: Any) -> str:
+def _to_json(data: Any) -> str:
     """The JSON text of a result (dates and paths as strings), as scripts read it."""
     return json.dumps(data, indent=2, default=str)
 
 
 def emit(result: Any, as_json: bool) -> None:
-    """Print a result (a dict or a dataclass): JSON, or one ``key=value`` line."""
+    """Print a result (a dataclass, a dict; a list with ``as_json``): its JSON, or one
+    ``key=value`` line."""
     data = asdict(result) if is_dataclass(result) and not isinstance(result, type) else result
     if as_json:
-        typer.echo(to_json(data))
+        typer.echo(_to_json(data))
     else:
         typer.echo(" ".join(f"{k}={v}" for k, v in data.items()))
 
@@ -72,7 +73,7 @@ def emit(result: Any, as_json: bool) -> None:
 def write_result(path: Path, data: Any) -> None:
     """Write a result as JSON to the file of ``--result``, its directory made."""
     path.parent.mkdir(parents=True, exist_ok=True)
-    path.write_text(to_json(data) + "\n")
+    path.write_text(_to_json(data) + "\n")
 
 
 @contextmanager

@@ -73,7 +73,7 @@ def set_growing(
     from app.services.between_epochs import set_growing as mark
 
     with transaction() as session:
-        emit(mark(session, name, on), False)
+        emit(mark(session, name, on), as_json=False)
 
 
 def grow_epoch(name: str = typer.Argument(..., help="graph name or id")) -> None:
