@@ -22,6 +22,7 @@ from app.config import Settings
 from app.core.strategies import Strategy
 from app.db import transaction
 from app.reports.experiment import ArraysLoader, write_report
+from app.services.animations import Progress
 from app.services.dynamics import QUICK_LIQUID_PRESET
 from app.services.experiment.plan import (
     ExperimentExists,
@@ -31,7 +32,7 @@ from app.services.experiment.plan import (
     run_graph_name,
     stored_plan,
 )
-from app.services.experiment.runs import Grower, Progress, run_experiment
+from app.services.experiment.runs import Grower, run_experiment
 from app.services.loading import artifact_store
 from app.services.publishing import PublishResult, publish_graph
 from app.store.animations import count_missing_animations, publication_animations

@@ -18,6 +18,7 @@ from typing import Any
 from app.config import Settings
 from app.core.strategies import parse_strategy
 from app.db import transaction
+from app.services.animations import Progress
 from app.services.creation import init_graph
 from app.services.experiment.checkpoint import checkpoint_figures
 from app.services.experiment.plan import (
@@ -35,7 +36,6 @@ from app.store.graphs import graph_exists
 #: seconds between two looks at the run processes (and the frames they grew)
 PROGRESS_POLL = 1.0
 
-Progress = Callable[[int], None]
 #: grows the stored graph ``name`` to at least ``to_frames`` frames, ``batch`` blends an epoch
 Grower = Callable[[str, int, int, Progress | None], None]
 
