@@ -32,7 +32,7 @@ from app.config import Settings
 from app.core.graph import EdgeKind
 from app.core.growth import integrate_expansion, select_for_expansion
 from app.core.strategies import Strategy
-from app.db import Scope, begin_immediate
+from app.db import Scope
 from app.models import Graph, GrowthEpoch
 from app.services.animations import blend_strip
 from app.services.clips import (
@@ -58,7 +58,7 @@ from app.store.epochs import (
     stored_clips,
 )
 from app.store.graphs import get_graph_row, save_graph, stored_edge_kind
-from app.store.locks import lock_graph
+from app.store.locks import lock_epoch_graph, lock_graph
 
 log = logging.getLogger(__name__)
 
@@ -196,10 +196,7 @@ def integrate_step(
     recorded - and raises :class:`ExpansionNotReady` if not. The last expansion of the
     plan also finishes the epoch.
     """
-    begin_immediate(session)  # before the first statement: see lock_graph
-    epoch = get_epoch(session, epoch_id)
-    row = lock_graph(session, epoch.graph_id)
-    session.refresh(epoch)
+    epoch, row = lock_epoch_graph(session, epoch_id)
     plan = [(int(e), int(c)) for e, c in epoch.plan or []]
     edge, dead_end = plan[position]
     loaded = loaded_graph(session, settings, row)

@@ -11,7 +11,8 @@ from sqlalchemy import select
 from sqlalchemy.orm import Session
 
 from app.db import begin_immediate
-from app.models import Graph
+from app.models import Graph, GrowthEpoch
+from app.store.epochs import get_epoch
 from app.store.graphs import GraphNotFound
 
 
@@ -30,3 +31,16 @@ def lock_graph(session: Session, graph_id: int) -> Graph:
     if row is None:
         raise GraphNotFound(f"no graph {graph_id!r}")
     return row
+
+
+def lock_epoch_graph(session: Session, epoch_id: int) -> tuple[GrowthEpoch, Graph]:
+    """The epoch, read again under its graph's lock, and the locked graph row.
+
+    The epoch is refreshed once the lock is held: a writer that held the lock before
+    may have finished it meanwhile.
+    """
+    begin_immediate(session)  # before the first statement: see lock_graph
+    epoch = get_epoch(session, epoch_id)
+    row = lock_graph(session, epoch.graph_id)
+    session.refresh(epoch)
+    return epoch, row
