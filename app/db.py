@@ -176,7 +176,7 @@ def alembic_config(connection: Any = None) -> Any:
 
     ini = ROOT / "alembic.ini"
     if not ini.exists():
-        raise LookupError(f"alembic.ini not found at {ini}: run srg from a source checkout")
+        raise Unavailable(f"alembic.ini not found at {ini}: run srg from a source checkout")
     config = Config(str(ini))
     if connection is not None:
         config.attributes["connection"] = connection

@@ -47,7 +47,7 @@ def get_or_create_player(session: Session, name: str, kind: str) -> tuple[int, s
     earlier tokens stop working.
     """
     if kind not in PLAYER_KINDS:
-        raise ValueError(f"player kind must be one of {PLAYER_KINDS}, got {kind!r}")
+        raise InvalidInput(f"player kind must be one of {PLAYER_KINDS}, got {kind!r}")
     token = secrets.token_urlsafe(32)
     player = session.scalars(select(Player).where(Player.name == name)).one_or_none()
     if player is None:
