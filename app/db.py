@@ -20,7 +20,7 @@ from functools import lru_cache
 from pathlib import Path
 from typing import Any
 
-from sqlalchemy import Engine, create_engine, event, inspect
+from sqlalchemy import Engine, create_engine, event, inspect, text
 from sqlalchemy.engine import URL, make_url
 from sqlalchemy.exc import ArgumentError, DBAPIError, NoSuchModuleError
 from sqlalchemy.orm import Session, sessionmaker
@@ -236,3 +236,8 @@ def transaction(factory: sessionmaker[Session] | None = None) -> Iterator[Sessio
         except BaseException:
             session.rollback()
             raise
+
+
+def ping(session: Session) -> None:
+    """Ask the database to answer one trivial statement; raises what the driver raises."""
+    session.execute(text("SELECT 1"))

@@ -38,6 +38,7 @@ from app.core.graph import EdgeKind, StateGraph
 from app.core.growth import expand_blend_edge, initial_tree
 from app.db import make_engine, session_factory
 from app.liquid.devices import LiquidDevices
+from app.store.epochs import finished_epoch_count
 
 ROOT = Path(__file__).resolve().parents[2]
 
@@ -113,20 +114,11 @@ def _throughput(
 
 
 def _wait_epochs(sessions: Any, graph_id: int, count: int, timeout: float = 600) -> None:
-    from sqlalchemy import func, select
-
-    from app.models import GrowthEpoch
-
     deadline = time.monotonic() + timeout
     while time.monotonic() < deadline:
         with sessions() as session:
-            finished = session.scalar(
-                select(func.count()).where(
-                    GrowthEpoch.graph_id == graph_id, GrowthEpoch.status == "finished"
-                )
-            )
-        if finished >= count:
-            return
+            if finished_epoch_count(session, graph_id) >= count:
+                return
         time.sleep(0.05)
     raise TimeoutError("growth epoch did not finish")
 

@@ -21,7 +21,6 @@ from typing import Any
 
 import httpx
 import numpy as np
-from sqlalchemy import func, select
 from sqlalchemy.orm import Session
 
 from app.api.app import create_app
@@ -34,10 +33,11 @@ from app.core.graph import StateGraph
 from app.core.growth import expand_blend_edge, initial_tree
 from app.core.toy import ToyDynamics
 from app.db import make_engine, session_factory
-from app.models import Base, Trace, TraceStep
+from app.models import Base
 from app.store.artifacts import ArtifactStore
 from app.store.graphs import create_graph, save_graph
 from app.store.publications import load_publication, publish
+from app.store.traces import stored_play
 
 REQUEST_TIMEOUT_S = 60.0
 
@@ -176,25 +176,12 @@ def bench_ingest(
                 )
                 elapsed = time.perf_counter() - began
             with session_factory(engine)() as session:
-                stored_traces, stored_steps = _stored(session, publication_id)
+                stored_traces, stored_steps = stored_play(session, publication_id)
         finally:
             engine.dispose()
     return _summary(
         clients, outcomes, traces, elapsed, (stored_traces, stored_steps), url, database_url
     )
-
-
-def _stored(session: Session, publication_id: int) -> tuple[int, int]:
-    traces = session.scalar(
-        select(func.count()).select_from(Trace).where(Trace.publication_id == publication_id)
-    )
-    steps = session.scalar(
-        select(func.count())
-        .select_from(TraceStep)
-        .join(Trace, Trace.id == TraceStep.trace_id)
-        .where(Trace.publication_id == publication_id)
-    )
-    return int(traces or 0), int(steps or 0)
 
 
 def _summary(

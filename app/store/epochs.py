@@ -104,6 +104,17 @@ def epoch_count(session: Session, graph_id: int) -> int:
     return int(session.scalar(select(func.count()).where(GrowthEpoch.graph_id == graph_id)) or 0)
 
 
+def finished_epoch_count(session: Session, graph_id: int) -> int:
+    return int(
+        session.scalar(
+            select(func.count()).where(
+                GrowthEpoch.graph_id == graph_id, GrowthEpoch.status == EpochStatus.FINISHED
+            )
+        )
+        or 0
+    )
+
+
 def latest_warm_start(session: Session, graph_id: int) -> str | None:
     """The artifact of the last STATERANK pi stored on one of the graph's epochs."""
     return session.scalar(

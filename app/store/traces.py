@@ -155,6 +155,20 @@ def play_summary(session: Session, graph_id: int) -> dict[str, object]:
     }
 
 
+def stored_play(session: Session, publication_id: int) -> tuple[int, int]:
+    """(traces, step rows) stored for one publication: what an upload really wrote."""
+    traces = session.scalar(
+        select(func.count()).select_from(Trace).where(Trace.publication_id == publication_id)
+    )
+    steps = session.scalar(
+        select(func.count())
+        .select_from(TraceStep)
+        .join(Trace, Trace.id == TraceStep.trace_id)
+        .where(Trace.publication_id == publication_id)
+    )
+    return int(traces or 0), int(steps or 0)
+
+
 def load_traces(session: Session, publication_ids: Sequence[int]) -> list[np.ndarray]:
     """Every trace played on these publications, oldest first, as (n, 2) int64 arrays."""
     rows = session.execute(

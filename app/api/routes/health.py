@@ -8,7 +8,6 @@ still serves then, with looser limits); 503 when the database does not answer.
 from __future__ import annotations
 
 from fastapi import APIRouter, Depends, Request
-from sqlalchemy import text
 from sqlalchemy.exc import SQLAlchemyError
 from sqlalchemy.orm import Session
 
@@ -16,6 +15,7 @@ from app.api.deps import get_session
 from app.api.errors import ApiError, error_responses
 from app.api.ratelimit import RateLimits
 from app.api.schemas import Health
+from app.db import ping
 
 router = APIRouter(prefix="/api/health", tags=["health"])
 
@@ -24,7 +24,7 @@ router = APIRouter(prefix="/api/health", tags=["health"])
 def health(request: Request, session: Session = Depends(get_session)) -> Health:
     dialect = session.get_bind().dialect.name
     try:
-        session.execute(text("SELECT 1"))
+        ping(session)
         session.commit()
     except SQLAlchemyError as exc:
         raise ApiError(
