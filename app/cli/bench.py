@@ -14,8 +14,8 @@ import typer
 from app.cli.liquid import FLUID_HELP, PRESET_HELP
 from app.cli.output import emit
 from app.core.errors import InvalidInput
+from app.core.scene import DEFAULT_FLUID
 from app.services.dynamics import (
-    DEFAULT_FLUID,
     DEFAULT_LIQUID_PRESET,
     check_fluid,
     check_liquid_preset,

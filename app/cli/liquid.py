@@ -14,8 +14,8 @@ import typer
 
 from app.cli.output import JSON_HELP, emit, write_result
 from app.core.errors import InvalidInput
+from app.core.scene import DEFAULT_FLUID
 from app.services.dynamics import (
-    DEFAULT_FLUID,
     DEFAULT_LIQUID_PRESET,
     check_fluid,
     check_liquid_preset,

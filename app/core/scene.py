@@ -169,6 +169,8 @@ FLUIDS = {
     "low": FluidProperties(viscosity=1e-3, wall_viscosity=5e-4),
     "high": FluidProperties(viscosity=1e-2, wall_viscosity=5e-3),
 }
+#: the fluid wherever none is named: water; its scenes and calibrations carry no suffix
+DEFAULT_FLUID = "low"
 
 
 #: particle spacing of the tilt-tank presets (particle counts 1920, 8064, 43824)
@@ -180,7 +182,7 @@ FILL_HEIGHT = 0.175
 TILT_TANK_REST_KINETIC = {"tiny": 0.0, "small": 0.0, "paper": 0.0}
 
 
-def tilt_tank(preset: str, fluid: str = "low") -> Scene:
+def tilt_tank(preset: str, fluid: str = DEFAULT_FLUID) -> Scene:
     """The game's scene: a 0.6 x 0.4 x 0.16 m tank filled to 0.175 m, tilted by +/- 30 degrees.
 
     The fastest plausible flow is a free fall over the tank height, ``sqrt(2 g H)``,
@@ -200,7 +202,7 @@ def tilt_tank(preset: str, fluid: str = "low") -> Scene:
     fluid_hi = (counts[0] * dx, counts[1] * dx, counts[2] * dx)
     fps = 30
     return Scene(
-        name=f"tilt-tank/{preset}" if fluid == "low" else f"tilt-tank/{preset}-{fluid}",
+        name=f"tilt-tank/{preset}" if fluid == DEFAULT_FLUID else f"tilt-tank/{preset}-{fluid}",
         tank=Box((0.0, 0.0, 0.0), size),
         fluid=Box((0.0, 0.0, 0.0), fluid_hi),
         gravity=tuple(tilted_gravity(a) for a in TILT_DEGREES),

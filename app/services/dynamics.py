@@ -9,7 +9,7 @@ from __future__ import annotations
 
 from app.core.dynamics import Dynamics
 from app.core.errors import InvalidInput
-from app.core.scene import FLUIDS, TILT_TANK_SPACINGS
+from app.core.scene import DEFAULT_FLUID, FLUIDS, TILT_TANK_SPACINGS
 from app.core.toy import ToyDynamics
 from app.liquid.devices import LiquidDevices
 
@@ -25,7 +25,6 @@ DEFAULT_LIQUID_PRESET = "small"
 QUICK_LIQUID_PRESET = "tiny"
 #: fluids of the liquid (``app.core.scene.FLUIDS``): the paper's low and high viscosity
 LIQUID_FLUIDS = tuple(FLUIDS)
-DEFAULT_FLUID = "low"
 
 
 class UnknownDynamics(InvalidInput):
