@@ -2,7 +2,6 @@
 
 from __future__ import annotations
 
-from sqlalchemy import String
 from sqlalchemy.exc import IntegrityError
 from sqlalchemy.orm import Session
 
@@ -14,11 +13,10 @@ from app.core.names import check_name
 from app.core.player_models import parse_player_model
 from app.core.strategies import parse_strategy
 from app.liquid.devices import LiquidDevices
-from app.models import Graph
 from app.services.dynamics import make_dynamics
 from app.services.loading import artifact_store
 from app.services.status import graph_summary
-from app.store.graphs import create_graph, graph_exists, save_graph
+from app.store.graphs import create_graph, graph_exists, graph_name_length, save_graph
 
 #: the most simulated clips ``srg init --depth`` may ask of the initial tree; past it the
 #: tree grows as N^depth and a typo would run for ever (growth refines from there)
@@ -27,13 +25,6 @@ MAX_INITIAL_CLIPS = 1_000
 
 class GraphExists(Conflict):
     """A graph of that name is already stored."""
-
-
-def graph_name_length() -> int:
-    """The length of the graphs' name column: the longest name every backend stores."""
-    column = Graph.__table__.c.name.type
-    assert isinstance(column, String) and column.length is not None
-    return column.length
 
 
 def check_initial_depth(depth: int, n_controls: int) -> None:

@@ -18,7 +18,7 @@ from dataclasses import dataclass
 from typing import Any
 
 import numpy as np
-from sqlalchemy import func, select, update
+from sqlalchemy import String, func, select, update
 from sqlalchemy.orm import Session
 
 from app.core.clipbank import ClipBank
@@ -97,6 +97,13 @@ def get_graph_row(session: Session, name_or_id: str | int) -> Graph:
     if row is None:
         raise GraphNotFound(f"no graph {name_or_id!r}")
     return row
+
+
+def graph_name_length() -> int:
+    """The length of the graphs' name column: the longest name every backend stores."""
+    column = Graph.__table__.c.name.type
+    assert isinstance(column, String) and column.length is not None
+    return column.length
 
 
 def size_frames(session: Session, graph_id: int) -> int:

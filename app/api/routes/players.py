@@ -16,9 +16,9 @@ from sqlalchemy.orm import Session
 from app.api.deps import get_session
 from app.api.errors import error_responses
 from app.api.ratelimit import limited_registration
-from app.api.retry import in_transaction
 from app.api.schemas import PlayerCreated, PlayerRequest
 from app.store.traces import get_or_create_player
+from app.store.transactions import in_transaction
 
 router = APIRouter(prefix="/api/players", tags=["players"])
 

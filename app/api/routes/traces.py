@@ -20,11 +20,11 @@ from app.api.cache import FrozenCache
 from app.api.deps import get_session, raw_body
 from app.api.errors import ApiError, error_responses, validation_details
 from app.api.ratelimit import limited_uploader
-from app.api.retry import in_transaction
 from app.api.schemas import TraceStored, TraceUpload
 from app.core.publication import Publication
 from app.store.publications import load_publication
 from app.store.traces import record_trace
+from app.store.transactions import in_transaction
 
 router = APIRouter(prefix="/api/traces", tags=["traces"])
 
