@@ -78,6 +78,12 @@ class PublicationOut(BaseModel):
     n_controls: int
     frames_per_clip: int
     fps: float
+    #: simulated frames in the graph when this version was published
+    size_frames: int
+    #: fraction of the publication's edges that are blends (0 to 1)
+    blend_share: float
+    #: mean error (eq. 3's dist) of its blend edges; 0 without blends
+    mean_blend_error: float
     n_vertices: int
     #: vertices[v][c]: the edge from vertex v under control c
     vertices: list[list[EdgeOut]]

@@ -13,8 +13,11 @@ from sqlalchemy import func, select, update
 from sqlalchemy.orm import Session
 
 from app.core.graph import EdgeKind
-from app.models import Clip, Edge, PublicationEdge
+from app.models import Artifact, Clip, Edge, PublicationEdge
 from app.store.graphs import get_graph_row
+
+#: animation strips and posters are images; every other artifact is internal
+ANIMATION_MEDIA_PREFIX = "image/"
 
 
 def set_animations(
@@ -89,3 +92,12 @@ def publication_animations(session: Session, publication_id: int) -> list[tuple[
         )
     )
     return [(vertex, animation) for vertex, animation in rows if animation is not None]
+
+
+def animation_media_type(session: Session, digest: str) -> str | None:
+    """The media type of an animation artifact; None for unknown or non-image artifacts
+    (clip bundles are internal data, never served)."""
+    media_type = session.scalar(select(Artifact.media_type).where(Artifact.hash == digest))
+    if media_type is None or not media_type.startswith(ANIMATION_MEDIA_PREFIX):
+        return None
+    return media_type

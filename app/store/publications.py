@@ -7,6 +7,8 @@ always be read against exactly the edges its player saw.
 
 from __future__ import annotations
 
+from typing import NamedTuple
+
 import numpy as np
 from sqlalchemy import func, select
 from sqlalchemy.orm import Session
@@ -14,10 +16,30 @@ from sqlalchemy.orm import Session
 from app.core.errors import NotFound
 from app.core.graph import StateGraph
 from app.core.publication import Publication, freeze
-from app.models import Edge, PublicationEdge
+from app.models import Edge, Graph, PublicationEdge
 from app.models import Publication as PublicationRow
 from app.store._sql import bulk_insert
 from app.store.graphs import get_graph_row, require_saved
+
+
+class GraphListing(NamedTuple):
+    """A graph as the catalogue lists it, with its latest publication (None before one)."""
+
+    name: str
+    dynamics: str
+    n_controls: int
+    frames_per_clip: int
+    latest_publication: int | None
+
+
+class PublishedEdge(NamedTuple):
+    """One frozen edge as a client downloads it; ``animation`` is the strip's digest."""
+
+    dst: int
+    kind: int
+    err: float
+    score: float
+    animation: str | None
 
 
 class PublicationNotFound(NotFound):
@@ -127,3 +149,40 @@ def latest_publication_id(session: Session, graph: str | int) -> int:
     if latest is None:
         raise NothingPublished(f"graph {row.name!r} has no publication yet: run `srg publish`")
     return latest.id
+
+
+def graph_listings(session: Session) -> list[GraphListing]:
+    """Every graph, in creation order, with the id of its latest publication."""
+    latest = (
+        select(PublicationRow.graph_id, func.max(PublicationRow.id).label("publication_id"))
+        .group_by(PublicationRow.graph_id)
+        .subquery()
+    )
+    rows = session.execute(
+        select(
+            Graph.name,
+            Graph.dynamics,
+            Graph.n_controls,
+            Graph.frames_per_clip,
+            latest.c.publication_id,
+        )
+        .outerjoin(latest, latest.c.graph_id == Graph.id)
+        .order_by(Graph.id)
+    )
+    return [GraphListing(*row) for row in rows]
+
+
+def published_edges(session: Session, publication_id: int) -> list[PublishedEdge]:
+    """Every edge of the publication in edge order (vertex, then control)."""
+    rows = session.execute(
+        select(
+            PublicationEdge.dst,
+            PublicationEdge.kind,
+            PublicationEdge.err,
+            PublicationEdge.score,
+            PublicationEdge.animation,
+        )
+        .where(PublicationEdge.publication_id == publication_id)
+        .order_by(PublicationEdge.vertex, PublicationEdge.control)
+    )
+    return [PublishedEdge(*row) for row in rows]

@@ -3,14 +3,18 @@
 from __future__ import annotations
 
 import io
+from pathlib import Path
 
 import numpy as np
 import pytest
 from api_helpers import ADMIN_TOKEN, Published
 from fastapi.testclient import TestClient
 from PIL import Image
+from sqlalchemy.orm import Session
 
 from app.render.animation import decode_strip
+from app.store.artifacts import ArtifactStore
+from app.store.graphs import load_graph
 
 ADMIN = {"Authorization": f"Bearer {ADMIN_TOKEN}"}
 
@@ -38,6 +42,18 @@ def test_the_publication_carries_every_edge(client: TestClient, published: Publi
     assert [e["kind"] == "blend" for e in edges] == (core.edge_kind == 1).tolist()
     assert edges[0]["animation"] == f"/api/animations/{published.animation}"
     assert all(e["animation"] is None for e in edges[1:])
+
+
+def test_the_publication_tells_its_size_and_blends(
+    client: TestClient, published: Published, session: Session
+) -> None:
+    data = client.get(f"/api/graphs/{published.name}/publication").json()
+    core = published.publication
+    blends = core.edge_kind == 1
+    graph = load_graph(session, published.graph_id, ArtifactStore(Path("unused")))[0]
+    assert data["size_frames"] == graph.size_frames > 0
+    assert blends.any() and data["blend_share"] == pytest.approx(blends.mean())
+    assert data["mean_blend_error"] == pytest.approx(core.edge_err[blends].mean())
 
 
 def test_unknown_graphs_and_unpublished_graphs_are_404(

@@ -21,8 +21,8 @@ from sqlalchemy.orm import Session
 from app.api.deps import get_session
 from app.api.encoding import etag_matches
 from app.api.errors import ApiError, error_responses
-from app.api.queries import animation_media_type
 from app.render.animation import POSTER_MEDIA_TYPE, decode_strip, encode_poster
+from app.store.animations import animation_media_type
 from app.store.artifacts import ArtifactStore
 
 router = APIRouter(prefix="/api/animations", tags=["animations"])
