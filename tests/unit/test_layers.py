@@ -4,10 +4,14 @@ The contracts live in ``pyproject.toml`` (``[tool.importlinter]``): the core imp
 nothing of ``app``, nothing imports the CLI, services import neither the shells nor the
 benchmarks, no import circles at any depth, and the layers from the CLI down to the core.
 Function-level imports count: an arrow hidden inside a function is still an arrow.
+
+Import-linter sees packages, not statements, so one rule is checked here by reading the
+code: SQL is written only in the store (and the models and engines beneath it).
 """
 
 from __future__ import annotations
 
+import ast
 import shutil
 import subprocess
 import sys
@@ -16,6 +20,16 @@ from pathlib import Path
 ROOT = Path(__file__).resolve().parents[2]
 LINT_IMPORTS = Path(sys.executable).with_name("lint-imports")
 CONTRACTS = 5
+#: where SQL may be written: the store, the tables, the engines, and the benchmarks'
+#: throwaway databases (``CREATE DATABASE`` on a scratch server)
+SQL_HOMES = ("app/store/", "app/models/", "app/db.py", "app/bench/scratch.py")
+#: SQLAlchemy's statement builders
+SQL_BUILDERS = {
+    "select", "insert", "update", "delete", "text", "func", "distinct", "and_", "or_",
+    "exists", "literal", "case", "union", "bindparam",
+}  # fmt: skip
+#: a session's or connection's ways to run a statement or touch a row
+SQL_CALLS = {"execute", "scalar", "scalars", "query", "merge", "add", "add_all"}
 
 
 def lint_imports(tree: Path) -> subprocess.CompletedProcess[str]:
@@ -52,3 +66,42 @@ def test_an_arrow_back_up_breaks_the_contracts(tmp_path: Path) -> None:
     assert f"Contracts: 0 kept, {CONTRACTS} broken." in done.stdout, done.stdout
     assert "app.core.upward -> app.cli.main" in done.stdout
     assert "app.services.upward -> app.tasks" in done.stdout
+
+
+def sql_outside_the_store(root: Path) -> list[str]:
+    """``path:line what`` for each statement builder imported, or statement run, outside
+    :data:`SQL_HOMES` (a call counts when made on something named ``session``, or is
+    ``execute``/``scalar(s)`` on anything)."""
+    found = []
+    for path in sorted((root / "app").rglob("*.py")):
+        where = path.relative_to(root).as_posix()
+        if where.startswith(SQL_HOMES):
+            continue
+        for node in ast.walk(ast.parse(path.read_text())):
+            if isinstance(node, ast.ImportFrom) and (node.module or "").startswith("sqlalchemy"):
+                found += [
+                    f"{where}:{node.lineno} {a.name}" for a in node.names if a.name in SQL_BUILDERS
+                ]
+            elif isinstance(node, ast.Call) and isinstance(node.func, ast.Attribute):
+                name, owner = node.func.attr, node.func.value
+                on_session = isinstance(owner, ast.Name) and owner.id == "session"
+                if name in {"execute", "scalar", "scalars"} or (
+                    on_session and name in SQL_CALLS | {"get", "delete"}
+                ):
+                    found.append(f"{where}:{node.lineno} .{name}()")
+    return found
+
+
+def test_only_the_store_writes_sql() -> None:
+    assert sql_outside_the_store(ROOT) == []
+
+
+def test_sql_in_a_service_is_found(tmp_path: Path) -> None:
+    (tmp_path / "app" / "services").mkdir(parents=True)
+    (tmp_path / "app" / "services" / "leak.py").write_text(
+        "from sqlalchemy import select\n\n\ndef f(session):\n    return session.get(1)\n"
+    )
+    assert sql_outside_the_store(tmp_path) == [
+        "app/services/leak.py:1 select",
+        "app/services/leak.py:5 .get()",
+    ]
