@@ -181,14 +181,13 @@ def gc(
     ``srg beat`` also runs it every SRG_ARTIFACT_GC_INTERVAL seconds.
     """
     from app.config import get_settings
-    from app.services.artifact_gc import collect_artifacts
+    from app.services.artifact_gc import collect_artifacts, grace_seconds
     from app.services.loading import artifact_store
     from app.store.artifact_gc import count_fanout_directories
 
     settings = get_settings()
+    grace = grace_seconds(settings, older_than)  # refused before the bar shows
     directories = count_fanout_directories(artifact_store(settings))
     with progress_bar(directories, "artifact directories") as advance:
-        result = collect_artifacts(
-            settings, older_than=older_than, dry_run=dry_run, progress=advance
-        )
+        result = collect_artifacts(settings, older_than=grace, dry_run=dry_run, progress=advance)
     emit(result, json_output)

@@ -33,6 +33,14 @@ class ArtifactGcResult:
     bytes_freed: int
 
 
+def grace_seconds(settings: Settings, older_than: float | None) -> float:
+    """The grace period a collection keeps: ``older_than``, else the configured one."""
+    grace = settings.artifact_gc_grace if older_than is None else older_than
+    if not grace >= 0:
+        raise InvalidInput(f"--older-than must be a number of seconds >= 0, not {grace}")
+    return grace
+
+
 def collect_artifacts(
     settings: Settings,
     *,
@@ -45,9 +53,7 @@ def collect_artifacts(
     ``older_than`` defaults to ``settings.artifact_gc_grace``; ``progress(1)`` is called
     per fan-out directory scanned (:func:`~app.store.artifact_gc.count_fanout_directories`).
     """
-    grace = settings.artifact_gc_grace if older_than is None else older_than
-    if not grace >= 0:
-        raise InvalidInput(f"--older-than must be a number of seconds >= 0, not {grace}")
+    grace = grace_seconds(settings, older_than)
     scan = scan_artifact_files(artifact_store(settings), older_than=grace, progress=progress)
     try:
         with transaction() as session:

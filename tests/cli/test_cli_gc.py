@@ -82,5 +82,7 @@ def test_gc_collects_what_an_interrupted_grow_left_and_keeps_the_graph(var: Path
     assert "rows=0 files=0 bytes_freed=0" in ok(var, "gc")
 
 
-def test_a_negative_grace_period_is_refused(var: Path) -> None:
-    one_line_error(srg(var, "gc", "--older-than", "-1"), "--older-than must be")
+def test_a_negative_grace_period_is_refused_before_any_scan(var: Path) -> None:
+    done = srg(var, "gc", "--older-than", "-1")
+    one_line_error(done, "--older-than must be")
+    assert len(done.stderr.splitlines()) == 1, done.stderr  # no progress bar first
