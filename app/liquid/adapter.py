@@ -4,7 +4,9 @@ It composes the PCISPH simulator (``app.kernels.sph``), the Zhu-Bridson SDF kern
 (``app.kernels.sdf``), the paper's metrics and blend (``app.core.liquid_metrics``) and
 the Mitsuba renderer (``app.render``). A clip's ``frames`` are its SDFs quantised to
 int8 (``app.core.surface.quantise_sdf``): the store keeps them as they are, and blends
-return the same kind. Occupancy in the features is uint8 for the same reason.
+return the same kind. Occupancy in the features is uint8 for the same reason. End states
+are snapped onto the preset's particle lattice (``app.core.particle_lattice``) before a
+clip is returned, so the state the store keeps is the state a continuation starts from.
 
 The constants the paper measures (T0, w_e) and the defaults of the crowd radius and the
 high-error threshold come from the preset's stored calibration
@@ -28,6 +30,7 @@ from app.core.liquid_metrics import (
     clip_distance,
     descriptor_distance,
 )
+from app.core.particle_lattice import ParticleLattice, particle_lattice, snap_state
 from app.core.scene import Scene, kinetic_energy, potential_energies, tilt_tank
 from app.core.surface import (
     SurfaceGrid,
@@ -120,6 +123,7 @@ class LiquidDynamics:
         self.fluid = fluid
         self.scene: Scene = tilt_tank(preset, fluid)
         self.grid: SurfaceGrid = surface_grid(self.scene)
+        self.lattice: ParticleLattice = particle_lattice(self.scene.spacing)
         self.calibration = calibration or load_calibration(preset, fluid)
         self.frames_per_clip = self.scene.frames_per_clip
         self.n_controls = self.scene.n_controls
@@ -186,8 +190,13 @@ class LiquidDynamics:
         return quantise_sdf(self.grid, self.sdf_kernel.frames(positions))
 
     def simulate_particles(self, state: np.ndarray, control: int) -> tuple[np.ndarray, np.ndarray]:
-        """PCISPH only: the (k, n, 3) particle positions of a clip's frames, its end state."""
-        return self.simulator.simulate_clip(state, control)
+        """PCISPH only: the (k, n, 3) particle positions of a clip's frames, its end state.
+
+        The end state is on the lattice, its particles in Morton order: the frames keep
+        the particle order of ``state``, clips simulated from the end state its own.
+        """
+        positions, end_state = self.simulator.simulate_clip(state, control)
+        return positions, snap_state(end_state, self.lattice)
 
     def simulate(self, state: np.ndarray, control: int) -> SimClip:
         positions, end_state = self.simulate_particles(state, control)

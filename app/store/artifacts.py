@@ -6,8 +6,11 @@ never sees half a file and a retried or concurrent write of the same content is 
 Each file is registered in the ``artifacts`` table in the caller's transaction; a file
 whose transaction rolled back is harmless garbage, never a dangling reference.
 
-Arrays are stored as ``.npz`` written with fixed zip timestamps, so equal arrays give
-equal bytes and hence the same hash.
+Arrays are stored in the compressed format of :mod:`app.store.array_codec`, whose bytes
+are a function of the arrays alone, so equal arrays give equal bytes and hence the same
+hash. Artifacts written before it are ``.npz`` zip files; :meth:`ArtifactStore.get_arrays`
+reads both, telling them apart by their first bytes (a zip's ``PK\\x03\\x04``, the codec's
+``MAGIC``).
 """
 
 from __future__ import annotations
@@ -16,7 +19,6 @@ import hashlib
 import io
 import os
 import tempfile
-import zipfile
 from collections.abc import Iterable, Mapping
 from concurrent.futures import ThreadPoolExecutor
 from itertools import islice
@@ -28,10 +30,10 @@ from sqlalchemy.orm import Session
 from app.core.errors import NotFound
 from app.models import Artifact
 from app.store._sql import insert_ignoring_duplicates
+from app.store.array_codec import ARRAYS_MEDIA_TYPE, decode_arrays, encode_arrays
 
-NPZ_MEDIA_TYPE = "application/x-npz"
-#: the date of every zip member (zip's earliest), so equal arrays give equal bytes
-ZIP_EPOCH = (1980, 1, 1, 0, 0, 0)
+#: the first bytes of a zip file: an ``.npz`` artifact of the format before the codec's
+ZIP_MAGIC = b"PK\x03\x04"
 WRITER_THREADS = 8
 WRITE_CHUNK = 512
 
@@ -78,15 +80,14 @@ class ArtifactStore:
             raise ArtifactNotFound(f"no artifact {digest} under {self.root}") from None
 
     def put_arrays(self, arrays: Mapping[str, np.ndarray], *, session: Session) -> str:
-        return self.put_bytes(encode_arrays(arrays), media_type=NPZ_MEDIA_TYPE, session=session)
+        return self.put_bytes(encode_arrays(arrays), media_type=ARRAYS_MEDIA_TYPE, session=session)
 
     def get_arrays(self, digest: str, names: Iterable[str] | None = None) -> dict[str, np.ndarray]:
-        """The arrays of an ``.npz`` artifact; with ``names``, only those members are read."""
-        try:
-            npz = np.load(self.path_for(digest), allow_pickle=False)
-        except FileNotFoundError:
-            raise ArtifactNotFound(f"no artifact {digest} under {self.root}") from None
-        with npz:
+        """The arrays of an arrays artifact; with ``names``, only those members are decoded."""
+        data = self.get_bytes(digest)
+        if not data.startswith(ZIP_MAGIC):
+            return decode_arrays(data, names)
+        with np.load(io.BytesIO(data), allow_pickle=False) as npz:
             return {name: npz[name] for name in (npz.files if names is None else names)}
 
     def _write(self, data: bytes) -> str:
@@ -124,19 +125,3 @@ def _touch(path: Path) -> bool:
     except OSError:  # not ours to touch (a read-only store): it exists all the same
         return path.exists()
     return True
-
-
-def encode_arrays(arrays: Mapping[str, np.ndarray]) -> bytes:
-    """Deterministic ``.npz`` bytes: a stored (uncompressed) zip of ``.npy`` members.
-
-    Members are sorted by name and dated 1980-01-01, so equal arrays give equal bytes;
-    float fields barely compress, hence no deflate. Object arrays are refused (numpy's
-    ``allow_pickle=False``): an artifact never needs pickle to be read.
-    """
-    buffer = io.BytesIO()
-    with zipfile.ZipFile(buffer, "w", zipfile.ZIP_STORED) as archive:
-        for name in sorted(arrays):
-            member = zipfile.ZipInfo(f"{name}.npy", date_time=ZIP_EPOCH)
-            with archive.open(member, "w") as out:
-                np.lib.format.write_array(out, np.asarray(arrays[name]), allow_pickle=False)
-    return buffer.getvalue()

@@ -26,7 +26,8 @@ from app.core.errors import Conflict, NotFound
 from app.core.graph import NO_TARGET, EdgeKind, StateGraph
 from app.models import Clip, Edge, Graph, Vertex
 from app.store._sql import bulk_insert
-from app.store.artifacts import NPZ_MEDIA_TYPE, ArtifactStore, encode_arrays
+from app.store.array_codec import ARRAYS_MEDIA_TYPE, encode_arrays
+from app.store.artifacts import ArtifactStore
 from app.store.clipbank import SHAPE_CACHE_BYTES, StoredClipBank, clip_bundle
 
 #: "no clip" in vertex_clip (the start vertex) and in the placeholders of unfilled edges
@@ -221,7 +222,7 @@ def save_graph(
     new_clips = range(before.n_clips, graph.n_clips)
     digests = artifacts.put_many(
         (encode_arrays(clip_bundle(bank, clip)) for clip in new_clips),
-        media_type=NPZ_MEDIA_TYPE,
+        media_type=ARRAYS_MEDIA_TYPE,
         session=session,
     )
     bulk_insert(session, Vertex, _vertex_rows(graph_id, graph, before.n_vertices))

@@ -9,20 +9,19 @@ Redis being down costs speed, never correctness: a failed read or write is a mis
 
 from __future__ import annotations
 
-import io
 import logging
 from typing import Any
 
 import numpy as np
 
-from app.store.artifacts import encode_arrays
+from app.store.array_codec import CorruptArrays, decode_arrays, encode_arrays
 
 KEY_PREFIX = "srg:occupancy:"
 log = logging.getLogger(__name__)
 
 
 class RedisShapeCache:
-    """(occupancy, descriptor) of clip bundles in Redis, as deterministic ``.npz`` bytes."""
+    """(occupancy, descriptor) of clip bundles in Redis, in the artifacts' arrays format."""
 
     def __init__(self, client: Any, ttl: int) -> None:
         self._client = client
@@ -42,12 +41,15 @@ class RedisShapeCache:
         except Exception as exc:  # any Redis failure is a miss (see the module docstring)
             log.warning("occupancy cache read failed: %s", exc)
             data = None
-        if data is None:
+        try:
+            arrays = None if data is None else decode_arrays(data)
+        except CorruptArrays:  # an entry of an older format: a miss, rewritten on put
+            arrays = None
+        if arrays is None:
             self.misses += 1
             return None
         self.hits += 1
-        with np.load(io.BytesIO(data), allow_pickle=False) as npz:
-            return npz["occupancy"], npz["descriptor"]
+        return arrays["occupancy"], arrays["descriptor"]
 
     def put(self, digest: str, occupancy: np.ndarray, descriptor: np.ndarray) -> None:
         data = encode_arrays({"occupancy": occupancy, "descriptor": descriptor})

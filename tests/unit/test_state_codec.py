@@ -1,0 +1,115 @@
+"""Stored liquid states: the particle lattice and the arrays codec that keeps them.
+
+The bounds are hand-checkable: snapping moves a coordinate by at most half its step
+(2^-(e+1)), and the codec gives back the bytes it was given.
+"""
+
+from __future__ import annotations
+
+import numpy as np
+import pytest
+
+from app.core.particle_lattice import (
+    ParticleLattice,
+    morton_codes,
+    particle_lattice,
+    snap_state,
+)
+from app.core.scene import TILT_TANK_SPACINGS
+from app.store.array_codec import CorruptArrays, decode_arrays, encode_arrays
+
+
+def splashing_state(n: int = 2000, seed: int = 0) -> np.ndarray:
+    """Particles in a 0.6 x 0.4 x 0.16 m tank with speeds up to 2 m/s."""
+    rng = np.random.default_rng(seed)
+    state = np.empty((n, 6), np.float32)
+    state[:, :3] = rng.uniform(0, 1, (n, 3)) * np.array([0.6, 0.4, 0.16])
+    state[:, 3:] = rng.normal(0, 0.7, (n, 3)).clip(-2, 2)
+    return state
+
+
+@pytest.mark.parametrize("preset", sorted(TILT_TANK_SPACINGS))
+def test_the_position_step_is_a_power_of_two_at_most_a_200th_of_the_spacing(
+    preset: str,
+) -> None:
+    spacing = TILT_TANK_SPACINGS[preset]
+    lattice = particle_lattice(spacing)
+    assert spacing / 400 < lattice.position_step <= spacing / 200
+    assert lattice.velocity_step == 2.0**-8
+
+
+def test_snapping_moves_each_value_by_at_most_half_a_step() -> None:
+    lattice = ParticleLattice(position_exponent=14)
+    state = splashing_state()
+    snapped = snap_state(state, lattice)
+    # the rows are permuted: compare each particle with its own snapped self
+    order = np.argsort(morton_codes(np.rint(state[:, :3] * 2.0**14).astype(np.int64)))
+    moved = np.abs(snapped - state[order])
+    assert moved[:, :3].max() <= 2.0**-15 * (1 + 1e-6)
+    assert moved[:, 3:].max() <= 2.0**-9 * (1 + 1e-6)
+    assert np.all(np.diff(morton_codes(np.rint(snapped[:, :3] * 2.0**14).astype(np.int64))) >= 0)
+
+
+def test_snapping_is_idempotent_bit_for_bit_and_has_no_negative_zeros() -> None:
+    lattice = ParticleLattice(position_exponent=15)
+    state = splashing_state()
+    state[:10, 3:] = -1e-6  # rounds to -0.0 without care
+    once = snap_state(state, lattice)
+    assert once.view(np.uint32).tobytes() == snap_state(once, lattice).view(np.uint32).tobytes()
+    assert not np.any(np.signbit(once) & (once == 0))
+
+
+def test_morton_codes_interleave_the_bits_of_x_y_z() -> None:
+    cells = np.array([[1, 0, 0], [0, 1, 0], [0, 0, 1], [3, 0, 0], [1, 1, 1]])
+    assert morton_codes(cells).tolist() == [1, 2, 4, 9, 7]
+    with pytest.raises(ValueError):
+        morton_codes(np.array([[-1, 0, 0]]))
+
+
+def test_a_snapped_state_decodes_to_itself_and_costs_far_less_than_float32() -> None:
+    lattice = ParticleLattice(position_exponent=14)
+    state = snap_state(splashing_state(20000), lattice)
+    data = encode_arrays({"end_state": state})
+    back = decode_arrays(data)["end_state"]
+    assert back.dtype == np.float32 and back.tobytes() == state.tobytes()
+    assert len(data) < 0.6 * state.nbytes
+
+
+@pytest.mark.parametrize(
+    "array",
+    [
+        np.random.default_rng(1).random(300),  # floats on no lattice: raw bytes
+        np.array([-0.0, 0.5, 1.0], np.float32),  # a negative zero stays one
+        np.arange(24, dtype=np.int8).reshape(2, 3, 4) - 12,
+        np.array([0, 255, 3], np.uint8),
+        np.array([2**64 - 1, 0], np.uint64),
+        np.array([True, False]),
+        np.float64(3.25),
+        np.asarray(7, dtype=np.int64),
+        np.zeros((0, 6), np.float32),
+        np.array([np.nan, np.inf, 1.0]),
+    ],
+)
+def test_the_codec_gives_back_any_numeric_array_exactly(array: np.ndarray) -> None:
+    back = decode_arrays(encode_arrays({"a": array}))["a"]
+    array = np.asarray(array)
+    assert (back.dtype, back.shape) == (array.dtype, array.shape)
+    assert back.tobytes() == array.tobytes()
+
+
+def test_equal_arrays_give_equal_bytes_and_members_are_read_alone() -> None:
+    arrays = {"b": np.arange(10), "a": np.ones((3, 4), np.int8)}
+    data = encode_arrays(arrays)
+    assert data == encode_arrays(dict(reversed(arrays.items())))
+    assert list(decode_arrays(data, ["a"])) == ["a"]
+    with pytest.raises(KeyError):
+        decode_arrays(data, ["c"])
+
+
+def test_the_codec_refuses_objects_and_foreign_bytes() -> None:
+    with pytest.raises(ValueError, match="pickle"):
+        encode_arrays({"a": np.array(["text"], dtype=object)})
+    with pytest.raises(CorruptArrays):
+        decode_arrays(b"PK\x03\x04 a zip")
+    with pytest.raises(CorruptArrays):
+        decode_arrays(encode_arrays({"a": np.arange(1000)})[:-5])
