@@ -3,15 +3,23 @@
 from __future__ import annotations
 
 import dataclasses
+import io
 import os
 from pathlib import Path
 
 import numpy as np
 import pytest
+from PIL import Image
 
 from app.core.scene import initial_particles, tilt_tank
 from app.core.surface import surface_grid, zhu_bridson_sdf
-from app.render.animation import STRIP_MEDIA_TYPE, decode_strip, encode_poster, encode_strip
+from app.render.animation import (
+    STRIP_MEDIA_TYPE,
+    decode_strip,
+    encode_poster,
+    encode_strip,
+    phone_strip,
+)
 from app.render.meshing import surface_mesh
 from app.render.mitsuba_scene import LiquidRenderer, RenderSettings, pick_variant
 
@@ -63,7 +71,7 @@ def test_strip_round_trips_frames_side_by_side() -> None:
     for f in range(10):
         frames[f] = rng.integers(0, 255, 3)  # one flat colour per frame
     data = encode_strip(frames)
-    assert data[:4] == b"RIFF" and data[8:12] == b"WEBP" and STRIP_MEDIA_TYPE == "image/webp"
+    assert data[4:12] == b"ftypavif" and STRIP_MEDIA_TYPE == "image/avif"
     decoded = decode_strip(data, 10)
     assert decoded.shape == frames.shape
     np.testing.assert_allclose(
@@ -72,6 +80,25 @@ def test_strip_round_trips_frames_side_by_side() -> None:
     assert encode_poster(frames)[8:12] == b"WEBP"
     with pytest.raises(ValueError):
         decode_strip(data, 7)
+
+
+def test_strips_stored_as_webp_before_still_decode() -> None:
+    frames = np.zeros((4, 12, 16, 3), np.uint8)
+    frames[:, :, :, 2] = np.arange(4)[:, None, None] * 60
+    buffer = io.BytesIO()
+    Image.fromarray(frames.transpose(1, 0, 2, 3).reshape(12, 64, 3)).save(buffer, format="WEBP")
+    decoded = decode_strip(buffer.getvalue(), 4)
+    np.testing.assert_allclose(
+        decoded[:, 4:-4, 4:-4, 2].mean(axis=(1, 2)), [0, 60, 120, 180], atol=12
+    )
+
+
+def test_the_phone_strip_halves_every_frame_on_its_own() -> None:
+    frames = np.zeros((3, 24, 32, 3), np.uint8)
+    frames[1] = 255  # a white frame between black ones: nothing bleeds across the cut
+    small = decode_strip(phone_strip(encode_strip(frames), 3), 3)
+    assert small.shape == (3, 12, 16, 3)
+    np.testing.assert_allclose(small.mean(axis=(1, 2, 3)), [0, 255, 0], atol=12)
 
 
 def test_the_variant_choice_falls_back_to_scalar_without_a_working_libllvm(

@@ -3,14 +3,16 @@
 The URL names the bytes (sha256), so a response can be cached forever: ``immutable``
 and a year's ``max-age``; the hash is also the strong ``ETag``. Only image artifacts
 are served: clip bundles are internal data. A poster (the strip's first frame, for a
-first paint before strips are decoded) is cut from the strip on request rather than
-stored: it is derived data, small, and as cacheable as the strip it comes from. Both
-answer HEAD as GET, without the body.
+first paint before strips are decoded) and the phone's strip (the frames at half their
+size, for a small screen) are cut from the strip on request rather than stored: they are
+derived data, and as cacheable as the strip they come from, so storage pays for one size
+only. All answer HEAD as GET, without the body.
 """
 
 from __future__ import annotations
 
 import re
+from collections.abc import Callable
 from pathlib import Path
 from typing import Annotated
 
@@ -21,7 +23,13 @@ from sqlalchemy.orm import Session
 from app.api.deps import get_session
 from app.api.encoding import etag_matches
 from app.api.errors import ApiError, error_responses
-from app.render.animation import POSTER_MEDIA_TYPE, decode_strip, encode_poster
+from app.render.animation import (
+    POSTER_MEDIA_TYPE,
+    STRIP_MEDIA_TYPE,
+    decode_strip,
+    encode_poster,
+    phone_strip,
+)
 from app.store.animations import animation_media_type
 from app.store.artifacts import ArtifactStore
 
@@ -58,8 +66,8 @@ _NOT_MODIFIED: dict[int | str, dict[str, object]] = {
 _IMAGE = {"schema": {"type": "string", "format": "binary"}}
 ANIMATION_RESPONSES: dict[int | str, dict[str, object]] = {
     200: {
-        "description": "the strip, in the media type stored with it (WebP today)",
-        "content": {"image/webp": _IMAGE, "image/*": _IMAGE},
+        "description": "the strip, in the media type stored with it (AVIF; WebP before)",
+        "content": {STRIP_MEDIA_TYPE: _IMAGE, "image/webp": _IMAGE, "image/*": _IMAGE},
         "headers": _CACHING_HEADERS,
     },
     **_NOT_MODIFIED,
@@ -76,6 +84,15 @@ POSTER_RESPONSES: dict[int | str, dict[str, object]] = {
         404, 422, s404="no animation of that hash", s422="not a strip of that many frames"
     ),
 }
+PHONE_RESPONSES: dict[int | str, dict[str, object]] = {
+    **POSTER_RESPONSES,
+    200: {
+        "description": "the strip with every frame at half its size",
+        "content": {STRIP_MEDIA_TYPE: _IMAGE},
+        "headers": _CACHING_HEADERS,
+    },
+}
+FramesQuery = Annotated[int, Query(ge=1, le=1000, description="frames in the strip (k)")]
 
 
 @router.get("/{digest}", response_class=Response, responses=ANIMATION_RESPONSES)
@@ -96,35 +113,66 @@ def animation_head(
     return animation(digest, request, session)
 
 
-@router.get("/{digest}/poster", response_class=Response, responses=POSTER_RESPONSES)
-def poster(
-    digest: str,
-    frames: Annotated[int, Query(ge=1, le=1000, description="frames in the strip (k)")],
+def _derived(
+    session: Session,
     request: Request,
-    session: Session = Depends(get_session),
+    digest: str,
+    frames: int,
+    kind: str,
+    derive: Callable[[bytes], bytes],
+    media_type: str,
 ) -> Response:
-    """The first frame of a strip of ``frames`` frames, as a still image."""
+    """An image derived from a strip of ``frames`` frames, cacheable like the strip."""
     path, _ = _stored(session, request, digest)
-    etag = f'"{digest}-poster-{frames}"'
+    etag = f'"{digest}-{kind}-{frames}"'
     cached = _not_modified(request, etag)
     if cached is not None:
         return cached
     try:
-        images = decode_strip(path.read_bytes(), frames)
+        body = derive(path.read_bytes())
     except (ValueError, OSError) as exc:  # not a strip of that many frames, or no image
         raise ApiError(
             422, f"animation {digest} is not a strip of {frames} frames: {exc}"
         ) from None
     headers = {"ETag": etag, "Cache-Control": IMMUTABLE}
-    return Response(encode_poster(images), media_type=POSTER_MEDIA_TYPE, headers=headers)
+    return Response(body, media_type=media_type, headers=headers)
+
+
+@router.get("/{digest}/poster", response_class=Response, responses=POSTER_RESPONSES)
+def poster(
+    digest: str, frames: FramesQuery, request: Request, session: Session = Depends(get_session)
+) -> Response:
+    """The first frame of a strip of ``frames`` frames, as a still image."""
+
+    def first_frame(data: bytes) -> bytes:
+        return encode_poster(decode_strip(data, frames))
+
+    return _derived(session, request, digest, frames, "poster", first_frame, POSTER_MEDIA_TYPE)
 
 
 @router.head("/{digest}/poster", response_class=Response, responses=POSTER_RESPONSES)
 def poster_head(
-    digest: str,
-    frames: Annotated[int, Query(ge=1, le=1000, description="frames in the strip (k)")],
-    request: Request,
-    session: Session = Depends(get_session),
+    digest: str, frames: FramesQuery, request: Request, session: Session = Depends(get_session)
 ) -> Response:
     """The poster's headers, without the image."""
     return poster(digest, frames, request, session)
+
+
+@router.get("/{digest}/phone", response_class=Response, responses=PHONE_RESPONSES)
+def phone(
+    digest: str, frames: FramesQuery, request: Request, session: Session = Depends(get_session)
+) -> Response:
+    """The strip of ``frames`` frames at half their size, for a small screen."""
+
+    def half(data: bytes) -> bytes:
+        return phone_strip(data, frames)
+
+    return _derived(session, request, digest, frames, "phone", half, STRIP_MEDIA_TYPE)
+
+
+@router.head("/{digest}/phone", response_class=Response, responses=PHONE_RESPONSES)
+def phone_head(
+    digest: str, frames: FramesQuery, request: Request, session: Session = Depends(get_session)
+) -> Response:
+    """The phone strip's headers, without the strip."""
+    return phone(digest, frames, request, session)
