@@ -35,6 +35,12 @@ class Settings(BaseSettings):
     crowd_radius: float = Field(0.0, description="crowd model kernel radius r (0: per dynamics)")
     crowd_eps: float = Field(1e-3, description="crowd model prior weight epsilon")
     high_error_threshold: float = Field(0.0, description="0: per dynamics default")
+    dedup_error_fraction: float = Field(
+        0.1,
+        ge=0.0,
+        description="a clip shows a nearly identical rendered clip's animation when the "
+        "substitution error is at most this fraction of the high-error threshold; 0: never",
+    )
 
     # Rendering
     render_variant: str = Field(

@@ -1,24 +1,149 @@
 """Animation strips: a clip's frames, or eq. 8's blend of an edge, rendered and stored.
 
 The epochs render the strips of what they add; publishing renders whatever is still
-missing. Both call these, so a strip is the same whoever renders it.
+missing. Both call these, so a strip is the same whoever renders it. A clip nearly
+identical to one already rendered shows that clip's strip instead of a new one
+(:mod:`app.core.dedup`, docs/dedup.md).
 """
 
 from __future__ import annotations
 
-from collections.abc import Callable
+from collections.abc import Callable, Mapping
+from functools import partial
 
 import numpy as np
 from sqlalchemy.orm import Session
 
-from app.core.dynamics import Dynamics
+from app.config import Settings
+from app.core.dedup import Substitute, animation_owners, find_substitute
+from app.core.dynamics import ClipFeatures, Dynamics
 from app.core.graph import EdgeKind
 from app.render.animation import STRIP_MEDIA_TYPE, encode_strip
 from app.services.loading import LoadedGraph
-from app.store.animations import clip_animations, edges_without_animation, set_animations
+from app.store.animations import (
+    clip_animations,
+    edges_without_animation,
+    rendered_clip_features,
+    rendered_clips,
+    set_animations,
+)
 from app.store.artifacts import ArtifactStore
 
 Progress = Callable[[int], None]
+
+
+def reuse_error_limit(settings: Settings, dynamics: Dynamics) -> float:
+    """The largest substitution error at which a clip reuses another's strip (0: never)."""
+    threshold = settings.high_error_threshold or dynamics.high_error_threshold
+    return settings.dedup_error_fraction * threshold
+
+
+ClipColumns = Callable[[int], tuple[int, np.ndarray]]
+
+
+class AnimationReuse:
+    """The strips of a graph's clips, and which of them a new clip may show instead.
+
+    Holds the owners (clips rendered from their own frames) with their controls and
+    descriptors, so each search is one vectorised scan plus a few full distances read
+    through ``clip_features``.
+    """
+
+    def __init__(
+        self,
+        dynamics: Dynamics,
+        max_error: float,
+        animations: Mapping[int, str],
+        columns: ClipColumns,
+        clip_features: Callable[[int], ClipFeatures],
+    ) -> None:
+        self.dynamics = dynamics
+        self.max_error = max_error
+        self.animations = dict(animations)
+        self._columns = columns
+        self._clip_features = clip_features
+        self._owners: list[int] = []
+        self._controls: list[int] = []
+        self._descriptors: list[np.ndarray] = []
+        for clip in sorted(animation_owners(self.animations).values()):
+            self._add_owner(clip)
+
+    @classmethod
+    def of_graph(
+        cls, loaded: LoadedGraph, animations: Mapping[int, str], max_error: float
+    ) -> AnimationReuse:
+        """Over a loaded graph: columns from the graph, features from its bank."""
+        graph = loaded.graph
+
+        def columns(clip: int) -> tuple[int, np.ndarray]:
+            return graph.clip_control[clip], graph.clip_descriptor[clip]
+
+        return cls(loaded.dynamics, max_error, animations, columns, loaded.bank.features)
+
+    @classmethod
+    def of_stored(
+        cls,
+        session: Session,
+        artifacts: ArtifactStore,
+        dynamics: Dynamics,
+        graph_id: int,
+        max_error: float,
+    ) -> AnimationReuse:
+        """Over the stored clips alone, for a step that need not load the graph."""
+        stored = rendered_clips(session, graph_id) if max_error > 0.0 else []
+        rows = {row.clip: row for row in stored}
+
+        def columns(clip: int) -> tuple[int, np.ndarray]:
+            return rows[clip].control, rows[clip].descriptor
+
+        def features(clip: int) -> ClipFeatures:
+            return rendered_clip_features(artifacts, rows[clip])
+
+        animations = {clip: row.animation for clip, row in rows.items()}
+        return cls(dynamics, max_error, animations, columns, features)
+
+    def strip(
+        self,
+        session: Session,
+        artifacts: ArtifactStore,
+        features: ClipFeatures,
+        frames: Callable[[], np.ndarray],
+        clip: int | None = None,
+    ) -> tuple[str, Substitute | None]:
+        """The strip of a clip: a nearly identical clip's, else its own ``frames`` rendered.
+
+        Returns the digest and the substitute whose strip it is (None: rendered). A
+        ``clip`` of the graph is noted, and when rendered may stand in for later clips.
+        """
+        found = self._substitute(features)
+        if found is not None:
+            digest = self.animations[found.clip]
+        else:
+            digest = frames_strip(session, artifacts, self.dynamics, frames())
+        if clip is not None:
+            self.animations[clip] = digest
+            if found is None:
+                self._add_owner(clip)
+        return digest, found
+
+    def _substitute(self, features: ClipFeatures) -> Substitute | None:
+        if self.max_error <= 0.0 or not self._owners:
+            return None
+        return find_substitute(
+            features,
+            np.asarray(self._owners),
+            np.asarray(self._controls),
+            np.stack(self._descriptors),
+            self._clip_features,
+            self.dynamics,
+            self.max_error,
+        )
+
+    def _add_owner(self, clip: int) -> None:
+        control, descriptor = self._columns(clip)
+        self._owners.append(clip)
+        self._controls.append(control)
+        self._descriptors.append(np.ravel(descriptor))
 
 
 def frames_strip(
@@ -39,29 +164,30 @@ def blend_strip(session: Session, loaded: LoadedGraph, edge: int) -> str:
 
 
 def render_missing_animations(
-    session: Session, loaded: LoadedGraph, progress: Progress | None = None
+    session: Session, loaded: LoadedGraph, max_reuse_error: float, progress: Progress | None = None
 ) -> int:
-    """Render every edge that has no animation yet; return how many were rendered.
+    """Give every edge that has none an animation; return how many edges got one.
 
-    A SIM edge shows its clip (rendered once per clip and kept on the clip row); a BLEND
-    edge shows eq. 8's blend of its dead-end clip into its target's clip.
+    A SIM edge shows its clip (one strip per clip, kept on the clip row: a nearly
+    identical clip's within ``max_reuse_error``, else rendered); a BLEND edge shows
+    eq. 8's blend of its dead-end clip into its target's clip. SIM edges go in clip
+    order, so a strip's owner is the first clip holding it (:mod:`app.core.dedup`).
     """
     graph_id, graph = loaded.row.id, loaded.graph
     missing = edges_without_animation(session, graph_id, graph.n_controls)
-    rendered_clips = clip_animations(session, graph_id)
+    reuse = AnimationReuse.of_graph(loaded, clip_animations(session, graph_id), max_reuse_error)
     new_clips: dict[int, str] = {}
     edges: dict[int, str] = {}
-    for edge in missing:
+    for edge in sorted(missing, key=lambda e: (graph.edge_kind[e], graph.edge_clip[e], e)):
         clip = graph.edge_clip[edge]
-        if graph.edge_kind[edge] == EdgeKind.SIM:
-            digest = rendered_clips.get(clip) or new_clips.get(clip)
-            if digest is None:
-                frames = loaded.bank.frames(clip)
-                digest = frames_strip(session, loaded.artifacts, loaded.dynamics, frames)
-                new_clips[clip] = digest
+        if graph.edge_kind[edge] == EdgeKind.BLEND:
+            edges[edge] = blend_strip(session, loaded, edge)
+        elif clip in reuse.animations:
+            edges[edge] = reuse.animations[clip]
         else:
-            digest = blend_strip(session, loaded, edge)
-        edges[edge] = digest
+            features, frames = loaded.bank.features(clip), partial(loaded.bank.frames, clip)
+            digest, _ = reuse.strip(session, loaded.artifacts, features, frames, clip)
+            edges[edge] = new_clips[clip] = digest
         if progress is not None:
             progress(1)
     set_animations(session, graph_id, clips=new_clips, edges=edges)

@@ -19,7 +19,7 @@ from app.config import Settings
 from app.core.dynamics import ClipFeatures, Dynamics, SimClip
 from app.core.errors import NotFound
 from app.models import Graph
-from app.services.animations import frames_strip
+from app.services.animations import AnimationReuse, reuse_error_limit
 from app.services.loading import artifact_store, graph_dynamics
 from app.store.epochs import (
     expansion_clip,
@@ -172,14 +172,22 @@ def sdf_step(
 def render_step(
     session: Session, settings: Settings, clip: str, epoch_id: int, position: int, control: int
 ) -> str:
-    """Render a recorded clip's animation strip (once); return the clip artifact."""
+    """Give a recorded clip its animation strip (once); return the clip artifact.
+
+    The strip is a nearly identical rendered clip's of the graph when there is one
+    (:mod:`app.core.dedup`), else the clip's frames rendered.
+    """
     found = expansion_clip(session, epoch_id, position, control)
     if found is None:
         raise NotFound(f"epoch {epoch_id} has no clip {control} of expansion {position}")
     if found.animation is None:
         row, _ = planned_clip(session, epoch_id, position)
         artifacts = artifact_store(settings)
-        frames = artifacts.get_arrays(found.clip, ("frames",))["frames"]
-        strip = frames_strip(session, artifacts, graph_dynamics(row, settings), frames)
+        dynamics = graph_dynamics(row, settings)
+        reuse = AnimationReuse.of_stored(
+            session, artifacts, dynamics, row.id, reuse_error_limit(settings, dynamics)
+        )
+        sim, features = clip_from_arrays(artifacts.get_arrays(found.clip))
+        strip, _ = reuse.strip(session, artifacts, features, lambda: sim.frames)
         set_clip_animation(session, found, strip)
     return clip

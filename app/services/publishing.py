@@ -12,7 +12,7 @@ from sqlalchemy.orm import Session
 
 from app.config import Settings
 from app.core.growth import relink_all
-from app.services.animations import Progress, render_missing_animations
+from app.services.animations import Progress, render_missing_animations, reuse_error_limit
 from app.services.loading import LoadedGraph, open_graph
 from app.store.graphs import save_graph
 from app.store.publications import get_publication, publish
@@ -51,7 +51,10 @@ def publish_graph(
     """
     loaded = open_graph(session, settings, name)
     relinked = relink_blends(session, settings, loaded)
-    rendered = render_missing_animations(session, loaded, progress) if render else 0
+    rendered = 0
+    if render:
+        limit = reuse_error_limit(settings, loaded.dynamics)
+        rendered = render_missing_animations(session, loaded, limit, progress)
     publication_id = publish(session, loaded.row.id, loaded.graph)
     return PublishResult(
         graph=loaded.row.name,

@@ -8,12 +8,16 @@ edge shows its own blend. Saving a changed edge drops its strip
 from __future__ import annotations
 
 from collections.abc import Iterable, Mapping
+from typing import NamedTuple
 
+import numpy as np
 from sqlalchemy import func, select, update
 from sqlalchemy.orm import Session
 
+from app.core.dynamics import ClipFeatures
 from app.core.graph import EdgeKind
 from app.models import Artifact, Clip, Edge, PublicationEdge
+from app.store.artifacts import ArtifactStore
 from app.store.graphs import get_graph_row
 
 #: animation strips and posters are images; every other artifact is internal
@@ -73,6 +77,64 @@ def clip_animations(session: Session, graph_id: int) -> dict[int, str]:
         )
     )
     return {clip: animation for clip, animation in rows if animation is not None}
+
+
+class RenderedClip(NamedTuple):
+    """A clip of the graph that has a strip, with the columns comparing clips needs."""
+
+    clip: int
+    control: int
+    kinetic: float
+    potential: np.ndarray
+    score: float
+    descriptor: np.ndarray
+    bundle: str
+    animation: str
+
+
+def rendered_clips(session: Session, graph_id: int) -> list[RenderedClip]:
+    """Every clip of the graph that has a strip, in clip order (descriptors as stored)."""
+    rows = session.execute(
+        select(
+            Clip.idx,
+            Clip.control,
+            Clip.kinetic,
+            Clip.potential,
+            Clip.score,
+            Clip.descriptor,
+            Clip.bundle,
+            Clip.animation,
+        )
+        .where(Clip.graph_id == graph_id, Clip.animation.is_not(None))
+        .order_by(Clip.idx)
+    )
+    return [
+        RenderedClip(
+            clip=idx,
+            control=control,
+            kinetic=kinetic,
+            potential=np.frombuffer(potential, dtype=np.float64).copy(),
+            score=score,
+            descriptor=np.frombuffer(descriptor, dtype=np.float32).astype(np.float64),
+            bundle=bundle,
+            animation=animation,
+        )
+        for idx, control, kinetic, potential, score, descriptor, bundle, animation in rows
+        if animation is not None
+    ]
+
+
+def rendered_clip_features(artifacts: ArtifactStore, clip: RenderedClip) -> ClipFeatures:
+    """The clip's features, its occupancy read from its bundle."""
+    shapes = artifacts.get_arrays(clip.bundle, ("occupancy", "descriptor"))
+    return ClipFeatures(
+        control=clip.control,
+        kinetic=clip.kinetic,
+        potential=clip.potential,
+        occupancy=shapes["occupancy"],
+        descriptor=shapes["descriptor"],
+        score=clip.score,
+    )
 
 
 def count_missing_animations(session: Session, graph_id: int) -> int:
