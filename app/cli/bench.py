@@ -218,3 +218,24 @@ def store(
     result["save_edges_per_s"] = result["n_edges"] / max(result["save_seconds"], 1e-12)
     result["load_edges_per_s"] = result["n_edges"] / max(result["load_seconds"], 1e-12)
     emit(result, as_json=True)
+
+
+@app.command("dedup")
+def dedup(
+    name: str = typer.Argument(..., help="a stored graph with rendered clips"),
+    fractions: str = typer.Option(
+        "0.05,0.1,0.2,0.5", help="limits to replay, as fractions of the high-error threshold"
+    ),
+) -> None:
+    """Shared animations on a stored graph: clips reused, bytes saved, the visual cost."""
+    from app.bench.dedup import bench_dedup
+    from app.config import get_settings
+
+    message = f"--fractions takes comma-separated numbers in (0, 1], got {fractions!r}"
+    try:
+        values = [float(part) for part in fractions.split(",")]
+    except ValueError:
+        raise InvalidInput(message) from None
+    if not all(0.0 < v <= 1.0 for v in values):
+        raise InvalidInput(message)
+    emit(bench_dedup(get_settings(), name, values), as_json=True)

@@ -115,18 +115,17 @@ class AnimationReuse:
         Returns the digest and the substitute whose strip it is (None: rendered). A
         ``clip`` of the graph is noted, and when rendered may stand in for later clips.
         """
-        found = self._substitute(features)
+        found = self.substitute(features)
         if found is not None:
             digest = self.animations[found.clip]
         else:
             digest = frames_strip(session, artifacts, self.dynamics, frames())
         if clip is not None:
-            self.animations[clip] = digest
-            if found is None:
-                self._add_owner(clip)
+            self.note(clip, digest, rendered=found is None)
         return digest, found
 
-    def _substitute(self, features: ClipFeatures) -> Substitute | None:
+    def substitute(self, features: ClipFeatures) -> Substitute | None:
+        """The owner clip whose strip can be shown for ``features``' clip, if any."""
         if self.max_error <= 0.0 or not self._owners:
             return None
         return find_substitute(
@@ -138,6 +137,12 @@ class AnimationReuse:
             self.dynamics,
             self.max_error,
         )
+
+    def note(self, clip: int, digest: str, *, rendered: bool) -> None:
+        """Note ``clip``'s strip; one rendered from its own frames may stand in for later clips."""
+        self.animations[clip] = digest
+        if rendered:
+            self._add_owner(clip)
 
     def _add_owner(self, clip: int) -> None:
         control, descriptor = self._columns(clip)

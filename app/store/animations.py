@@ -163,3 +163,10 @@ def animation_media_type(session: Session, digest: str) -> str | None:
     if media_type is None or not media_type.startswith(ANIMATION_MEDIA_PREFIX):
         return None
     return media_type
+
+
+def graph_animations(session: Session, graph_id: int) -> set[str]:
+    """Every strip the graph's clips and edges hold (each stored once)."""
+    clips = select(Clip.animation).where(Clip.graph_id == graph_id, Clip.animation.is_not(None))
+    edges = select(Edge.animation).where(Edge.graph_id == graph_id, Edge.animation.is_not(None))
+    return {digest for digest in session.scalars(clips.union(edges)) if digest is not None}
