@@ -1,4 +1,9 @@
-"""The web client in headless Chromium: 20 s of play with keys, gapless, trace stored.
+"""The web client in headless Chromium: gapless play at both sizes, tilt, trace stored.
+
+A desktop window (1280 x 800) plays 20 s with the keys and the stored strips; a phone
+(390 x 844, portrait) plays 20 s by tilting (deviceorientation's gamma) and the
+half-size strips the server cuts for it; a phone turned to landscape (screen angle 90,
+emulated) tilts with beta. Both plays are checked for gaps.
 
 Runs in the normal suite. Without /usr/bin/chromium it skips, except in CI (CI=true),
 where a missing browser is a failure: infra installs it there.
@@ -6,11 +11,13 @@ where a missing browser is a failure: infra installs it there.
 
 from __future__ import annotations
 
+import math
 import os
 import time
-from collections.abc import Iterator
+from collections.abc import Callable, Iterator
 from dataclasses import dataclass
 from pathlib import Path
+from typing import TYPE_CHECKING
 
 import numpy as np
 import pytest
@@ -28,6 +35,9 @@ from app.store.animations import set_animations
 from app.store.artifacts import ArtifactStore
 from app.store.publications import load_publication, publish
 
+if TYPE_CHECKING:
+    from playwright.sync_api import Page
+
 CHROMIUM = Path("/usr/bin/chromium")
 CHROMIUM_ARGS = [
     "--headless",
@@ -43,6 +53,10 @@ PLAY_SECONDS = 20.0
 FPS = 30.0
 #: key held, and for how long (ms): left and right tilts, level between
 KEY_PATTERN = [("ArrowLeft", 700), (None, 400), ("ArrowRight", 800), ("ArrowUp", 300)]
+#: the same pattern as degrees of tilt towards the screen's right
+TILT_PATTERN = [(-30.0, 700), (0.0, 400), (30.0, 800), (0.0, 300)]
+DESKTOP = {"width": 1280, "height": 800}
+PHONE = {"width": 390, "height": 844}
 
 
 @dataclass(frozen=True)
@@ -50,10 +64,15 @@ class Served:
     base_url: str
     engine: Engine
     publication_id: int
+    #: pixel width of a frame of the stored strips
+    frame_width: int
 
 
-def render_animations(session: object, artifacts: ArtifactStore, toy: ToyGraph) -> None:
-    """One strip per edge: its clip, or for a BLEND edge its clip blended into the target's."""
+def render_animations(session: object, artifacts: ArtifactStore, toy: ToyGraph) -> int:
+    """One strip per edge: its clip, or for a BLEND edge its clip blended into the target's.
+
+    Returns the width of a frame.
+    """
     graph, bank, dynamics = toy.graph, toy.bank, toy.dynamics
 
     def frames(edge: int) -> np.ndarray:
@@ -62,9 +81,11 @@ def render_animations(session: object, artifacts: ArtifactStore, toy: ToyGraph) 
             return own
         return dynamics.blend(own, bank.frames(graph.edge_clip[graph.edge_target[edge]]))
 
-    strips = (encode_strip(dynamics.render(frames(e))) for e in range(graph.n_edges))
+    images = [dynamics.render(frames(e)) for e in range(graph.n_edges)]
+    strips = (encode_strip(clip) for clip in images)
     digests = artifacts.put_many(strips, media_type=STRIP_MEDIA_TYPE, session=session)  # type: ignore[arg-type]
     set_animations(session, toy.graph_id, edges=dict(enumerate(digests)))  # type: ignore[arg-type]
+    return int(images[0].shape[2])
 
 
 @pytest.fixture
@@ -75,12 +96,12 @@ def served(tmp_path: Path) -> Iterator[Served]:
     artifacts = ArtifactStore(tmp_path / "data")
     with session_factory(engine)() as session:
         toy = build_toy_graph(session, artifacts, name="e2e-toy", expansions=8)
-        render_animations(session, artifacts, toy)
+        frame_width = render_animations(session, artifacts, toy)
         publication_id = publish(session, toy.graph_id, toy.graph)
         session.commit()
     settings = Settings(database_url=url, artifact_dir=tmp_path / "data")
     with serve_in_thread(create_app(settings)) as base_url:
-        yield Served(base_url, engine, publication_id)
+        yield Served(base_url, engine, publication_id, frame_width)
     engine.dispose()
 
 
@@ -133,7 +154,47 @@ def assert_no_gaps(frames: np.ndarray, ticks: np.ndarray, period: float) -> None
     assert len(long) <= 0.01 * len(gaps), f"{len(long)} browser stalls over {2 * period:.0f} ms"
 
 
-def test_the_client_plays_gaplessly_and_uploads_its_trace(served: Served) -> None:
+def tilt(page: Page, towards_right: float, angle: int = 0) -> None:
+    """A deviceorientation event leaning the device ``towards_right`` degrees.
+
+    At screen angle 0 that is gamma; at 90 (landscape, the device's top to the left) the
+    screen's right is the device's bottom, so it is beta.
+    """
+    beta, gamma = (towards_right, 0.0) if angle == 90 else (60.0, towards_right)
+    page.evaluate(
+        "([beta, gamma]) => dispatchEvent(new DeviceOrientationEvent('deviceorientation',"
+        " {alpha: 0, beta, gamma}))",
+        [beta, gamma],
+    )
+
+
+def play_with_keys(page: Page) -> None:
+    for key, ms in KEY_PATTERN:
+        if key:
+            page.keyboard.down(key)
+        page.wait_for_timeout(ms)
+        if key:
+            page.keyboard.up(key)
+
+
+def play_with_tilt(page: Page) -> None:
+    for degrees, ms in TILT_PATTERN:
+        tilt(page, degrees)
+        page.wait_for_timeout(ms)
+
+
+@pytest.mark.parametrize(
+    ("viewport", "size", "scale", "play"),
+    [(DESKTOP, "desktop", 1.0, play_with_keys), (PHONE, "phone", 0.5, play_with_tilt)],
+    ids=["desktop-keys", "phone-tilt"],
+)
+def test_the_client_plays_gaplessly_and_uploads_its_trace(
+    served: Served,
+    viewport: dict[str, int],
+    size: str,
+    scale: float,
+    play: Callable[[Page], None],
+) -> None:
     require_chromium()
     from playwright.sync_api import sync_playwright
 
@@ -141,27 +202,27 @@ def test_the_client_plays_gaplessly_and_uploads_its_trace(served: Served) -> Non
         browser = playwright.chromium.launch(
             executable_path=str(CHROMIUM), args=CHROMIUM_ARGS, headless=True
         )
-        page = browser.new_page(viewport={"width": 760, "height": 720})
+        page = browser.new_page(viewport=viewport)  # type: ignore[arg-type]
         page.goto(f"{served.base_url}/?graph=e2e-toy")
         page.wait_for_function("window.srgStats && window.srgStats.frames.length > 0")
+        assert page.is_hidden("#loading")  # the first strips are in: no loading sign
         end = time.monotonic() + PLAY_SECONDS
         while time.monotonic() < end:
-            for key, ms in KEY_PATTERN:
-                if key:
-                    page.keyboard.down(key)
-                page.wait_for_timeout(ms)
-                if key:
-                    page.keyboard.up(key)
+            play(page)
         if screenshot := os.environ.get("SRG_CLIENT_SCREENSHOT"):
-            page.screenshot(path=screenshot)
+            page.screenshot(path=screenshot.replace(".png", f"-{size}.png"))
         stats = page.evaluate(
             "() => ({frames: srgStats.frames, ticks: srgStats.ticks, late: srgStats.late,"
-            " steps: srgStats.steps,"
-            " placeholders: srgStats.placeholders, score: srgStats.score})"
+            " steps: srgStats.steps, size: srgStats.size, stripWidth: srgStats.stripWidth,"
+            " placeholders: srgStats.placeholders, score: srgStats.score,"
+            " shown: document.getElementById('score').textContent})"
         )
         page.goto("about:blank")  # the page is hidden: it uploads its trace on the way out
         browser.close()
 
+    assert stats["size"] == size and stats["stripWidth"] == served.frame_width * scale
+    # the score reads as points: a thousand per unit of the edges' score
+    assert int(stats["shown"].replace(",", "")) == math.floor(stats["score"] * 1000 + 0.5)
     frames = np.asarray(stats["frames"])
     period = 1000.0 / FPS
     assert frames[-1] - frames[0] >= (PLAY_SECONDS - 1) * 1000
@@ -177,8 +238,41 @@ def test_the_client_plays_gaplessly_and_uploads_its_trace(served: Served) -> Non
     with session_factory(served.engine)() as session:
         publication = load_publication(session, served.publication_id)
     assert publication.follows_edges(trace)
-    assert {1, 2} <= set(trace[:, 1].tolist())  # the key presses tilted the tank both ways
+    assert {1, 2} <= set(trace[:, 1].tolist())  # the keys or the tilt went both ways
     seen = trace[: stats["steps"]]
     assert stats["score"] == pytest.approx(
         publication.edge_score[seen[:, 0] * publication.n_controls + seen[:, 1]].sum()
     )
+
+
+def test_a_phone_in_landscape_tilts_with_beta(served: Served) -> None:
+    require_chromium()
+    from playwright.sync_api import sync_playwright
+
+    with sync_playwright() as playwright:
+        browser = playwright.chromium.launch(
+            executable_path=str(CHROMIUM), args=CHROMIUM_ARGS, headless=True
+        )
+        page = browser.new_page(viewport={"width": 844, "height": 390})
+        cdp = page.context.new_cdp_session(page)
+        cdp.send(
+            "Emulation.setDeviceMetricsOverride",
+            {
+                "width": 844,
+                "height": 390,
+                "deviceScaleFactor": 3,
+                "mobile": True,
+                "screenOrientation": {"type": "landscapePrimary", "angle": 90},
+            },
+        )
+        page.goto(f"{served.base_url}/?graph=e2e-toy")
+        page.wait_for_function("window.srgStats && window.srgStats.frames.length > 0")
+        assert page.evaluate("screen.orientation.angle") == 90
+        for degrees, expected in [(30.0, 2), (-30.0, 1), (0.0, 0)]:
+            tilt(page, degrees, angle=90)
+            page.wait_for_function(
+                f"document.querySelector('.controls .on')?.dataset.control === '{expected}'",
+                timeout=2000,
+            )
+            assert page.evaluate("srgStats.tilt") == degrees
+        browser.close()

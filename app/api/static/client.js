@@ -10,6 +10,14 @@
 // without an animation, or whose strip is still loading, is drawn as a placeholder at
 // the same rate: the clock never waits.
 //
+// Size: a screen under PHONE_MAX_WIDTH CSS pixels wide plays the phone's strips (every
+// frame at half size, cut by the server from the stored strip), others the stored ones.
+// Strips are AVIF (WebP for publications made before); a browser that decodes neither
+// shows placeholders and says so.
+//
+// Tilt: the device's tilt towards the screen's right, whichever way the screen is turned
+// (screen.orientation.angle): gamma in portrait, beta in landscape, signs to match.
+//
 // Traces: rows of [vertex, control], uploaded (POST /api/traces, token in the
 // Authorization header, fetch keepalive so it survives the page going away) when the
 // page is hidden, on "New game", and every MAX_TRACE_STEPS steps. An upload is kept in
@@ -24,6 +32,9 @@ const STRIP_CACHE_SIZE = 256;
 const PENDING_MAX = 20;
 const FRAME_LOG_MAX = 200000;
 const START_WAIT_MS = 3000; // wait this long at most for the first strips before playing
+const PHONE_MAX_WIDTH = 600;
+const SIZE = matchMedia(`(max-width: ${PHONE_MAX_WIDTH}px)`).matches ? "phone" : "desktop";
+const POINTS_PER_SCORE = 1000; // a clip scores at most ~0.033: shown as up to ~33 points
 
 const stats = {
   frames: [], // rAF timestamps (ms) at which a new frame was drawn
@@ -35,6 +46,10 @@ const stats = {
   score: 0,
   steps: 0,
   publicationId: null,
+  size: SIZE, // which strips this screen plays
+  stripWidth: null, // pixel width of a frame of the strips played
+  undecodable: 0, // strips fetched that the browser could not decode
+  tilt: null, // the last tilt read: degrees towards the screen's right
 };
 window.srgStats = stats;
 
@@ -105,6 +120,16 @@ async function flushPending() {
 // ---- strips -----------------------------------------------------------------------
 const strips = new Map(); // url -> {image: ImageBitmap | null}
 
+function stripUrl(edge) {
+  if (!edge.animation) return null;
+  return SIZE === "phone" ? `${edge.animation}/phone?frames=${game.k}` : edge.animation;
+}
+
+function undecodable(blob) {
+  stats.undecodable += 1;
+  $("status").textContent = `this browser cannot decode the animations (${blob.type}): showing placeholders`;
+}
+
 function requestStrip(url) {
   if (!url) return Promise.resolve();
   if (strips.has(url)) return strips.get(url).ready;
@@ -112,7 +137,7 @@ function requestStrip(url) {
   strips.set(url, entry);
   entry.ready = fetch(url)
     .then((r) => (r.ok ? r.blob() : Promise.reject(new Error(r.statusText))))
-    .then((blob) => createImageBitmap(blob))
+    .then((blob) => createImageBitmap(blob).catch((error) => { undecodable(blob); throw error; }))
     .then((bitmap) => { entry.image = bitmap; })
     .catch(() => strips.delete(url)); // try again next time it is needed
   if (strips.size > STRIP_CACHE_SIZE) {
@@ -126,7 +151,7 @@ function requestStrip(url) {
 function preloadFrom(vertex, depth = 2) {
   const loads = [];
   for (const edge of game.pub.vertices[vertex]) {
-    loads.push(requestStrip(edge.animation));
+    loads.push(requestStrip(stripUrl(edge)));
     if (depth > 1) loads.push(...preloadFrom(edge.dst, depth - 1));
   }
   return loads;
@@ -149,9 +174,28 @@ addEventListener("keydown", (e) => {
 });
 addEventListener("keyup", (e) => input.keys.delete(e.key));
 addEventListener("blur", () => input.keys.clear());
+function screenAngle() {
+  const angle = screen.orientation?.angle ?? window.orientation ?? 0;
+  return ((angle % 360) + 360) % 360;
+}
+
+// Degrees the device leans towards the screen's right edge. Turned 90 degrees (its top
+// to the left), the screen's right is the device's bottom: leaning it that way raises
+// the top, beta grows; turned 270 the other way round; upside down, gamma flips.
+function tiltToScreenRight(e) {
+  switch (screenAngle()) {
+    case 90: return e.beta;
+    case 180: return e.gamma === null ? null : -e.gamma;
+    case 270: return e.beta === null ? null : -e.beta;
+    default: return e.gamma;
+  }
+}
+
 addEventListener("deviceorientation", (e) => {
-  if (e.gamma === null) return;
-  input.tilt = e.gamma < -TILT_DEGREES ? CONTROLS.LEFT : e.gamma > TILT_DEGREES ? CONTROLS.RIGHT : CONTROLS.LEVEL;
+  const tilt = tiltToScreenRight(e);
+  if (tilt === null) return;
+  stats.tilt = tilt;
+  input.tilt = tilt < -TILT_DEGREES ? CONTROLS.LEFT : tilt > TILT_DEGREES ? CONTROLS.RIGHT : CONTROLS.LEVEL;
 });
 canvas.addEventListener("pointerdown", (e) => {
   const rect = canvas.getBoundingClientRect();
@@ -192,19 +236,22 @@ function startEdge() {
   const edge = game.pub.vertices[game.vertex][control];
   game.trace.steps.push([game.vertex, control]);
   game.edge = edge;
-  game.image = edge.animation ? strips.get(edge.animation)?.image ?? null : null;
-  if (!edge.animation) stats.placeholders += 1;
-  else if (!game.image) { stats.late += 1; requestStrip(edge.animation); }
+  const url = stripUrl(edge);
+  game.image = url ? strips.get(url)?.image ?? null : null;
+  if (!url) stats.placeholders += 1;
+  else if (!game.image) { stats.late += 1; requestStrip(url); }
   if (game.image && canvas.width !== game.image.width / game.k) {
     canvas.width = game.image.width / game.k;
     canvas.height = game.image.height;
+    stats.stripWidth = canvas.width;
   }
+  loading(url !== null && !game.image);
   game.vertex = edge.dst;
   preloadFrom(edge.dst);
   stats.clips += 1;
   stats.steps += 1;
   stats.score += edge.score;
-  $("score").textContent = stats.score.toFixed(1);
+  showScore();
   for (const el of document.querySelectorAll(".controls span")) {
     el.classList.toggle("on", Number(el.dataset.control) === control);
   }
@@ -262,7 +309,26 @@ function restart() {
   endTrace();
   game.vertex = game.pub.start;
   stats.score = 0;
-  $("score").textContent = "0";
+  showScore();
+}
+
+function showScore() {
+  $("score").textContent = Math.round(stats.score * POINTS_PER_SCORE).toLocaleString("en");
+}
+
+// The loading state: shown until the first strips are decoded, and while a clip's strip
+// is still on its way (its placeholder plays meanwhile).
+function loading(on) {
+  $("loading").hidden = !on;
+  canvas.setAttribute("aria-busy", String(on));
+}
+
+function describe(pub) {
+  const parts = [`publication ${pub.number}`, `${pub.n_vertices.toLocaleString("en")} vertices`];
+  if (pub.size_frames !== undefined) parts.push(`${pub.size_frames.toLocaleString("en")} frames`);
+  if (pub.blend_share !== undefined) parts.push(`${Math.round(pub.blend_share * 100)} % blends`);
+  if (pub.mean_blend_error !== undefined) parts.push(`mean blend error ${pub.mean_blend_error.toFixed(3)}`);
+  return parts.join(" · ");
 }
 
 // ---- start ------------------------------------------------------------------------
@@ -285,15 +351,17 @@ async function main() {
     game.vertex = game.pub.start;
     game.trace = newTrace();
     stats.publicationId = game.pub.publication_id;
-    $("publication").textContent = `publication ${game.pub.number}: ${game.pub.n_vertices} vertices`;
+    $("publication").textContent = describe(game.pub);
     paintPoster(game.pub.vertices[game.vertex][CONTROLS.LEVEL].poster);
     const firstStrips = Promise.all(preloadFrom(game.vertex));
     await Promise.race([firstStrips, new Promise((resolve) => setTimeout(resolve, START_WAIT_MS))]);
+    loading(false);
     document.addEventListener("visibilitychange", () => (document.hidden ? pause() : play()));
     addEventListener("pagehide", pause);
     $("restart").addEventListener("click", restart);
     play();
   } catch (error) {
+    loading(false);
     status.textContent = `cannot play: ${error.message}`;
   }
 }
