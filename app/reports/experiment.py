@@ -24,15 +24,19 @@ from app.reports.prediction import ingredients_section, settings_section  # noqa
 
 ArraysLoader = Callable[[str], dict[str, np.ndarray]]
 
+#: the unit of eq. 3's error: shape (m^3) plus w_e times energy (J, w_e in m^3/J), over
+#: sqrt(kinetic energy) (eq. 6); the toy's quantities are per unit width and density
+ERROR_UNITS = {"liquid": "m³/√J", "toy": "toy units"}
+#: the y-axis of each metric against graph size; ``{unit}`` is the error's unit
 FIGURES = {
     "observed_mean_error": (
         "Mean observed blend error per step (Fig. 5)",
-        "mean observed error per step (dist units)",
+        "mean error per step (eq. 3, {unit})",
         "error-per-step.png",
     ),
     "high_error_fraction": (
         "Play time on high-error edges (Fig. 6)",
-        "fraction of steps above the high-error threshold",
+        "steps above the high-error\nthreshold (share of steps, 0-1)",
         "high-error.png",
     ),
 }
@@ -51,6 +55,11 @@ def _series(result: dict[str, Any], strategy: str, key: str) -> tuple[np.ndarray
     return sizes.mean(axis=0), values
 
 
+def error_unit(result: dict[str, Any]) -> str:
+    """The unit of eq. 3's error for the experiment's dynamics."""
+    return ERROR_UNITS.get(str(result["plan"].get("dynamics")), "dist units")
+
+
 def plot_metric(result: dict[str, Any], key: str, title: str, ylabel: str, path: Path) -> Path:
     """Mean over seeds against graph size, the band spanning the seeds (min to max)."""
     fig, ax = plt.subplots(figsize=(6.4, 4.2))
@@ -61,7 +70,7 @@ def plot_metric(result: dict[str, Any], key: str, title: str, ylabel: str, path:
             ax.fill_between(sizes, np.nanmin(values, axis=0), np.nanmax(values, axis=0), alpha=0.2)
     ax.set_xscale("log")
     ax.set_xlabel("graph size (simulated frames)")
-    ax.set_ylabel(ylabel)
+    ax.set_ylabel(ylabel.format(unit=error_unit(result)))
     seeds = len(result["plan"]["seeds"])
     ax.set_title(f"{title}\nmean over {seeds} seed(s), band: min to max")
     ax.grid(alpha=0.3)
@@ -99,8 +108,8 @@ def plot_histograms(result: dict[str, Any], load_arrays: ArraysLoader, path: Pat
         ax.step(bins[:-1], counts / max(values.size, 1), where="post", label=strategy)
     label = f"high-error threshold {threshold:.3g}"
     ax.axvline(threshold, color="black", linestyle="--", label=label)
-    ax.set_xlabel("blend error of the step taken (dist units; 0 = simulated edge)")
-    ax.set_ylabel("fraction of steps")
+    ax.set_xlabel(f"error of the step taken (eq. 3, {error_unit(result)}; 0: a simulated edge)")
+    ax.set_ylabel("steps (share of all steps, log scale)")
     ax.set_yscale("log")
     size = int(np.mean(_series(result, compared[0], "size_frames")[0][-1]))
     ax.set_title(f"Errors players saw at {size} frames (Fig. 7)")
@@ -129,8 +138,8 @@ def plot_density_scatter(result: dict[str, Any], load_arrays: ArraysLoader, path
         ax.set_ylim(floor / 2, 1)
         corr = row["density_correlation"]
         ax.set_title(f"{strategy}\ncorrelation {corr:.2f}" if corr is not None else strategy)
-        ax.set_xlabel("predicted edge-visit density")
-        ax.set_ylabel("observed edge-visit density")
+        ax.set_xlabel("predicted edge-visit density (share of steps)")
+        ax.set_ylabel("observed edge-visit density (share of steps)")
         ax.legend(loc="lower right", fontsize=7)
     fig.suptitle(
         "Predicted against observed edge-visit densities at the last checkpoint (Figs. 8/9);"
@@ -188,8 +197,8 @@ def plot_density_graph(
         ax.scatter(xy[:, 0], xy[:, 1], s=1, color="#555555")
         ax.autoscale()
         ax.set_title(label, fontsize=9)
-        ax.set_xlabel("descriptor PC 1")
-        ax.set_ylabel("descriptor PC 2")
+        ax.set_xlabel("descriptor PC 1 (occupied share of the tank's cells)")
+        ax.set_ylabel("descriptor PC 2 (occupied share)")
     handles = [
         plt.Line2D([], [], color=DENSITY_BANDS[0][1], label=">= 10 % of the busiest edge"),
         plt.Line2D([], [], color=DENSITY_BANDS[1][1], label="2-10 %"),

@@ -49,7 +49,7 @@ def _save(fig: Any, path: Path, colours: int = 128) -> Path:
 
 def _dist_axis(ax: Any, x: np.ndarray, zero: np.ndarray) -> None:
     ax.set_xscale("log")
-    label = "blend error dist(d, t, c), eq. 3"
+    label = "blend error dist(d, t, c), eq. 3 (m³/√J)"
     if zero.any():
         label += f"\n(dist = 0 drawn at {x[zero].min():.1e})"
     ax.set_xlabel(label, fontsize=8)

@@ -15,12 +15,13 @@ from dataclasses import dataclass, replace
 from pathlib import Path
 from typing import Any
 
-import numpy as np
 from sqlalchemy.orm import Session
 
 from app.config import Settings
+from app.core.graph import EdgeKind
 from app.core.strategies import Strategy
 from app.db import transaction
+from app.reports.contact_sheet import Tile, contact_sheet
 from app.reports.experiment import ArraysLoader, write_report
 from app.services.animations import Progress
 from app.services.dynamics import QUICK_LIQUID_PRESET
@@ -35,7 +36,11 @@ from app.services.experiment.plan import (
 from app.services.experiment.runs import Grower, run_experiment
 from app.services.loading import artifact_store
 from app.services.publishing import PublishResult, publish_graph
-from app.store.animations import count_missing_animations, publication_animations
+from app.store.animations import (
+    PublishedStrip,
+    count_missing_animations,
+    publication_animations,
+)
 from app.store.graphs import get_graph_row, graph_exists
 
 #: graph sizes (frames) where bots play: on `tiny` the two strategies part by 1,500
@@ -139,12 +144,12 @@ def write_demo_report(
     """The experiment's report, with a contact sheet of the playable graph and how to play."""
     report = write_report(result, out, load_arrays)
     with transaction() as session:
-        contact = contact_sheet(session, settings, graph)
+        frames = visited_frames(session, settings, graph)
     lines = ["", "## Play it", ""]
-    if contact is not None:
+    if frames is not None:
         from PIL import Image
 
-        Image.fromarray(contact).save(out / "contact-sheet.png")
+        Image.fromarray(contact_sheet(*frames)).save(out / "contact-sheet.png")
         lines += [f"Frames of the edges bots visited most on `{graph}`:", ""]
         lines += ["![frames](contact-sheet.png)", ""]
     lines += [f"`srg serve`, then open http://127.0.0.1:8000/?graph={graph}", ""]
@@ -152,10 +157,11 @@ def write_demo_report(
     return report
 
 
-def contact_sheet(
-    session: Session, settings: Settings, name: str, edges: int = 12, columns: int = 4
-) -> np.ndarray | None:
-    """Middle frames of the latest publication's most visited animations, in a grid."""
+def visited_frames(
+    session: Session, settings: Settings, name: str, edges: int = 12
+) -> tuple[str, list[Tile]] | None:
+    """The title and captioned middle frames of the latest publication's most visited
+    animations (one edge per vertex, its first control with a strip); None without any."""
     from app.render.animation import decode_strip
     from app.store.analytics import visit_counts
     from app.store.publications import latest_publication
@@ -164,19 +170,33 @@ def contact_sheet(
     latest = latest_publication(session, row.id)
     if latest is None:
         return None
-    visited = [int(v["vertex"]) for v in visit_counts(session, row.id)]
-    by_vertex: dict[int, str] = {}
-    for vertex, animation in publication_animations(session, latest.id):
-        by_vertex.setdefault(vertex, animation)
-    chosen = [by_vertex[v] for v in visited if v in by_vertex][:edges] or list(by_vertex.values())[
+    visits = {int(v["vertex"]): int(v["visits"]) for v in visit_counts(session, row.id)}
+    by_vertex: dict[int, PublishedStrip] = {}
+    for strip in publication_animations(session, latest.id):
+        by_vertex.setdefault(strip.vertex, strip)
+    chosen = [by_vertex[v] for v in visits if v in by_vertex][:edges] or list(by_vertex.values())[
         :edges
     ]
     if not chosen:
         return None
     store = artifact_store(settings)
     k = row.frames_per_clip
-    tiles = [decode_strip(store.get_bytes(digest), k)[k // 2] for digest in chosen]
-    while len(tiles) % columns:
-        tiles.append(np.full_like(tiles[0], 255))
-    rows = [np.concatenate(tiles[i : i + columns], axis=1) for i in range(0, len(tiles), columns)]
-    return np.concatenate(rows, axis=0)
+    tiles = [
+        Tile(
+            decode_strip(store.get_bytes(strip.animation), k)[k // 2],
+            _caption(strip, k // 2, k, visits.get(strip.vertex, 0)),
+        )
+        for strip in chosen
+    ]
+    order = "most visited first" if visits else "none visited yet: the first edges"
+    title = f"{name}, publication {latest.number}: middle frames of edges, {order}"
+    return title, tiles
+
+
+def _caption(strip: PublishedStrip, frame: int, frames: int, visits: int) -> tuple[str, ...]:
+    kind = "simulated" if strip.kind == EdgeKind.SIM else f"blend, error {strip.err:.3g}"
+    return (
+        f"vertex {strip.vertex}, control {strip.control}",
+        kind,
+        f"frame {frame + 1} of {frames}, {visits} visits",
+    )

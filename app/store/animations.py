@@ -145,15 +145,37 @@ def count_missing_animations(session: Session, graph_id: int) -> int:
     return int(count or 0)
 
 
-def publication_animations(session: Session, publication_id: int) -> list[tuple[int, str]]:
-    """(vertex, strip) of every edge of the publication that has a strip."""
+class PublishedStrip(NamedTuple):
+    """An edge of a publication that has a strip."""
+
+    vertex: int
+    control: int
+    kind: int
+    err: float
+    animation: str
+
+
+def publication_animations(session: Session, publication_id: int) -> list[PublishedStrip]:
+    """Every edge of the publication that has a strip, in edge order."""
     rows = session.execute(
-        select(PublicationEdge.vertex, PublicationEdge.animation).where(
+        select(
+            PublicationEdge.vertex,
+            PublicationEdge.control,
+            PublicationEdge.kind,
+            PublicationEdge.err,
+            PublicationEdge.animation,
+        )
+        .where(
             PublicationEdge.publication_id == publication_id,
             PublicationEdge.animation.is_not(None),
         )
+        .order_by(PublicationEdge.vertex, PublicationEdge.control)
     )
-    return [(vertex, animation) for vertex, animation in rows if animation is not None]
+    return [
+        PublishedStrip(vertex, control, kind, err, animation)
+        for vertex, control, kind, err, animation in rows
+        if animation is not None
+    ]
 
 
 def animation_media_type(session: Session, digest: str) -> str | None:
