@@ -7,7 +7,7 @@ scene's); since every strip is fully decoded before it plays, switching from one
 strip to the next costs no decoder start-up, which is what makes the playback gapless.
 
 AVIF (AV1 intra coding) keeps a 480 x 360 frame near 3 KB where WebP at the same
-visible quality needs about 5 KB (docs/liquid.md, "Animation files"); browsers decode
+visible quality needs about 5 KB (docs/render.md, "Animation files"); browsers decode
 both with ``createImageBitmap``, so strips stored as WebP before still play: the media
 type stored with each strip says which it is. The phone's strip (half the size) and the
 poster (frame 0 alone, for the first paint) are cut from the stored strip on request.

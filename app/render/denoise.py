@@ -4,7 +4,7 @@ At 4 spp the noise left after the scene's backlight (``app.render.mitsuba_scene`
 isolated pixels: a path that found a light where its neighbours did not, or none where
 they did. A small median window replaces exactly those outliers by their neighbourhood
 and keeps edges (the water's outline, the wall's corners) where an averaging filter
-would blur them; docs/liquid.md compares it with total-variation denoising and with
+would blur them; docs/render.md compares it with total-variation denoising and with
 more samples.
 """
 

@@ -58,8 +58,8 @@ SKY_RADIANCE = 0.3
 class RenderSettings:
     """Image size, samples per pixel, path depth and the denoiser's window.
 
-    The defaults are the game's (docs/liquid.md, "Rendering": 480 x 360 at 4 spp within
-    0.3 s a frame on the LLVM variant); tests pass smaller sizes.
+    The defaults are the game's, chosen by the measurements in docs/render.md (the
+    cheapest setting without visible noise at 480 x 360); tests pass smaller sizes.
     """
 
     width: int = 480
