@@ -7,7 +7,9 @@ per simulated frame, and what it costs to look at. The cost is measured twice: t
 substitution error (eq. 3 both ways) against the high-error threshold, and the pixels of
 the two rendered strips (each clip's own strip against the one shown instead). Run it on
 a graph grown with ``SRG_DEDUP_ERROR_FRACTION=0``, whose clips each hold their own strip,
-so both strips exist.
+so both strips exist. Two references come with it: each clip's smallest substitution
+error over the earlier clips (what any limit could reuse), and the pixels that change
+from one frame of a clip to the next (1/30 s of motion).
 """
 
 from __future__ import annotations
@@ -104,6 +106,14 @@ def bench_dedup(
             }
         )
     shared = len(strips) - len(set(strips.values()))
+    nearest = AnimationReuse.of_graph(loaded, {}, np.inf)
+    nearest_errors = []
+    for clip in clips:
+        found = nearest.substitute(features[clip])
+        if found is not None:
+            nearest_errors.append(found.error / threshold)
+        nearest.note(clip, strips[clip], rendered=True)
+    motion = [float(np.abs(np.diff(images(strips[clip]), axis=0)).mean()) for clip in clips[:64]]
     return {
         "graph": loaded.row.name,
         "size_frames": graph.size_frames,
@@ -115,5 +125,7 @@ def bench_dedup(
         "strip_bytes_per_frame": sum(size.values()) / frames,
         "clip_strip_bytes_per_frame": sum(size[d] for d in set(strips.values())) / frames,
         "visible_levels": VISIBLE_LEVELS,
+        "nearest_error_over_threshold": _quantiles(nearest_errors),
+        "frame_to_frame_pixel_mean_abs_difference": _quantiles(motion),
         "runs": runs,
     }
