@@ -155,6 +155,31 @@ def test_posters_are_the_first_frame_of_real_strips(
     assert fake.status_code == 422
 
 
+def test_the_phone_strip_is_the_strip_at_half_size(
+    client: TestClient, published: Published
+) -> None:
+    assert client.post(f"/api/graphs/{published.name}/publish", headers=ADMIN).status_code == 200
+    data = client.get(f"/api/graphs/{published.name}/publication").json()
+    edge = data["vertices"][data["start"]][1]
+    k = data["frames_per_clip"]
+    strip = decode_strip(client.get(edge["animation"]).content, k)
+    reply = client.get(f"{edge['animation']}/phone", params={"frames": k})
+    assert reply.status_code == 200 and reply.headers["content-type"] == "image/avif"
+    assert "immutable" in reply.headers["cache-control"]
+    phone = decode_strip(reply.content, k)
+    _, h, w, _ = strip.shape
+    assert phone.shape == (k, round(h / 2), round(w / 2), 3)
+    halved = [np.asarray(Image.fromarray(f).resize(phone.shape[2:0:-1])) for f in strip]
+    assert np.abs(phone.astype(int) - np.stack(halved).astype(int)).mean() < 8
+    again = client.get(
+        f"{edge['animation']}/phone?frames={k}", headers={"If-None-Match": reply.headers["etag"]}
+    )
+    assert again.status_code == 304
+    assert client.head(f"{edge['animation']}/phone?frames={k}").status_code == 200
+    assert client.get(f"{edge['animation']}/phone", params={"frames": 7}).status_code == 422
+    assert client.get(f"/api/animations/{'0' * 64}/phone?frames={k}").status_code == 404
+
+
 @pytest.mark.parametrize(
     "name", ["%C2%B2", "99999999999999999999", "2147483648", "%D9%A3", "0", "a%00b"]
 )

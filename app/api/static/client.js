@@ -240,10 +240,10 @@ function startEdge() {
   game.image = url ? strips.get(url)?.image ?? null : null;
   if (!url) stats.placeholders += 1;
   else if (!game.image) { stats.late += 1; requestStrip(url); }
-  if (game.image && canvas.width !== game.image.width / game.k) {
-    canvas.width = game.image.width / game.k;
+  if (game.image) stats.stripWidth = game.image.width / game.k;
+  if (game.image && canvas.width !== stats.stripWidth) {
+    canvas.width = stats.stripWidth;
     canvas.height = game.image.height;
-    stats.stripWidth = canvas.width;
   }
   loading(url !== null && !game.image);
   game.vertex = edge.dst;
