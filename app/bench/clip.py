@@ -2,9 +2,11 @@
 
 The clips run from a briefly settled tank under a tilt (a splash: the surface is at its
 most complex), then the opposite tilt, so meshing and rendering see a typical hard case.
-Bytes are those of what an edge keeps: its int8 SDF and uint8 occupancy frames
-(compressed npz), its animation strip and poster (WebP) and its end state (float32
-particles, compressed npz; kept by the vertex it reaches).
+Bytes are those of what an edge keeps, per frame and by kind: its clip bundle in the
+artifacts' format (``app.store.array_codec``: the end state on the particle lattice, kept
+for the vertex it reaches; the int8 SDF frames; the uint8 occupancy frames and the
+descriptor) and its animation strip as the render layer encodes it. The poster is made
+from the strip when it is served, so it is reported apart and not counted as stored.
 
 For the large presets a whole measurement takes long: ``settle`` shortens the settling
 and ``frames`` simulates only that many frames of each clip; the simulation's seconds
@@ -16,7 +18,6 @@ calibration is timed with placeholder constants (they change no timing).
 from __future__ import annotations
 
 import hashlib
-import io
 import tempfile
 import time
 from collections.abc import Callable
@@ -26,12 +27,12 @@ from typing import TypeVar
 import numpy as np
 
 from app.core.dynamics import ClipFeatures, SimClip
-from app.core.surface import pack_clip_fields
+from app.core.particle_lattice import snap_state
 from app.kernels.sph import SphSimulator
 from app.liquid.adapter import LiquidCalibration, LiquidDynamics, MissingCalibration
 from app.liquid.devices import LiquidDevices
 from app.render.animation import encode_poster, encode_strip
-from app.store.artifacts import encode_arrays
+from app.store.array_codec import decode_arrays, encode_arrays, member_sizes
 
 #: constants for timing a preset that has no calibration yet: no stage's cost depends on them
 PLACEHOLDER_CALIBRATION = LiquidCalibration(
@@ -45,12 +46,6 @@ def _timed(fn: Callable[[], T]) -> tuple[T, float]:
     start = time.perf_counter()
     result = fn()
     return result, time.perf_counter() - start
-
-
-def _npz_bytes(array: np.ndarray) -> int:
-    buffer = io.BytesIO()
-    np.savez_compressed(buffer, array)
-    return len(buffer.getvalue())
 
 
 def _dynamics(preset: str, fluid: str, devices: LiquidDevices) -> tuple[LiquidDynamics, str]:
@@ -84,11 +79,10 @@ def _writer_seconds(
         path.write_bytes(data)
 
     def read(path: Path, names: tuple[str, ...]) -> int:
-        with np.load(path) as npz:
-            return sum(npz[name].nbytes for name in names)
+        return sum(array.nbytes for array in decode_arrays(path.read_bytes(), names).values())
 
     with tempfile.TemporaryDirectory() as tmp:
-        path = Path(tmp) / "bundle.npz"
+        path = Path(tmp) / "bundle"
         write(path)
         return {
             "dist": _median_seconds(lambda: dyn.dist(a, b, 2)),
@@ -130,8 +124,9 @@ def bench_clip(
     Returns
     -------
     dict
-        ``seconds`` per clip by stage, ``bytes_per_frame`` by stored item and in total,
-        and the sizes that explain them (particles, voxels, image size).
+        ``seconds`` per clip by stage, ``bytes_per_frame`` by stored kind and in total,
+        ``served_bytes_per_frame`` (made when served, not stored), and the sizes that
+        explain them (particles, voxels, image size).
     """
     dyn, calibration = _dynamics(preset, fluid, devices)
     sim = dyn.simulator
@@ -141,6 +136,7 @@ def bench_clip(
     sim.run(state, 0, 1)  # warm up kernels and buffers
     iterations_before, substeps_before = _iterations(sim)
     (positions, end), t_sph = _timed(lambda: sim.run(state, 1, n))
+    end = snap_state(end, dyn.lattice)  # as the liquid returns it: the stored state
     iterations, substeps = _iterations(sim)
     mean_iterations = (iterations - iterations_before) / max(substeps - substeps_before, 1)
     positions = _full_clip(positions, k)
@@ -164,11 +160,14 @@ def bench_clip(
     writer = _writer_seconds(dyn, features, other_features, bundle)
 
     k = dyn.frames_per_clip
+    encoded = encode_arrays(bundle)
+    members = member_sizes(encoded)
     per_frame = {
-        "sdf_and_occupancy": len(pack_clip_fields(clip.frames, features.occupancy)) / k,
+        "end_state": members["end_state"] / k,
+        "sdf": members["frames"] / k,
+        "occupancy": (members["occupancy"] + members["descriptor"]) / k,
+        "bundle_header": (len(encoded) - sum(members.values())) / k,
         "animation_strip": len(strip) / k,
-        "poster": len(encode_poster(images)) / k,
-        "end_state": _npz_bytes(end) / k,
     }
     per_frame["total"] = sum(per_frame.values())
     return {
@@ -195,4 +194,5 @@ def bench_clip(
         "render_seconds_per_frame": t_render / k,
         "writer_seconds_per_new_clip": writer,
         "bytes_per_frame": {key: round(v) for key, v in per_frame.items()},
+        "served_bytes_per_frame": {"poster": round(len(encode_poster(images)) / k)},
     }

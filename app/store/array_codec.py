@@ -9,9 +9,10 @@ is coded on its own, losslessly:
    ``MAX_EXPONENT``; any other float array as its raw bytes;
 2. integers zigzag-coded, either as they are or as differences along the first axis
    (time for frames, the Morton order for particles), in C order or with the first axis
-   last (a voxel's frames, a column's particles, side by side), whichever of the four
-   compresses smallest; then split into byte planes (all low bytes, then the next...),
-   so the constant high bytes of small numbers compress to nothing;
+   last (a voxel's frames, a column's particles, side by side), and split into byte
+   planes (all low bytes, then the next...), so the constant high bytes of small numbers
+   compress to nothing; of these four and the raw bytes, the one a fast zstd level
+   compresses smallest is kept;
 3. each member's bytes are one zstd frame, so a reader of the occupancy decompresses no
    SDF.
 
@@ -42,6 +43,8 @@ ARRAYS_MEDIA_TYPE = "application/x-srg-arrays+zstd"
 MAGIC = b"SRGA1\n"
 #: zstd level: near the best ratio on clip bundles at a few milliseconds per member
 ZSTD_LEVEL = 12
+#: the fast zstd level that picks a member's coding before it is compressed at ZSTD_LEVEL
+SELECTION_LEVEL = 3
 #: floats needing more fractional bits than this are stored as raw bytes
 MAX_EXPONENT = 30
 _HEADER_LENGTH = struct.Struct("<I")
@@ -66,6 +69,27 @@ def encode_arrays(arrays: Mapping[str, np.ndarray]) -> bytes:
 
 def decode_arrays(data: bytes, names: Iterable[str] | None = None) -> dict[str, np.ndarray]:
     """The arrays of :func:`encode_arrays` bytes; with ``names``, only those members."""
+    located = _members(data)
+    decompressor = zstandard.ZstdDecompressor()
+    out = {}
+    for name in located if names is None else names:
+        if name not in located:
+            raise KeyError(f"{name} is not a member of the arrays artifact")
+        member, at = located[name]
+        payload = data[at : at + member["length"]]
+        if len(payload) != member["length"]:
+            raise CorruptArrays(f"arrays artifact cut short in member {name}")
+        out[name] = _decode_member(member, decompressor.decompress(payload))
+    return out
+
+
+def member_sizes(data: bytes) -> dict[str, int]:
+    """The compressed bytes of each member of :func:`encode_arrays` bytes (header aside)."""
+    return {name: member["length"] for name, (member, _) in _members(data).items()}
+
+
+def _members(data: bytes) -> dict[str, tuple[dict[str, Any], int]]:
+    """Each member's header and the offset of its zstd frame, by name."""
     if not data.startswith(MAGIC):
         raise CorruptArrays("not an arrays artifact (bad magic)")
     start = len(MAGIC) + _HEADER_LENGTH.size
@@ -79,18 +103,7 @@ def decode_arrays(data: bytes, names: Iterable[str] | None = None) -> dict[str, 
     for member in members:
         located[member["name"]] = (member, offset)
         offset += member["length"]
-    wanted = list(located) if names is None else list(names)
-    decompressor = zstandard.ZstdDecompressor()
-    out = {}
-    for name in wanted:
-        if name not in located:
-            raise KeyError(f"{name} is not a member of the arrays artifact")
-        member, at = located[name]
-        payload = data[at : at + member["length"]]
-        if len(payload) != member["length"]:
-            raise CorruptArrays(f"arrays artifact cut short in member {name}")
-        out[name] = _decode_member(member, decompressor.decompress(payload))
-    return out
+    return located
 
 
 # ---- one member --------------------------------------------------------------------
@@ -110,12 +123,17 @@ def _encode_member(
             width, planes = _integer_planes(ints, delta=delta, first_last=first_last)
             header: dict[str, Any] = {**base, "coding": "ints", "exponents": exponents}
             header.update(delta=delta, first_last=first_last, width=width)
-            candidates.append((header, compressor.compress(planes)))
-    candidates.append(({**base, "coding": "bytes"}, compressor.compress(_byte_planes(array))))
-    header, payload = min(candidates, key=lambda candidate: len(candidate[1]))
+            candidates.append((header, planes))
+    raw = ({**base, "coding": "bytes"}, _byte_planes(array))
+    candidates.append(raw)
+    if len(candidates) > 1:  # the fast level ranks the codings as the slow one does
+        trial = zstandard.ZstdCompressor(level=SELECTION_LEVEL, threads=0)
+        candidates.sort(key=lambda candidate: len(trial.compress(candidate[1])))
+    header, planes = candidates[0]
+    payload = compressor.compress(planes)
     back = _decode_member(header, zstandard.ZstdDecompressor().decompress(payload))
     if back.tobytes() != array.tobytes():  # never expected: keep the bytes, not a doubt
-        header, payload = candidates[-1]
+        header, payload = raw[0], compressor.compress(raw[1])
     return header, payload
 
 
