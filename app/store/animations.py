@@ -20,8 +20,8 @@ from app.models import Artifact, Clip, Edge, PublicationEdge
 from app.store.artifacts import ArtifactStore
 from app.store.graphs import get_graph_row
 
-#: animation strips and posters are images; every other artifact is internal
-ANIMATION_MEDIA_PREFIX = "image/"
+#: animations are videos (image strips before); every other artifact is internal
+ANIMATION_MEDIA_PREFIXES = ("image/", "video/")
 
 
 def set_animations(
@@ -179,10 +179,10 @@ def publication_animations(session: Session, publication_id: int) -> list[Publis
 
 
 def animation_media_type(session: Session, digest: str) -> str | None:
-    """The media type of an animation artifact; None for unknown or non-image artifacts
-    (clip bundles are internal data, never served)."""
+    """The media type of an animation artifact; None for unknown artifacts and those that
+    are neither images nor videos (clip bundles are internal data, never served)."""
     media_type = session.scalar(select(Artifact.media_type).where(Artifact.hash == digest))
-    if media_type is None or not media_type.startswith(ANIMATION_MEDIA_PREFIX):
+    if media_type is None or not media_type.startswith(ANIMATION_MEDIA_PREFIXES):
         return None
     return media_type
 

@@ -11,6 +11,7 @@ where a missing browser is a failure: infra installs it there.
 
 from __future__ import annotations
 
+import io
 import math
 import os
 import time
@@ -21,6 +22,7 @@ from typing import TYPE_CHECKING
 
 import numpy as np
 import pytest
+from PIL import Image
 from sqlalchemy import Engine, select
 
 from app.api.app import create_app
@@ -68,10 +70,19 @@ class Served:
     frame_width: int
 
 
-def render_animations(session: object, artifacts: ArtifactStore, toy: ToyGraph) -> int:
-    """One strip per edge: its clip, or for a BLEND edge its clip blended into the target's.
+def webp_strip(images: np.ndarray) -> bytes:
+    """The k frames side by side as one WebP image: how animations were stored before."""
+    k, h, w, _ = images.shape
+    buffer = io.BytesIO()
+    Image.fromarray(images.transpose(1, 0, 2, 3).reshape(h, k * w, 3)).save(buffer, "WEBP")
+    return buffer.getvalue()
 
-    Returns the width of a frame.
+
+def render_animations(session: object, artifacts: ArtifactStore, toy: ToyGraph) -> int:
+    """One animation per edge: its clip, or for a BLEND edge its clip blended into the target's.
+
+    Every third edge keeps a WebP image strip, as publications made before VP9 clips
+    do, so playback goes back and forth between the two kinds. Returns a frame's width.
     """
     graph, bank, dynamics = toy.graph, toy.bank, toy.dynamics
 
@@ -82,9 +93,15 @@ def render_animations(session: object, artifacts: ArtifactStore, toy: ToyGraph) 
         return dynamics.blend(own, bank.frames(graph.edge_clip[graph.edge_target[edge]]))
 
     images = [dynamics.render(frames(e)) for e in range(graph.n_edges)]
-    strips = (encode_strip(clip) for clip in images)
-    digests = artifacts.put_many(strips, media_type=STRIP_MEDIA_TYPE, session=session)  # type: ignore[arg-type]
-    set_animations(session, toy.graph_id, edges=dict(enumerate(digests)))  # type: ignore[arg-type]
+    stored: dict[int, str] = {}
+    for kind, encode, edges in [
+        ("image/webp", webp_strip, range(0, graph.n_edges, 3)),
+        (STRIP_MEDIA_TYPE, encode_strip, [e for e in range(graph.n_edges) if e % 3]),
+    ]:
+        data = (encode(images[e]) for e in edges)
+        digests = artifacts.put_many(data, media_type=kind, session=session)  # type: ignore[arg-type]
+        stored.update(zip(edges, digests, strict=True))
+    set_animations(session, toy.graph_id, edges=stored)  # type: ignore[arg-type]
     return int(images[0].shape[2])
 
 

@@ -65,13 +65,13 @@ def test_rendered_frames_show_water_at_the_bottom() -> None:
     assert change[:8].mean() < 0.3 * change[24:30, 12:36].mean()
 
 
-def test_strip_round_trips_frames_side_by_side() -> None:
+def test_clip_round_trips_its_frames() -> None:
     rng = np.random.default_rng(0)
     frames = np.zeros((10, 12, 16, 3), np.uint8)
     for f in range(10):
         frames[f] = rng.integers(0, 255, 3)  # one flat colour per frame
     data = encode_strip(frames)
-    assert data[4:12] == b"ftypavif" and STRIP_MEDIA_TYPE == "image/avif"
+    assert data[:4] == b"DKIF" and data[8:12] == b"VP90" and STRIP_MEDIA_TYPE == "video/x-ivf"
     decoded = decode_strip(data, 10)
     assert decoded.shape == frames.shape
     np.testing.assert_allclose(
@@ -80,9 +80,11 @@ def test_strip_round_trips_frames_side_by_side() -> None:
     assert encode_poster(frames)[8:12] == b"WEBP"
     with pytest.raises(ValueError):
         decode_strip(data, 7)
+    with pytest.raises(ValueError):
+        decode_strip(data[:40], 10)  # a clip cut short is no clip
 
 
-def test_strips_stored_as_webp_before_still_decode() -> None:
+def test_image_strips_stored_as_webp_before_still_decode() -> None:
     frames = np.zeros((4, 12, 16, 3), np.uint8)
     frames[:, :, :, 2] = np.arange(4)[:, None, None] * 60
     buffer = io.BytesIO()
@@ -93,7 +95,7 @@ def test_strips_stored_as_webp_before_still_decode() -> None:
     )
 
 
-def test_the_phone_strip_halves_every_frame_on_its_own() -> None:
+def test_the_phone_clip_halves_every_frame() -> None:
     frames = np.zeros((3, 24, 32, 3), np.uint8)
     frames[1] = 255  # a white frame between black ones: nothing bleeds across the cut
     small = decode_strip(phone_strip(encode_strip(frames), 3), 3)

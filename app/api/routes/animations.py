@@ -1,11 +1,11 @@
-"""Animation strips and their posters, served by content hash with caching headers to match.
+"""Animation clips and their posters, served by content hash with caching headers to match.
 
 The URL names the bytes (sha256), so a response can be cached forever: ``immutable``
 and a year's ``max-age``; the hash is also the strong ``ETag``. Only image artifacts
-are served: clip bundles are internal data. A poster (the strip's first frame, for a
-first paint before strips are decoded) and the phone's strip (the frames at half their
-size, for a small screen) are cut from the strip on request rather than stored: they are
-derived data, and as cacheable as the strip they come from, so storage pays for one size
+are served: clip bundles are internal data. A poster (the clip's first frame, for a
+first paint before clips are decoded) and the phone's clip (the frames at half their
+size, for a small screen) are cut from the stored clip on request rather than stored:
+they are derived data, and as cacheable as the clip they come from, so storage pays for one size
 only. All answer HEAD as GET, without the body.
 """
 
@@ -66,7 +66,7 @@ _NOT_MODIFIED: dict[int | str, dict[str, object]] = {
 _IMAGE = {"schema": {"type": "string", "format": "binary"}}
 ANIMATION_RESPONSES: dict[int | str, dict[str, object]] = {
     200: {
-        "description": "the strip, in the media type stored with it (AVIF; WebP before)",
+        "description": "the clip in its stored media type (VP9 in IVF; WebP strips before)",
         "content": {STRIP_MEDIA_TYPE: _IMAGE, "image/webp": _IMAGE, "image/*": _IMAGE},
         "headers": _CACHING_HEADERS,
     },
@@ -87,7 +87,7 @@ POSTER_RESPONSES: dict[int | str, dict[str, object]] = {
 PHONE_RESPONSES: dict[int | str, dict[str, object]] = {
     **POSTER_RESPONSES,
     200: {
-        "description": "the strip with every frame at half its size",
+        "description": "the clip with every frame at half its size",
         "content": {STRIP_MEDIA_TYPE: _IMAGE},
         "headers": _CACHING_HEADERS,
     },

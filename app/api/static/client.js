@@ -2,18 +2,21 @@
 //
 // Timing: one game clock. A clip of k frames starts exactly k frame periods after the
 // previous one (clipStart += k * period, never "now"), so clips join without a gap and
-// without drift; each requestAnimationFrame draws the frame the clock is on, cut from
-// the clip's strip (k frames side by side, already decoded to an ImageBitmap). The next
+// without drift; each requestAnimationFrame draws the frame the clock is on, from the
+// clip's frames, all already decoded to ImageBitmaps. The next
 // edge is chosen at the clip boundary from the control held at that moment. While an
 // edge plays, the strips of every edge leaving its destination (and theirs) are
 // fetched and decoded, so the choice at the boundary finds its strip ready. An edge
 // without an animation, or whose strip is still loading, is drawn as a placeholder at
 // the same rate: the clock never waits.
 //
-// Size: a screen under PHONE_MAX_WIDTH CSS pixels wide plays the phone's strips (every
-// frame at half size, cut by the server from the stored strip), others the stored ones.
-// Strips are AVIF (WebP for publications made before); a browser that decodes neither
-// shows placeholders and says so.
+// Clips: by the media type served, a VP9 clip in an IVF file (parsed here, decoded by
+// WebCodecs' VideoDecoder, every frame to an ImageBitmap before the clip is due) or, for
+// publications made before, a WebP image strip (k frames side by side, one ImageBitmap).
+// A browser that cannot decode them plays placeholders and says so.
+//
+// Size: a screen under PHONE_MAX_WIDTH CSS pixels wide plays the phone's clips (every
+// frame at half size, cut by the server from the stored clip), others the stored ones.
 //
 // Tilt: the device's tilt towards the screen's right, whichever way the screen is turned
 // (screen.orientation.angle): gamma in portrait, beta in landscape, signs to match.
@@ -35,6 +38,7 @@ const START_WAIT_MS = 3000; // wait this long at most for the first strips befor
 const PHONE_MAX_WIDTH = 600;
 const SIZE = matchMedia(`(max-width: ${PHONE_MAX_WIDTH}px)`).matches ? "phone" : "desktop";
 const POINTS_PER_SCORE = 1000; // a clip scores at most ~0.033: shown as up to ~33 points
+const VP9_CODEC = "vp09.00.10.08"; // profile 0, 8 bits: what the server encodes
 
 const stats = {
   frames: [], // rAF timestamps (ms) at which a new frame was drawn
@@ -117,8 +121,8 @@ async function flushPending() {
   for (const body of pending.load()) await send(body);
 }
 
-// ---- strips -----------------------------------------------------------------------
-const strips = new Map(); // url -> {image: ImageBitmap | null}
+// ---- clips ------------------------------------------------------------------------
+const strips = new Map(); // url -> {image: Clip | null}, Clip: {width, height, frame(f), close()}
 
 function stripUrl(edge) {
   if (!edge.animation) return null;
@@ -130,6 +134,51 @@ function undecodable(blob) {
   $("status").textContent = `this browser cannot decode the animations (${blob.type}): showing placeholders`;
 }
 
+// The frames of an IVF file: a 32-byte header (its length at byte 6), then per frame a
+// 12-byte header (size, 64-bit timestamp) and the frame's bytes.
+function ivfFrames(buffer) {
+  const view = new DataView(buffer);
+  const frames = [];
+  for (let at = view.getUint16(6, true); at + 12 <= buffer.byteLength;) {
+    const size = view.getUint32(at, true);
+    frames.push(new Uint8Array(buffer, at + 12, size));
+    at += 12 + size;
+  }
+  return { width: view.getUint16(12, true), height: view.getUint16(14, true), frames };
+}
+
+async function decodeVideo(blob) {
+  if (typeof VideoDecoder === "undefined") throw new Error("no WebCodecs");
+  const { width, height, frames } = ivfFrames(await blob.arrayBuffer());
+  const bitmaps = [];
+  let failed = null;
+  const decoder = new VideoDecoder({
+    output: (frame) => { bitmaps.push(createImageBitmap(frame).finally(() => frame.close())); },
+    error: (error) => { failed = error; },
+  });
+  decoder.configure({ codec: VP9_CODEC, codedWidth: width, codedHeight: height });
+  frames.forEach((data, i) => {
+    const type = i === 0 ? "key" : "delta";
+    decoder.decode(new EncodedVideoChunk({ type, timestamp: Math.round((i * 1e6) / 30), data }));
+  });
+  await decoder.flush();
+  decoder.close();
+  if (failed) throw failed;
+  const images = await Promise.all(bitmaps);
+  return { width, height, frame: (f) => [images[f], 0], close: () => images.forEach((b) => b.close()) };
+}
+
+async function decodeImageStrip(blob) {
+  const image = await createImageBitmap(blob);
+  const width = image.width / game.k;
+  return { width, height: image.height, frame: (f) => [image, f * width], close: () => image.close() };
+}
+
+function decodeClip(blob) {
+  const decode = blob.type.startsWith("image/") ? decodeImageStrip : decodeVideo;
+  return decode(blob).catch((error) => { undecodable(blob); throw error; });
+}
+
 function requestStrip(url) {
   if (!url) return Promise.resolve();
   if (strips.has(url)) return strips.get(url).ready;
@@ -137,8 +186,8 @@ function requestStrip(url) {
   strips.set(url, entry);
   entry.ready = fetch(url)
     .then((r) => (r.ok ? r.blob() : Promise.reject(new Error(r.statusText))))
-    .then((blob) => createImageBitmap(blob).catch((error) => { undecodable(blob); throw error; }))
-    .then((bitmap) => { entry.image = bitmap; })
+    .then(decodeClip)
+    .then((clip) => { entry.image = clip; })
     .catch(() => strips.delete(url)); // try again next time it is needed
   if (strips.size > STRIP_CACHE_SIZE) {
     const [oldest, old] = strips.entries().next().value;
@@ -240,7 +289,7 @@ function startEdge() {
   game.image = url ? strips.get(url)?.image ?? null : null;
   if (!url) stats.placeholders += 1;
   else if (!game.image) { stats.late += 1; requestStrip(url); }
-  if (game.image) stats.stripWidth = game.image.width / game.k;
+  if (game.image) stats.stripWidth = game.image.width;
   if (game.image && canvas.width !== stats.stripWidth) {
     canvas.width = stats.stripWidth;
     canvas.height = game.image.height;
@@ -261,8 +310,9 @@ function startEdge() {
 function draw(frame) {
   const { k } = game;
   if (game.image) {
-    const w = game.image.width / k;
-    ctx.drawImage(game.image, frame * w, 0, w, game.image.height, 0, 0, canvas.width, canvas.height);
+    const { width, height } = game.image;
+    const [source, x] = game.image.frame(frame);
+    ctx.drawImage(source, x, 0, width, height, 0, 0, canvas.width, canvas.height);
     return;
   }
   ctx.fillStyle = game.edge.kind === "sim" ? "#3a6ea5" : "#b8733a";
