@@ -17,13 +17,16 @@ from __future__ import annotations
 import time
 from collections.abc import Sequence
 from functools import lru_cache
+from pathlib import Path
 from typing import Any
 
 import numpy as np
+from PIL import Image
 
 from app.config import Settings
 from app.db import transaction
 from app.render.animation import decode_strip
+from app.reports.contact_sheet import Tile, contact_sheet
 from app.services.animations import AnimationReuse
 from app.services.loading import open_graph
 from app.store.animations import clip_animations, graph_animations
@@ -31,6 +34,8 @@ from app.store.animations import clip_animations, graph_animations
 DEFAULT_FRACTIONS = (0.05, 0.1, 0.2, 0.5)
 #: a pixel differs visibly when one channel moves by more than this (of 255)
 VISIBLE_LEVELS = 32
+#: substitutions drawn on the sheet, each as two frames
+SHEET_PAIRS = 6
 
 
 def _quantiles(values: Sequence[float]) -> dict[str, float] | None:
@@ -46,9 +51,16 @@ def _quantiles(values: Sequence[float]) -> dict[str, float] | None:
 
 
 def bench_dedup(
-    settings: Settings, name: str, fractions: Sequence[float] = DEFAULT_FRACTIONS
+    settings: Settings,
+    name: str,
+    fractions: Sequence[float] = DEFAULT_FRACTIONS,
+    sheet: Path | None = None,
 ) -> dict[str, Any]:
-    """The replay's figures per fraction, as JSON-ready data."""
+    """The replay's figures per fraction, as JSON-ready data.
+
+    ``sheet``: a PNG of the largest limit's worst substitutions, to look at: each clip's
+    own middle frame beside the one shown instead.
+    """
     with transaction() as session:
         loaded = open_graph(session, settings, name)
         strips = clip_animations(session, loaded.row.id)
@@ -69,7 +81,7 @@ def bench_dedup(
     for fraction in fractions:
         reuse = AnimationReuse.of_graph(loaded, {}, fraction * threshold)
         errors, distances, mean_pixels, visible_pixels = [], [], [], []
-        shown = {}
+        shown, substitutes = {}, {}
         start = time.perf_counter()
         for clip in clips:
             found = reuse.substitute(features[clip])
@@ -77,6 +89,7 @@ def bench_dedup(
                 reuse.note(clip, strips[clip], rendered=True)
             else:
                 reuse.note(clip, reuse.animations[found.clip], rendered=False)
+                substitutes[clip] = found
                 errors.append(found.error / threshold)
                 distances.append(found.descriptor_distance)
             shown[clip] = reuse.animations[clip]
@@ -105,6 +118,23 @@ def bench_dedup(
                 "search_seconds_per_clip": seconds / max(len(clips), 1),
             }
         )
+    if sheet is not None and substitutes:
+        worst = sorted(substitutes.items(), key=lambda item: -item[1].error)[:SHEET_PAIRS]
+        tiles = []
+        for clip, found in worst:
+            middle = k // 2
+            tiles.append(Tile(images(strips[clip])[middle].astype(np.uint8), (f"clip {clip}",)))
+            caption = (
+                f"clip {found.clip}, shown instead",
+                f"error {found.error / threshold:.2f} x threshold",
+            )
+            tiles.append(Tile(images(strips[found.clip])[middle].astype(np.uint8), caption))
+        title = (
+            f"{loaded.row.name}: worst substitutions at {fractions[-1]} x the high-error "
+            f"threshold, frame {k // 2 + 1} of {k}"
+        )
+        picture = Image.fromarray(contact_sheet(title, tiles, columns=4))
+        picture.quantize(colors=128, method=Image.Quantize.MEDIANCUT).save(sheet, optimize=True)
     shared = len(strips) - len(set(strips.values()))
     nearest = AnimationReuse.of_graph(loaded, {}, np.inf)
     nearest_errors = []
