@@ -8,6 +8,7 @@ bad input fails at once with an :class:`~app.core.errors.InvalidInput`.
 from __future__ import annotations
 
 from dataclasses import asdict
+from pathlib import Path
 
 import typer
 
@@ -226,6 +227,9 @@ def dedup(
     fractions: str = typer.Option(
         "0.05,0.1,0.2,0.5", help="limits to replay, as fractions of the high-error threshold"
     ),
+    sheet: Path | None = typer.Option(
+        None, help="PNG of the last limit's worst substitutions (own frame, frame shown)"
+    ),
 ) -> None:
     """Shared animations on a stored graph: clips reused, bytes saved, the visual cost."""
     from app.bench.dedup import bench_dedup
@@ -238,4 +242,4 @@ def dedup(
         raise InvalidInput(message) from None
     if not all(0.0 < v <= 1.0 for v in values):
         raise InvalidInput(message)
-    emit(bench_dedup(get_settings(), name, values), as_json=True)
+    emit(bench_dedup(get_settings(), name, values, sheet), as_json=True)
