@@ -12,7 +12,7 @@ from fastapi.testclient import TestClient
 from PIL import Image
 from sqlalchemy.orm import Session
 
-from app.render.animation import decode_strip
+from app.render.animation import STRIP_MEDIA_TYPE, decode_strip
 from app.store.artifacts import ArtifactStore
 from app.store.graphs import load_graph
 
@@ -164,7 +164,7 @@ def test_the_phone_strip_is_the_strip_at_half_size(
     k = data["frames_per_clip"]
     strip = decode_strip(client.get(edge["animation"]).content, k)
     reply = client.get(f"{edge['animation']}/phone", params={"frames": k})
-    assert reply.status_code == 200 and reply.headers["content-type"] == "image/avif"
+    assert reply.status_code == 200 and reply.headers["content-type"] == STRIP_MEDIA_TYPE
     assert "immutable" in reply.headers["cache-control"]
     phone = decode_strip(reply.content, k)
     _, h, w, _ = strip.shape
