@@ -285,6 +285,7 @@ def test_a_phone_in_landscape_tilts_with_beta(served: Served) -> None:
         page.goto(f"{served.base_url}/?graph=e2e-toy")
         page.wait_for_function("window.srgStats && window.srgStats.frames.length > 0")
         assert page.evaluate("screen.orientation.angle") == 90
+        assert page.evaluate("srgStats.size") == "phone"  # low as well as narrow is a phone
         for degrees, expected in [(30.0, 2), (-30.0, 1), (0.0, 0)]:
             tilt(page, degrees, angle=90)
             page.wait_for_function(

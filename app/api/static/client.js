@@ -15,7 +15,7 @@
 // publications made before, a WebP image strip (k frames side by side, one ImageBitmap).
 // A browser that cannot decode them plays placeholders and says so.
 //
-// Size: a screen under PHONE_MAX_WIDTH CSS pixels wide plays the phone's clips (every
+// Size: a phone's screen (PHONE_SCREEN) plays the phone's clips (every
 // frame at half size, cut by the server from the stored clip), others the stored ones.
 //
 // Tilt: the device's tilt towards the screen's right, whichever way the screen is turned
@@ -35,8 +35,9 @@ const STRIP_CACHE_SIZE = 256;
 const PENDING_MAX = 20;
 const FRAME_LOG_MAX = 200000;
 const START_WAIT_MS = 3000; // wait this long at most for the first strips before playing
-const PHONE_MAX_WIDTH = 600;
-const SIZE = matchMedia(`(max-width: ${PHONE_MAX_WIDTH}px)`).matches ? "phone" : "desktop";
+// a phone held either way: narrow in portrait, low in landscape
+const PHONE_SCREEN = "(max-width: 600px), (max-height: 500px)";
+const SIZE = matchMedia(PHONE_SCREEN).matches ? "phone" : "desktop";
 const POINTS_PER_SCORE = 1000; // a clip scores at most ~0.033: shown as up to ~33 points
 const VP9_CODEC = "vp09.00.10.08"; // profile 0, 8 bits: what the server encodes
 
