@@ -1,7 +1,8 @@
 """Mitsuba 3 renders of liquid SDF frames from one fixed camera.
 
-The static part of the scene (camera, lights, the tank's floor, back and side walls, the
-target region as a tinted patch on the back wall, the water material) is built once per
+The static part of the scene (camera, lights, the tank's floor, the back wall glowing
+softly behind the water, side walls, the target region as a tinted patch on the back
+wall, the water material) is built once per
 process and kept as loaded Mitsuba objects; each frame only makes a new mesh and
 re-assembles the scene around it (about 10 ms), so the PLY/XML parsing and plugin
 construction are not repeated.
