@@ -12,7 +12,7 @@ is coded on its own, losslessly:
    last (a voxel's frames, a column's particles, side by side), and split into byte
    planes (all low bytes, then the next...), so the constant high bytes of small numbers
    compress to nothing; of these four and the raw bytes, the one a fast zstd level
-   compresses smallest is kept;
+   compresses smallest is kept (members of at most ``SMALL_MEMBER_BYTES`` are raw bytes);
 3. each member's bytes are one zstd frame, so a reader of the occupancy decompresses no
    SDF.
 
@@ -45,6 +45,8 @@ MAGIC = b"SRGA1\n"
 ZSTD_LEVEL = 12
 #: the fast zstd level that picks a member's coding before it is compressed at ZSTD_LEVEL
 SELECTION_LEVEL = 3
+#: members this small are stored as raw bytes: trying codings would cost more than it saves
+SMALL_MEMBER_BYTES = 512
 #: floats needing more fractional bits than this are stored as raw bytes
 MAX_EXPONENT = 30
 _HEADER_LENGTH = struct.Struct("<I")
@@ -57,10 +59,11 @@ class CorruptArrays(ValueError):
 def encode_arrays(arrays: Mapping[str, np.ndarray]) -> bytes:
     """Deterministic compressed bytes of named numeric arrays (see the module docstring)."""
     compressor = zstandard.ZstdCompressor(level=ZSTD_LEVEL, threads=0)
+    trial = zstandard.ZstdCompressor(level=SELECTION_LEVEL, threads=0)
     members: list[dict[str, Any]] = []
     payloads: list[bytes] = []
     for name in sorted(arrays):
-        header, payload = _encode_member(np.asarray(arrays[name]), compressor)
+        header, payload = _encode_member(np.asarray(arrays[name]), compressor, trial)
         members.append({"name": name, **header, "length": len(payload)})
         payloads.append(payload)
     head = json.dumps({"members": members}, sort_keys=True, separators=(",", ":")).encode()
@@ -108,12 +111,15 @@ def _members(data: bytes) -> dict[str, tuple[dict[str, Any], int]]:
 
 # ---- one member --------------------------------------------------------------------
 def _encode_member(
-    array: np.ndarray, compressor: zstandard.ZstdCompressor
+    array: np.ndarray, compressor: zstandard.ZstdCompressor, trial: zstandard.ZstdCompressor
 ) -> tuple[dict[str, Any], bytes]:
     if array.dtype.kind not in "biuf":
         raise ValueError(f"arrays artifacts hold numbers only (never a pickle), not {array.dtype}")
     array = np.asarray(array, order="C")
     base = {"dtype": array.dtype.str, "shape": list(array.shape)}
+    raw = ({**base, "coding": "bytes"}, _byte_planes(array))
+    if array.nbytes <= SMALL_MEMBER_BYTES:
+        return raw[0], compressor.compress(raw[1])
     ints, exponents = _as_integers(array)
     candidates: list[tuple[dict[str, Any], bytes]] = []
     if ints is not None:
@@ -124,10 +130,8 @@ def _encode_member(
             header: dict[str, Any] = {**base, "coding": "ints", "exponents": exponents}
             header.update(delta=delta, first_last=first_last, width=width)
             candidates.append((header, planes))
-    raw = ({**base, "coding": "bytes"}, _byte_planes(array))
     candidates.append(raw)
     if len(candidates) > 1:  # the fast level ranks the codings as the slow one does
-        trial = zstandard.ZstdCompressor(level=SELECTION_LEVEL, threads=0)
         candidates.sort(key=lambda candidate: len(trial.compress(candidate[1])))
     header, planes = candidates[0]
     payload = compressor.compress(planes)
@@ -170,24 +174,31 @@ def _as_integers(array: np.ndarray) -> tuple[np.ndarray | None, list[int] | None
     if array.ndim == 0 or array.size == 0:
         return None, None
     wide = array.astype(np.float64)
+    if not np.all(np.isfinite(wide)):
+        return None, None
     columns = wide.reshape(-1, array.shape[-1] if array.ndim > 1 else 1)
-    exponents = []
-    for column in columns.T:
-        exponent = next(
-            (e for e in range(MAX_EXPONENT + 1) if _integral(np.ldexp(column, e))), None
-        )
-        if exponent is None:
-            return None, None
-        exponents.append(exponent)
-    ints = np.rint(np.ldexp(wide, np.asarray(exponents))).astype(np.int64)
-    back = np.ldexp(ints.astype(np.float64), -np.asarray(exponents)).astype(array.dtype)
+    needed = _fraction_bits(columns).max(axis=0)
+    if needed.max() > MAX_EXPONENT or np.abs(columns).max() * 2.0 ** needed.max() >= 2**52:
+        return None, None
+    exponents = needed.tolist()
+    ints = np.rint(np.ldexp(wide, needed)).astype(np.int64)
+    back = np.ldexp(ints.astype(np.float64), -needed).astype(array.dtype)
     if back.tobytes() != array.tobytes():  # e.g. negative zeros: keep the exact bytes
         return None, None
     return ints, exponents
 
 
-def _integral(values: np.ndarray) -> bool:
-    return bool(np.all(np.abs(values) < 2**52) and np.all(np.rint(values) == values))
+def _fraction_bits(values: np.ndarray) -> np.ndarray:
+    """The fractional binary digits of each finite float64 (0 for integers and zeros).
+
+    ``x = m 2^p`` with the 53-bit integer mantissa ``M = m 2^53``; its trailing zeros
+    ``t`` leave ``53 - p - t`` digits after the binary point.
+    """
+    mantissa, power = np.frexp(values)
+    digits = np.ldexp(np.abs(mantissa), 53).astype(np.int64)
+    lowest = digits & -digits  # the lowest set bit, a power of two (0 for zeros)
+    trailing = np.log2(np.maximum(lowest, 1)).astype(np.int64)
+    return np.where(values == 0, 0, np.maximum(53 - power - trailing, 0))
 
 
 def _integer_planes(ints: np.ndarray, *, delta: bool, first_last: bool) -> tuple[int, bytes]:

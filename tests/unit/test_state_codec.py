@@ -80,6 +80,10 @@ def test_a_snapped_state_decodes_to_itself_and_costs_far_less_than_float32() -> 
     [
         np.random.default_rng(1).random(300),  # floats on no lattice: raw bytes
         np.array([-0.0, 0.5, 1.0], np.float32),  # a negative zero stays one
+        np.tile(np.array([-0.0, 0.5, 1.0], np.float32), 400),  # ... in a large member too
+        np.tile(np.array([0.25, -3.0, 1e-6]), (300, 1)),  # a lattice per column
+        np.arange(3000, dtype=np.int16).reshape(30, 100) * 3 - 4000,
+        np.arange(2000, dtype=np.uint8),  # wraps: 0..255 again and again
         np.arange(24, dtype=np.int8).reshape(2, 3, 4) - 12,
         np.array([0, 255, 3], np.uint8),
         np.array([2**64 - 1, 0], np.uint64),
