@@ -14,8 +14,8 @@ most ``max_error`` (a fraction of the high-error threshold, docs/dedup.md).
 
 Only clips that own their animation (rendered from their own frames) stand in for
 others, so substitutions never chain: every reused animation is within ``max_error`` of
-the clip it was rendered from. A graph's first clip holding an animation is its owner
-(clips are rendered in index order), see :func:`animation_owners`.
+the clip it was rendered from. A clip only ever shows an earlier clip's animation, so a
+graph's first clip holding an animation is its owner (:func:`animation_owners`).
 """
 
 from __future__ import annotations

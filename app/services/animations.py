@@ -115,7 +115,7 @@ class AnimationReuse:
         Returns the digest and the substitute whose strip it is (None: rendered). A
         ``clip`` of the graph is noted, and when rendered may stand in for later clips.
         """
-        found = self.substitute(features)
+        found = self.substitute(features, before=clip)
         if found is not None:
             digest = self.animations[found.clip]
         else:
@@ -124,15 +124,21 @@ class AnimationReuse:
             self.note(clip, digest, rendered=found is None)
         return digest, found
 
-    def substitute(self, features: ClipFeatures) -> Substitute | None:
-        """The owner clip whose strip can be shown for ``features``' clip, if any."""
-        if self.max_error <= 0.0 or not self._owners:
+    def substitute(self, features: ClipFeatures, before: int | None = None) -> Substitute | None:
+        """The owner clip whose strip can be shown for ``features``' clip, if any.
+
+        Only clips before ``before`` (the clip's own index, when it has one) stand in, so
+        the first clip holding a strip is always the one it was rendered from.
+        """
+        owners = np.asarray(self._owners, dtype=np.int64)
+        earlier = np.ones(owners.size, dtype=bool) if before is None else owners < before
+        if self.max_error <= 0.0 or not earlier.any():
             return None
         return find_substitute(
             features,
-            np.asarray(self._owners),
-            np.asarray(self._controls),
-            np.stack(self._descriptors),
+            owners[earlier],
+            np.asarray(self._controls)[earlier],
+            np.stack(self._descriptors)[earlier],
             self._clip_features,
             self.dynamics,
             self.max_error,

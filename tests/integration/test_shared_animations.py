@@ -85,3 +85,13 @@ def test_a_step_without_the_graph_finds_the_stored_strip(
         assert (found is not None) == (expected is not None)
         if found is not None:
             assert found.clip == 0 and found.error <= max_error
+
+
+def test_a_clip_never_shows_a_later_clips_strip(session: Session, artifacts: ArtifactStore) -> None:
+    graph = loaded(session, artifacts)
+    copy = graph.graph.edge_clip[COPY_EDGE]
+    later = artifacts.put_bytes(b"clip 3", media_type="image/webp", session=session)
+    set_animations(session, graph.row.id, clips={copy: later})
+    render_missing_animations(session, graph, 0.05)
+    strips = clip_animations(session, graph.row.id)
+    assert strips[copy] == later and strips[0] != later
