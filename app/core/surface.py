@@ -21,7 +21,6 @@ field, so they live here too, with the uint8 / int8 quantisation the artifact st
 
 from __future__ import annotations
 
-import io
 import math
 from dataclasses import dataclass
 
@@ -208,18 +207,3 @@ def dequantise_occupancy(q: np.ndarray) -> np.ndarray:
     if np.issubdtype(q.dtype, np.floating):
         return q.astype(np.float32, copy=False)
     return q.astype(np.float32) / np.float32(OCCUPANCY_LEVELS)
-
-
-def pack_clip_fields(sdf: np.ndarray, occupancy_frames: np.ndarray) -> bytes:
-    """Compressed npz bytes of a clip's quantised (int8) SDF and (uint8) occupancy."""
-    if sdf.dtype != np.int8 or occupancy_frames.dtype != np.uint8:
-        raise TypeError("pack quantised fields: int8 SDF and uint8 occupancy")
-    buffer = io.BytesIO()
-    np.savez_compressed(buffer, sdf=sdf, occupancy=occupancy_frames)
-    return buffer.getvalue()
-
-
-def unpack_clip_fields(data: bytes) -> tuple[np.ndarray, np.ndarray]:
-    """Inverse of :func:`pack_clip_fields`: (int8 SDF, uint8 occupancy)."""
-    with np.load(io.BytesIO(data)) as npz:
-        return npz["sdf"], npz["occupancy"]

@@ -15,11 +15,9 @@ from app.core.surface import (
     dequantise_sdf,
     liquid_volumes,
     occupancy,
-    pack_clip_fields,
     quantise_occupancy,
     quantise_sdf,
     surface_grid,
-    unpack_clip_fields,
     zhu_bridson_sdf,
 )
 
@@ -70,7 +68,3 @@ def test_quantised_fields_round_trip_within_a_step() -> None:
     occ = occupancy(GRID, phi)
     qo = quantise_occupancy(occ)
     np.testing.assert_allclose(dequantise_occupancy(qo), occ, atol=1 / 510 + 1e-7)
-    sdf2, occ2 = unpack_clip_fields(pack_clip_fields(q, qo))
-    assert np.array_equal(sdf2, q) and np.array_equal(occ2, qo)
-    with pytest.raises(TypeError):
-        pack_clip_fields(phi, qo)
