@@ -182,7 +182,7 @@ def clip(
         None, help="simulate this many frames of each clip and scale (default: all)"
     ),
 ) -> None:
-    """Seconds per clip of each stage of a liquid edge (SPH to WebP) and its bytes."""
+    """Seconds per clip of each stage of a liquid edge (SPH to the VP9 clip) and its bytes."""
     check_liquid_preset(preset)
     check_fluid(fluid)
     if settle <= 0:
