@@ -18,7 +18,7 @@ from app.core.dynamics import ClipFeatures
 from app.core.graph import EdgeKind
 from app.models import Artifact, Clip, Edge, PublicationEdge
 from app.store.artifacts import ArtifactStore
-from app.store.graphs import get_graph_row
+from app.store.graphs import get_graph_row, stored_descriptor, stored_potential
 
 #: animations are videos (image strips before); every other artifact is internal
 ANIMATION_MEDIA_PREFIXES = ("image/", "video/")
@@ -113,9 +113,9 @@ def rendered_clips(session: Session, graph_id: int) -> list[RenderedClip]:
             clip=idx,
             control=control,
             kinetic=kinetic,
-            potential=np.frombuffer(potential, dtype=np.float64).copy(),
+            potential=stored_potential(potential),
             score=score,
-            descriptor=np.frombuffer(descriptor, dtype=np.float32).astype(np.float64),
+            descriptor=stored_descriptor(descriptor),
             bundle=bundle,
             animation=animation,
         )

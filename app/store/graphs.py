@@ -307,12 +307,20 @@ def _load_clips(session: Session, graph_id: int, graph: StateGraph) -> list[str]
     graph.clip_source = [r.source for r in rows]
     graph.clip_control = [r.control for r in rows]
     graph.clip_kinetic = [r.kinetic for r in rows]
-    graph.clip_potential = [np.frombuffer(r.potential, dtype=np.float64).copy() for r in rows]
+    graph.clip_potential = [stored_potential(r.potential) for r in rows]
     graph.clip_score = [r.score for r in rows]
-    graph.clip_descriptor = [
-        np.frombuffer(r.descriptor, dtype=np.float32).astype(np.float64) for r in rows
-    ]
+    graph.clip_descriptor = [stored_descriptor(r.descriptor) for r in rows]
     return [r.bundle for r in rows]
+
+
+def stored_potential(raw: bytes) -> np.ndarray:
+    """A clip row's potential energies (float64 bytes, one per control)."""
+    return np.frombuffer(raw, dtype=np.float64).copy()
+
+
+def stored_descriptor(raw: bytes) -> np.ndarray:
+    """A clip row's descriptor (float32 bytes; the exact one lives in the bundle)."""
+    return np.frombuffer(raw, dtype=np.float32).astype(np.float64)
 
 
 def _load_edges(
