@@ -36,6 +36,8 @@ STATIC_DIR = Path(str(files("app.api") / "static"))
 #: publications kept decoded for trace validation / rendered as JSON for clients
 PUBLICATIONS_CACHED = 32
 PUBLICATION_JSON_CACHED = 8
+#: posters and phone clips cut from stored clips (a few KB each): each is cut once
+DERIVED_CACHED = 4096
 #: sync routes run on anyio's thread pool (40 threads): one connection each, none waits
 POOL_SIZE, POOL_OVERFLOW = 10, 30
 #: what third-party clients may send and read across origins
@@ -65,6 +67,7 @@ def create_app(settings: Settings | None = None) -> FastAPI:
     app.state.rate_limits = RateLimits(settings)
     app.state.publications = FrozenCache[Publication](PUBLICATIONS_CACHED)
     app.state.publication_json = FrozenCache[EncodedJson](PUBLICATION_JSON_CACHED)
+    app.state.derived = FrozenCache[bytes](DERIVED_CACHED)
     app.state.growth_jobs = GrowthJobs()
     install_error_handlers(app)
     for module in (graphs, animations, players, traces, admin, health):

@@ -176,6 +176,9 @@ def test_the_phone_strip_is_the_strip_at_half_size(
     )
     assert again.status_code == 304
     assert client.head(f"{edge['animation']}/phone?frames={k}").status_code == 200
+    digest = edge["animation"].rsplit("/", 1)[-1]
+    cut = client.app.state.derived.get_or_load((digest, "phone", k), bytes)  # type: ignore[attr-defined]
+    assert cut == reply.content  # cut once, then served from the process's cache
     assert client.get(f"{edge['animation']}/phone", params={"frames": 7}).status_code == 422
     assert client.get(f"/api/animations/{'0' * 64}/phone?frames={k}").status_code == 404
 
