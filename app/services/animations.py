@@ -87,10 +87,12 @@ class AnimationReuse:
         artifacts: ArtifactStore,
         dynamics: Dynamics,
         graph_id: int,
+        control: int,
         max_error: float,
     ) -> AnimationReuse:
-        """Over the stored clips alone, for a step that need not load the graph."""
-        stored = rendered_clips(session, graph_id) if max_error > 0.0 else []
+        """Over the stored clips of ``control`` alone (the only candidates for a clip of
+        that control), for a step that need not load the graph."""
+        stored = rendered_clips(session, graph_id, control) if max_error > 0.0 else []
         rows = {row.clip: row for row in stored}
 
         def columns(clip: int) -> tuple[int, np.ndarray]:

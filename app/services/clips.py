@@ -184,10 +184,11 @@ def render_step(
         row, _ = planned_clip(session, epoch_id, position)
         artifacts = artifact_store(settings)
         dynamics = graph_dynamics(row, settings)
-        reuse = AnimationReuse.of_stored(
-            session, artifacts, dynamics, row.id, reuse_error_limit(settings, dynamics)
-        )
         sim, features = clip_from_arrays(artifacts.get_arrays(found.clip))
+        limit = reuse_error_limit(settings, dynamics)
+        reuse = AnimationReuse.of_stored(
+            session, artifacts, dynamics, row.id, features.control, limit
+        )
         strip, _ = reuse.strip(session, artifacts, features, lambda: sim.frames)
         set_clip_animation(session, found, strip)
     return clip

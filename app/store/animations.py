@@ -92,8 +92,9 @@ class RenderedClip(NamedTuple):
     animation: str
 
 
-def rendered_clips(session: Session, graph_id: int) -> list[RenderedClip]:
-    """Every clip of the graph that has a strip, in clip order (descriptors as stored)."""
+def rendered_clips(session: Session, graph_id: int, control: int) -> list[RenderedClip]:
+    """Every clip of the graph under ``control`` that has a strip, in clip order
+    (descriptors as stored): the only clips that may stand in for one of that control."""
     rows = session.execute(
         select(
             Clip.idx,
@@ -105,7 +106,7 @@ def rendered_clips(session: Session, graph_id: int) -> list[RenderedClip]:
             Clip.bundle,
             Clip.animation,
         )
-        .where(Clip.graph_id == graph_id, Clip.animation.is_not(None))
+        .where(Clip.graph_id == graph_id, Clip.control == control, Clip.animation.is_not(None))
         .order_by(Clip.idx)
     )
     return [

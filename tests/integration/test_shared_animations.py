@@ -78,13 +78,17 @@ def test_a_step_without_the_graph_finds_the_stored_strip(
     features = graph.bank.features(copy)
     for max_error, expected in ((0.05, strip), (0.0, None)):
         reuse = AnimationReuse.of_stored(
-            session, artifacts, graph.dynamics, graph.row.id, max_error
+            session, artifacts, graph.dynamics, graph.row.id, features.control, max_error
         )
         digest, found = reuse.strip(session, artifacts, features, lambda: graph.bank.frames(copy))
         assert (digest == strip) == (expected is not None)
         assert (found is not None) == (expected is not None)
         if found is not None:
             assert found.clip == 0 and found.error <= max_error
+    other = (features.control + 1) % graph.graph.n_controls
+    reuse = AnimationReuse.of_stored(session, artifacts, graph.dynamics, graph.row.id, other, 0.05)
+    assert reuse.animations == {}  # another control's clips are not even read
+    assert reuse.substitute(features) is None
 
 
 def test_a_clip_never_shows_a_later_clips_strip(session: Session, artifacts: ArtifactStore) -> None:
