@@ -87,6 +87,27 @@ def morton_codes(cells: np.ndarray) -> np.ndarray:
     )
 
 
+def _compact_bits(x: np.ndarray) -> np.ndarray:
+    """Every third bit of ``x`` from bit 0, packed into the low 21 bits (undoes the spread)."""
+    x = x & np.uint64(0x1249249249249249)
+    for shift, mask in (
+        (2, 0x10C30C30C30C30C3),
+        (4, 0x100F00F00F00F00F),
+        (8, 0x1F0000FF0000FF),
+        (16, 0x1F00000000FFFF),
+        (32, 0x1FFFFF),
+    ):
+        x = (x | (x >> np.uint64(shift))) & np.uint64(mask)
+    return x
+
+
+def morton_cells(codes: np.ndarray) -> np.ndarray:
+    """The (n, 3) int64 cells of uint64 Z-curve codes: the inverse of :func:`morton_codes`."""
+    codes = np.asarray(codes, dtype=np.uint64)
+    axes = [_compact_bits(codes >> np.uint64(axis)) for axis in range(3)]
+    return np.stack(axes, axis=1).astype(np.int64)
+
+
 def snap_state(state: np.ndarray, lattice: ParticleLattice) -> np.ndarray:
     """The (n, 6) float32 state on ``lattice``, its particles in Morton order.
 

@@ -184,10 +184,21 @@ def clip_score(grid: SurfaceGrid, target: Box, occupancy_frames: np.ndarray) -> 
 
 
 # ---- quantised storage ---------------------------------------------------------------
+def interior_sdf_level(grid: SurfaceGrid) -> int:
+    """The deepest stored level: the first at least half a voxel inside the surface."""
+    return min(math.ceil(0.5 * grid.voxel * _SDF_LEVELS / grid.search_radius), _SDF_LEVELS)
+
+
 def quantise_sdf(grid: SurfaceGrid, phi: np.ndarray) -> np.ndarray:
-    """int8 SDF in steps of ``R / 127`` (about a sixtieth of a voxel)."""
+    """int8 SDF in steps of ``R / 127`` (about a sixtieth of a voxel), inside clamped.
+
+    Deeper than half a voxel inside, the Zhu-Bridson field holds the jitter of the
+    particles rather than the surface; there :func:`occupancy` is full, so clamping it
+    changes no occupancy, score or distance, moves the mesh's crossings by hundredths
+    of a voxel, and halves the stored SDF (docs/liquid.md, "Bytes").
+    """
     scaled = np.asarray(phi, dtype=np.float32) * (_SDF_LEVELS / grid.search_radius)
-    return np.clip(np.rint(scaled), -_SDF_LEVELS, _SDF_LEVELS).astype(np.int8)
+    return np.clip(np.rint(scaled), -interior_sdf_level(grid), _SDF_LEVELS).astype(np.int8)
 
 
 def dequantise_sdf(grid: SurfaceGrid, q: np.ndarray) -> np.ndarray:

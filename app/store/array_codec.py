@@ -8,11 +8,12 @@ is coded on its own, losslessly:
    per column (last axis) that makes every value an integer, when there is one below
    ``MAX_EXPONENT``; any other float array as its raw bytes;
 2. integers zigzag-coded, either as they are or as differences along the first axis
-   (time for frames, the Morton order for particles), in C order or with the first axis
-   last (a voxel's frames, a column's particles, side by side), and split into byte
-   planes (all low bytes, then the next...), so the constant high bytes of small numbers
-   compress to nothing; of these four and the raw bytes, the one a fast zstd level
-   compresses smallest is kept (members of at most ``SMALL_MEMBER_BYTES`` are raw bytes);
+   (time for frames, the Morton order for particles) or the last (neighbouring voxels of
+   a column of an SDF), in C order or with the first axis last (a voxel's frames, a
+   column's particles, side by side), and split into byte planes (all low bytes, then
+   the next...), so the constant high bytes of small numbers compress to nothing; of
+   these five and the raw bytes, the one a fast zstd level compresses smallest is kept
+   (members of at most ``SMALL_MEMBER_BYTES`` are raw bytes);
 3. each member's bytes are one zstd frame, so a reader of the occupancy decompresses no
    SDF.
 
@@ -23,7 +24,10 @@ so equal arrays give equal bytes and hence the same content hash.
 
 Layout: ``MAGIC``, a little-endian uint32 header length, the header (JSON: per member its
 name, dtype, shape, coding and compressed length), then the members' zstd frames in the
-header's order. Artifacts written before this format are ``.npz`` zip files
+header's order. A header's ``delta_axis`` is 0, -1 or null; headers written before the
+last axis was tried say ``delta`` (true for the first axis).
+
+Artifacts written before this format are ``.npz`` zip files
 (:func:`app.store.artifacts.ArtifactStore.get_arrays` tells them apart by their first
 bytes).
 """
@@ -33,11 +37,12 @@ from __future__ import annotations
 import json
 import struct
 from collections.abc import Iterable, Mapping
-from itertools import product
 from typing import Any
 
 import numpy as np
 import zstandard
+
+from app.core.particle_lattice import MORTON_BITS, morton_cells, morton_codes
 
 ARRAYS_MEDIA_TYPE = "application/x-srg-arrays+zstd"
 MAGIC = b"SRGA1\n"
@@ -123,12 +128,16 @@ def _encode_member(
     ints, exponents = _as_integers(array)
     candidates: list[tuple[dict[str, Any], bytes]] = []
     if ints is not None:
-        for delta, first_last in product((False, True), repeat=2):
-            if (delta or first_last) and array.ndim == 0:
-                continue
-            width, planes = _integer_planes(ints, delta=delta, first_last=first_last)
+        for delta_axis, first_last in _integer_codings(array.ndim):
+            width, planes = _integer_planes(ints, delta_axis=delta_axis, first_last=first_last)
             header: dict[str, Any] = {**base, "coding": "ints", "exponents": exponents}
-            header.update(delta=delta, first_last=first_last, width=width)
+            header.update(delta_axis=delta_axis, first_last=first_last, width=width)
+            candidates.append((header, planes))
+        if (cells := _morton_columns(ints, exponents)) is not None:
+            morton, exponents = cells
+            width, planes = _integer_planes(morton, delta_axis=0, first_last=True)
+            header = {**base, "coding": "ints", "exponents": exponents, "morton": True}
+            header.update(delta_axis=0, first_last=True, width=width)
             candidates.append((header, planes))
     candidates.append(raw)
     if len(candidates) > 1:  # the fast level ranks the codings as the slow one does
@@ -143,22 +152,27 @@ def _encode_member(
 
 def _decode_member(member: Mapping[str, Any], raw: bytes) -> np.ndarray:
     dtype, shape = np.dtype(member["dtype"]), tuple(member["shape"])
-    count = int(np.prod(shape, dtype=np.int64))
     if member["coding"] == "bytes":
-        planes = np.frombuffer(raw, np.uint8).reshape(dtype.itemsize, count)
+        planes = np.frombuffer(raw, np.uint8).reshape(dtype.itemsize, -1)
         return planes.T.copy().view(dtype).reshape(shape)
+    morton = member.get("morton", False)
+    coded = (shape[0], shape[1] - 2) if morton else shape
+    count = int(np.prod(coded, dtype=np.int64))
     width = member["width"]
     planes = np.frombuffer(raw, np.uint8).reshape(width, count)
     wide = np.zeros((count, 8), np.uint8)
     wide[:, :width] = planes.T
     zigzag = wide.view("<u8").reshape(-1)
     ints = (zigzag >> np.uint64(1)).astype(np.int64) ^ -(zigzag & np.uint64(1)).astype(np.int64)
-    moved = shape[1:] + shape[:1] if member["first_last"] else shape
+    moved = coded[1:] + coded[:1] if member["first_last"] else coded
     ints = ints.reshape(moved)
     if member["first_last"]:
         ints = np.moveaxis(ints, -1, 0)
-    if member["delta"]:
-        ints = np.cumsum(ints, axis=0)
+    delta_axis = member.get("delta_axis", 0 if member.get("delta") else None)
+    if delta_axis is not None:
+        ints = np.cumsum(ints, axis=delta_axis)
+    if morton:
+        ints = np.concatenate([morton_cells(ints[:, 0].astype(np.uint64)), ints[:, 1:]], axis=1)
     exponents = member["exponents"]
     if exponents is None:
         return ints.astype(dtype).reshape(shape)
@@ -188,6 +202,30 @@ def _as_integers(array: np.ndarray) -> tuple[np.ndarray | None, list[int] | None
     return ints, exponents
 
 
+def _morton_columns(
+    ints: np.ndarray, exponents: list[int] | None
+) -> tuple[np.ndarray, list[int]] | None:
+    """A particle state's first three columns as one column of Morton codes, or None.
+
+    Applies to (n, >= 3) floats whose rows are in Morton order of their first three
+    columns, non-negative cells on one lattice (``app.core.particle_lattice``): the
+    codes' differences are the gaps between neighbours along the curve, fewer bits than
+    three coordinates' differences. Each position column is brought to the finest of
+    their exponents; the exponents returned are those the decoded columns are scaled by.
+    """
+    if exponents is None or ints.ndim != 2 or ints.shape[1] < 3 or len(ints) < 2:
+        return None
+    finest = max(exponents[:3])
+    cells = ints[:, :3] << (finest - np.asarray(exponents[:3]))
+    if cells.min() < 0 or cells.max() >= 1 << MORTON_BITS:
+        return None
+    codes = morton_codes(cells)
+    if codes.max() >= 2**62 or np.any(codes[1:] < codes[:-1]):
+        return None
+    morton = np.concatenate([codes.astype(np.int64)[:, None], ints[:, 3:]], axis=1)
+    return morton, [finest] * 3 + exponents[3:]
+
+
 def _fraction_bits(values: np.ndarray) -> np.ndarray:
     """The fractional binary digits of each finite float64 (0 for integers and zeros).
 
@@ -201,10 +239,25 @@ def _fraction_bits(values: np.ndarray) -> np.ndarray:
     return np.where(values == 0, 0, np.maximum(53 - power - trailing, 0))
 
 
-def _integer_planes(ints: np.ndarray, *, delta: bool, first_last: bool) -> tuple[int, bytes]:
-    """Zigzag-coded ``ints`` (differences along the first axis if ``delta``) as planes."""
-    if delta:
-        ints = np.diff(ints, axis=0, prepend=np.zeros_like(ints[:1]))
+def _integer_codings(ndim: int) -> list[tuple[int | None, bool]]:
+    """The (delta_axis, first_last) codings worth trying on ``ndim`` axes, plain first.
+
+    With one axis, moving it changes nothing and the last axis is the first; differences
+    along the last axis with the first moved last would repeat the first-axis ones.
+    """
+    if ndim == 0:
+        return [(None, False)]
+    if ndim == 1:
+        return [(None, False), (0, False)]
+    return [(None, False), (None, True), (0, False), (0, True), (-1, False)]
+
+
+def _integer_planes(
+    ints: np.ndarray, *, delta_axis: int | None, first_last: bool
+) -> tuple[int, bytes]:
+    """Zigzag-coded ``ints`` (differences along ``delta_axis`` unless None) as planes."""
+    if delta_axis is not None:
+        ints = np.diff(ints, axis=delta_axis, prepend=np.zeros_like(ints.take([0], delta_axis)))
     if first_last:
         ints = np.moveaxis(ints, 0, -1)
     flat = np.ascontiguousarray(ints).reshape(-1)

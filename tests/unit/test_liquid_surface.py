@@ -64,7 +64,22 @@ def test_quantised_fields_round_trip_within_a_step() -> None:
     phi = rng.uniform(-GRID.particle_radius, GRID.far_value, (4, *GRID.shape)).astype(np.float32)
     q = quantise_sdf(GRID, phi)
     assert q.dtype == np.int8
-    np.testing.assert_allclose(dequantise_sdf(GRID, q), phi, atol=GRID.search_radius / 254 + 1e-7)
+    band = np.maximum(phi, -GRID.voxel / 2)  # deeper inside is clamped to half a voxel
+    step = GRID.search_radius / 127
+    np.testing.assert_allclose(dequantise_sdf(GRID, q), band, atol=step / 2 + 1e-7)
+    assert dequantise_sdf(GRID, q).min() >= -GRID.voxel / 2 - step
     occ = occupancy(GRID, phi)
     qo = quantise_occupancy(occ)
     np.testing.assert_allclose(dequantise_occupancy(qo), occ, atol=1 / 510 + 1e-7)
+
+
+def test_interior_clamp_keeps_occupancy() -> None:
+    """The clamp cuts only where occupancy is full: occupancy of the stored field is that of
+    the same field unclamped, level for level."""
+    levels = np.arange(-127, 128, dtype=np.float32)
+    phi = levels * np.float32(GRID.search_radius / 127)
+    clamped = dequantise_sdf(GRID, quantise_sdf(GRID, phi))
+    assert clamped.min() > phi.min()  # the clamp does cut
+    np.testing.assert_array_equal(
+        quantise_occupancy(occupancy(GRID, clamped)), quantise_occupancy(occupancy(GRID, phi))
+    )

@@ -6,11 +6,14 @@ The bounds are hand-checkable: snapping moves a coordinate by at most half its s
 
 from __future__ import annotations
 
+import json
+
 import numpy as np
 import pytest
 
 from app.core.particle_lattice import (
     ParticleLattice,
+    morton_cells,
     morton_codes,
     particle_lattice,
     snap_state,
@@ -117,3 +120,50 @@ def test_the_codec_refuses_objects_and_foreign_bytes() -> None:
         decode_arrays(b"PK\x03\x04 a zip")
     with pytest.raises(CorruptArrays):
         decode_arrays(encode_arrays({"a": np.arange(1000)})[:-5])
+
+
+def _header(data: bytes) -> tuple[dict, int]:
+    """The JSON header of arrays bytes and the offset where it ends."""
+    start = len(b"SRGA1\n") + 4
+    length = int.from_bytes(data[start - 4 : start], "little")
+    return json.loads(data[start : start + length]), start + length
+
+
+def test_a_field_smooth_along_its_last_axis_is_coded_as_last_axis_differences() -> None:
+    rng = np.random.default_rng(3)
+    slopes = rng.integers(-3, 4, (4, 30, 20, 1))
+    field = (slopes * np.arange(40) + rng.integers(-100, 100, (4, 30, 20, 1))).astype(np.int16)
+    data = encode_arrays({"sdf": field})
+    (member,) = _header(data)[0]["members"]
+    assert member["delta_axis"] == -1
+    np.testing.assert_array_equal(decode_arrays(data)["sdf"], field)
+
+
+def test_headers_from_before_the_last_axis_still_decode() -> None:
+    """Bytes whose header says ``delta`` (first-axis differences) rather than ``delta_axis``."""
+    frames = np.cumsum(np.random.default_rng(4).integers(-2, 3, (50, 400)), axis=0)
+    data = encode_arrays({"frames": frames})
+    head, end = _header(data)
+    (member,) = head["members"]
+    assert member["delta_axis"] == 0
+    member["delta"] = True
+    del member["delta_axis"]
+    old = json.dumps(head).encode()
+    rewritten = b"SRGA1\n" + len(old).to_bytes(4, "little") + old + data[end:]
+    np.testing.assert_array_equal(decode_arrays(rewritten)["frames"], frames)
+
+
+def test_a_state_in_morton_order_is_coded_as_gaps_along_the_curve() -> None:
+    state = snap_state(splashing_state(), particle_lattice(0.01))
+    data = encode_arrays({"end_state": state})
+    (member,) = _header(data)[0]["members"]
+    assert member.get("morton") is True
+    assert decode_arrays(data)["end_state"].tobytes() == state.tobytes()
+    shuffled = state[np.random.default_rng(5).permutation(len(state))]
+    (member,) = _header(encode_arrays({"end_state": shuffled}))[0]["members"]
+    assert "morton" not in member  # out of order: the codes would not be sorted
+
+
+def test_morton_cells_undo_morton_codes() -> None:
+    cells = np.random.default_rng(6).integers(0, 2**21, (5000, 3))
+    np.testing.assert_array_equal(morton_cells(morton_codes(cells)), cells)
