@@ -34,6 +34,13 @@ class StoreBench:
     load_seconds: float
 
 
+def synthetic_shape(frames: np.ndarray) -> tuple[np.ndarray, np.ndarray]:
+    """A synthetic clip's occupancy and descriptor: like a dynamics' ``shape``, a function
+    of its frames (a (k, 8) occupancy, a 6 x 6 descriptor)."""
+    frames = np.asarray(frames, dtype=np.float64)
+    return np.sqrt(frames), np.resize(frames.mean(axis=0), 36).reshape(6, 6)
+
+
 def synthetic_graph(
     n_edges: int,
     n_controls: int = 3,
@@ -57,18 +64,18 @@ def synthetic_graph(
     kinetic, score = rng.random(n_all), rng.random(n_all)
     potential = rng.random((n_all, n_controls))
     n_arrays = n_all if distinct_bundles is None else distinct_bundles
-    occupancy = rng.random((n_arrays, frames_per_clip, 8))
-    descriptor = rng.random((n_arrays, 6, 6))
     frames = rng.random((n_arrays, frames_per_clip, 8)).astype(np.float32)
+    shapes = [synthetic_shape(f) for f in frames]
     for edge in range(n_all):
         shared = edge % n_arrays
         control = edge % n_controls
+        occupancy, descriptor = shapes[shared]
         features = ClipFeatures(
             control,
             float(kinetic[edge]),
             potential[edge],
-            occupancy[shared],
-            descriptor[shared],
+            occupancy,
+            descriptor,
             float(score[edge]),
         )
         clip = graph.add_clip(edge // n_controls, features)
@@ -116,7 +123,7 @@ def bench_store(
                 save_graph(session, graph_id, graph, bank, artifacts)
                 session.flush()
                 saved = time.perf_counter()
-                load_graph(session, graph_id, artifacts)
+                load_graph(session, graph_id, artifacts, synthetic_shape)
                 loaded = time.perf_counter()
                 session.rollback()
         finally:

@@ -82,6 +82,14 @@ class Dynamics(Protocol):
 
     def features(self, clip: SimClip) -> ClipFeatures: ...
 
+    def shape(self, frames: np.ndarray) -> tuple[np.ndarray, np.ndarray]:
+        """The (occupancy, descriptor) of :meth:`features`, from a clip's frames alone.
+
+        They are a function of the frames, so the store keeps only frames and end state
+        and derives these when it reads a clip (docs/liquid.md, "Bytes").
+        """
+        ...
+
     def dist(self, a: ClipFeatures, b: ClipFeatures, control: int) -> float:
         """Perceptual error of showing clip ``a`` blended into clip ``b`` (eq. 3)."""
         ...

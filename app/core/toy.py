@@ -123,18 +123,22 @@ class ToyDynamics:
         fill = np.clip((columns[:, :, None] - bands[None, None, :-1]) / np.diff(bands), 0.0, 1.0)
         return fill.mean(axis=0).ravel()
 
+    def shape(self, frames: np.ndarray) -> tuple[np.ndarray, np.ndarray]:
+        return self.occupancy(frames), self.descriptor(frames)
+
     def score(self, frames: np.ndarray) -> float:
         lo, hi = self.target_cells
         return float(np.sum(np.maximum(frames[:, lo:hi] - self.target_height, 0.0)) * self.dx)
 
     def features(self, clip: SimClip) -> ClipFeatures:
         heights = clip.end_state[: self.cells]
+        occupancy, descriptor = self.shape(clip.frames)
         return ClipFeatures(
             control=clip.control,
             kinetic=self.kinetic_energy(clip.end_state),
             potential=np.array([self.potential_energy(heights, c) for c in range(self.n_controls)]),
-            occupancy=self.occupancy(clip.frames),
-            descriptor=self.descriptor(clip.frames),
+            occupancy=occupancy,
+            descriptor=descriptor,
             score=self.score(clip.frames),
         )
 

@@ -203,15 +203,25 @@ class LiquidDynamics:
         return SimClip(control=control, frames=self.surface_frames(positions), end_state=end_state)
 
     def features(self, clip: SimClip) -> ClipFeatures:
-        occ = occupancy(self.grid, dequantise_sdf(self.grid, clip.frames))
+        occ = self._occupancy(clip.frames)
+        shape, descriptor = self._shape(occ)
         return ClipFeatures(
             control=clip.control,
             kinetic=kinetic_energy(self.scene, clip.end_state),
             potential=potential_energies(self.scene, clip.end_state),
-            occupancy=quantise_occupancy(occ),
-            descriptor=clip_descriptor(self.grid, self.scene.tank, occ),
+            occupancy=shape,
+            descriptor=descriptor,
             score=clip_score(self.grid, self.scene.target, occ),
         )
+
+    def shape(self, frames: np.ndarray) -> tuple[np.ndarray, np.ndarray]:
+        return self._shape(self._occupancy(frames))
+
+    def _occupancy(self, frames: np.ndarray) -> np.ndarray:
+        return occupancy(self.grid, dequantise_sdf(self.grid, frames))
+
+    def _shape(self, occ: np.ndarray) -> tuple[np.ndarray, np.ndarray]:
+        return quantise_occupancy(occ), clip_descriptor(self.grid, self.scene.tank, occ)
 
     def dist(self, a: ClipFeatures, b: ClipFeatures, control: int) -> float:
         return clip_distance(a, b, control, self.params)

@@ -84,9 +84,9 @@ class Clip(Base):
     #: float64 bytes, one potential energy per control
     potential: Mapped[bytes] = mapped_column(LargeBinary)
     score: Mapped[float] = mapped_column(Double)
-    #: float32 bytes of the flattened descriptor (the exact one lives in the bundle)
+    #: float32 bytes of the flattened descriptor (the exact one is derived from the frames)
     descriptor: Mapped[bytes] = mapped_column(LargeBinary)
-    #: .npz artifact: frames, end_state, occupancy, descriptor
+    #: arrays artifact: frames and end_state (older bundles also hold occupancy, descriptor)
     bundle: Mapped[str] = mapped_column(ForeignKey("artifacts.hash"))
     animation: Mapped[str | None] = mapped_column(ForeignKey("artifacts.hash"))
 

@@ -99,7 +99,7 @@ class AnimationReuse:
             return rows[clip].control, rows[clip].descriptor
 
         def features(clip: int) -> ClipFeatures:
-            return rendered_clip_features(artifacts, rows[clip])
+            return rendered_clip_features(artifacts, rows[clip], dynamics.shape)
 
         animations = {clip: row.animation for clip, row in rows.items()}
         return cls(dynamics, max_error, animations, columns, features)

@@ -89,11 +89,14 @@ def loaded_graph(session: Session, settings: Settings, row: Graph) -> LoadedGrap
         cached.row = row
         return cached
     artifacts = artifact_store(settings)
-    graph, bank = load_graph(session, row.id, artifacts, settings.clip_cache_mb * 2**20)
+    dynamics = graph_dynamics(row, settings)
+    graph, bank = load_graph(
+        session, row.id, artifacts, dynamics.shape, settings.clip_cache_mb * 2**20
+    )
     if settings.resolved_redis_url:
         cache = _shape_cache(settings.resolved_redis_url, settings.occupancy_cache_ttl)
         bank.use_shape_cache(cache)
-    return LoadedGraph(row, graph, bank, graph_dynamics(row, settings), artifacts)
+    return LoadedGraph(row, graph, bank, dynamics, artifacts)
 
 
 def keep_graph(session: Session, loaded: LoadedGraph) -> None:

@@ -18,6 +18,7 @@ from app.core.dynamics import ClipFeatures
 from app.core.graph import EdgeKind
 from app.models import Artifact, Clip, Edge, PublicationEdge
 from app.store.artifacts import ArtifactStore
+from app.store.clipbank import ShapeOf
 from app.store.graphs import get_graph_row, stored_descriptor, stored_potential
 
 #: animations are videos (image strips before); every other artifact is internal
@@ -125,15 +126,17 @@ def rendered_clips(session: Session, graph_id: int, control: int) -> list[Render
     ]
 
 
-def rendered_clip_features(artifacts: ArtifactStore, clip: RenderedClip) -> ClipFeatures:
-    """The clip's features, its occupancy read from its bundle."""
-    shapes = artifacts.get_arrays(clip.bundle, ("occupancy", "descriptor"))
+def rendered_clip_features(
+    artifacts: ArtifactStore, clip: RenderedClip, shape_of: ShapeOf
+) -> ClipFeatures:
+    """The clip's features, its occupancy and descriptor derived from its bundle's frames."""
+    occupancy, descriptor = shape_of(artifacts.get_arrays(clip.bundle, ("frames",))["frames"])
     return ClipFeatures(
         control=clip.control,
         kinetic=clip.kinetic,
         potential=clip.potential,
-        occupancy=shapes["occupancy"],
-        descriptor=shapes["descriptor"],
+        occupancy=occupancy,
+        descriptor=descriptor,
         score=clip.score,
     )
 

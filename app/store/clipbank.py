@@ -1,8 +1,9 @@
 """A :class:`~app.core.clipbank.ClipBank` backed by the artifact store.
 
-Each saved clip has one ``.npz`` bundle (frames, end_state, occupancy, descriptor). The
-small feature columns (control, energies, score) come from the loaded graph, so only the
-occupancy and descriptor are read to rebuild :class:`ClipFeatures`; both reads go through
+Each saved clip has one arrays bundle: its frames and end state. The small feature
+columns (control, energies, score) come from the loaded graph; the occupancy and the
+descriptor are a function of the frames (``Dynamics.shape``), so they are derived from
+the frames when read rather than stored (docs/liquid.md, "Bytes"). Both reads go through
 LRU caches because best-target searches compare the same popular clips again and again.
 The shape cache is bounded in bytes, not entries: an occupancy grid is 48 KB on ``tiny``
 and about 1 MB on ``paper``, so a count bound would let a 200k-frame graph's worker hold
@@ -38,15 +39,13 @@ class ShapeCache(Protocol):
     def put(self, digest: str, occupancy: np.ndarray, descriptor: np.ndarray) -> None: ...
 
 
+#: a clip's (occupancy, descriptor) from its frames: the dynamics' ``shape``
+ShapeOf = Callable[[np.ndarray], tuple[np.ndarray, np.ndarray]]
+
+
 def clip_bundle(bank: ClipBank, clip: int) -> dict[str, np.ndarray]:
     """The arrays of a clip's bundle artifact, from any bank holding the clip."""
-    features = bank.features(clip)
-    return {
-        "frames": np.asarray(bank.frames(clip)),
-        "end_state": np.asarray(bank.end_state(clip)),
-        "occupancy": np.asarray(features.occupancy),
-        "descriptor": np.asarray(features.descriptor),
-    }
+    return {"frames": np.asarray(bank.frames(clip)), "end_state": np.asarray(bank.end_state(clip))}
 
 
 class StoredClipBank:
@@ -55,10 +54,12 @@ class StoredClipBank:
         graph: StateGraph,
         artifacts: ArtifactStore,
         bundles: Mapping[int, str],
+        shape_of: ShapeOf,
         shape_cache_bytes: int = SHAPE_CACHE_BYTES,
     ) -> None:
         self._graph = graph
         self._artifacts = artifacts
+        self._shape_of = shape_of
         self._bundles = dict(bundles)
         self._pending: dict[int, tuple[SimClip, ClipFeatures]] = {}
         self._shape_cache: ShapeCache | None = None
@@ -117,10 +118,12 @@ class StoredClipBank:
         digest = self._bundles[clip]
         if self._shape_cache is not None and (hit := self._shape_cache.get(digest)) is not None:
             return hit
-        arrays = self._artifacts.get_arrays(digest, ("occupancy", "descriptor"))
+        occupancy, descriptor = self._shape_of(
+            self._artifacts.get_arrays(digest, ("frames",))["frames"]
+        )
         if self._shape_cache is not None:
-            self._shape_cache.put(digest, arrays["occupancy"], arrays["descriptor"])
-        return arrays["occupancy"], arrays["descriptor"]
+            self._shape_cache.put(digest, occupancy, descriptor)
+        return occupancy, descriptor
 
     def _read_state(self, clip: int) -> tuple[np.ndarray, np.ndarray]:
         arrays = self._artifacts.get_arrays(self._bundles[clip], ("frames", "end_state"))

@@ -28,7 +28,7 @@ from app.models import Clip, Edge, Graph, Vertex
 from app.store._sql import bulk_insert
 from app.store.array_codec import ARRAYS_MEDIA_TYPE, encode_arrays
 from app.store.artifacts import ArtifactStore
-from app.store.clipbank import SHAPE_CACHE_BYTES, StoredClipBank, clip_bundle
+from app.store.clipbank import SHAPE_CACHE_BYTES, ShapeOf, StoredClipBank, clip_bundle
 
 #: "no clip" in vertex_clip (the start vertex) and in the placeholders of unfilled edges
 NO_CLIP = -1
@@ -260,9 +260,13 @@ def load_graph(
     session: Session,
     graph_id: int,
     artifacts: ArtifactStore,
+    shape_of: ShapeOf,
     shape_cache_bytes: int = SHAPE_CACHE_BYTES,
 ) -> tuple[StateGraph, StoredClipBank]:
     """The graph as last saved, with a bank that reads clip bundles lazily.
+
+    ``shape_of`` derives a clip's occupancy and descriptor from its frames (the graph's
+    dynamics' ``shape``).
 
     Descriptors come back as float64 of the stored float32 values; everything else is
     exact. The energy index is rebuilt through ``set_sim`` in ascending energy order,
@@ -287,7 +291,9 @@ def load_graph(
         graph,
         _Persisted(graph_id, row.revision, graph.n_vertices, graph.n_clips, _edge_table(graph)),
     )
-    return graph, StoredClipBank(graph, artifacts, dict(enumerate(bundles)), shape_cache_bytes)
+    return graph, StoredClipBank(
+        graph, artifacts, dict(enumerate(bundles)), shape_of, shape_cache_bytes
+    )
 
 
 def _load_clips(session: Session, graph_id: int, graph: StateGraph) -> list[str]:

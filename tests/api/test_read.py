@@ -12,6 +12,7 @@ from fastapi.testclient import TestClient
 from PIL import Image
 from sqlalchemy.orm import Session
 
+from app.core.toy import ToyDynamics
 from app.render.animation import STRIP_MEDIA_TYPE, decode_strip
 from app.store.artifacts import ArtifactStore
 from app.store.graphs import load_graph
@@ -50,7 +51,9 @@ def test_the_publication_tells_its_size_and_blends(
     data = client.get(f"/api/graphs/{published.name}/publication").json()
     core = published.publication
     blends = core.edge_kind == 1
-    graph = load_graph(session, published.graph_id, ArtifactStore(Path("unused")))[0]
+    graph = load_graph(
+        session, published.graph_id, ArtifactStore(Path("unused")), ToyDynamics().shape
+    )[0]
     assert data["size_frames"] == graph.size_frames > 0
     assert blends.any() and data["blend_share"] == pytest.approx(blends.mean())
     assert data["mean_blend_error"] == pytest.approx(core.edge_err[blends].mean())

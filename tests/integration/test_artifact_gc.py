@@ -13,6 +13,7 @@ from sqlalchemy import select, update
 from sqlalchemy.orm import Session
 
 from app.bench.ingest import build_toy_graph
+from app.core.toy import ToyDynamics
 from app.models import Artifact, Clip
 from app.store.artifact_gc import (
     artifact_references,
@@ -116,7 +117,9 @@ def test_orphans_of_an_interrupted_grow_are_collected_and_nothing_used_is(
     for kept in (*used, fresh_file, fresh_row, reused):
         assert artifacts.path_for(kept).exists()
     assert stray.exists()
-    graph, bank = load_graph(session, toy.graph_id, artifacts)  # every bundle still there
+    graph, bank = load_graph(
+        session, toy.graph_id, artifacts, ToyDynamics().shape
+    )  # every bundle still there
     assert graph.n_vertices == toy.graph.n_vertices
     clip = session.scalars(select(Clip.bundle).limit(1)).one()
     assert np.asarray(list(artifacts.get_arrays(clip).values())[0]).size > 0

@@ -9,7 +9,7 @@ import pytest
 from sqlalchemy import func, select, update
 from sqlalchemy.orm import Session
 
-from app.bench.store import synthetic_graph
+from app.bench.store import synthetic_graph, synthetic_shape
 from app.core.clipbank import ClipBank, MemoryClipBank
 from app.core.graph import StateGraph
 from app.core.growth import best_target, expand_blend_edge, relink_all
@@ -74,7 +74,7 @@ def test_round_trip_is_exact(session: Session, artifacts: ArtifactStore, toy_gra
     _, graph, bank = toy_graph
     graph_id = new_graph(session, graph)
     save_graph(session, graph_id, graph, bank, artifacts)
-    loaded, stored = load_graph(session, graph_id, artifacts)
+    loaded, stored = load_graph(session, graph_id, artifacts, ToyDynamics().shape)
     assert_same_graph(loaded, graph)
     assert_same_clips(stored, bank, range(graph.n_clips))
 
@@ -85,7 +85,7 @@ def test_loaded_graph_grows_like_the_original(
     dynamics, graph, bank = toy_graph
     graph_id = new_graph(session, graph)
     save_graph(session, graph_id, graph, bank, artifacts)
-    loaded, stored = load_graph(session, graph_id, artifacts)
+    loaded, stored = load_graph(session, graph_id, artifacts, dynamics.shape)
     for clip, control in [(graph.n_clips - 1, 2), (0, 0)]:
         assert best_target(loaded, stored, dynamics, clip, control) == best_target(
             graph, bank, dynamics, clip, control
@@ -98,7 +98,7 @@ def test_incremental_saves_write_only_changes(
     dynamics, graph, bank = toy_graph
     graph_id = new_graph(session, graph)
     save_graph(session, graph_id, graph, bank, artifacts)
-    loaded, stored = load_graph(session, graph_id, artifacts)
+    loaded, stored = load_graph(session, graph_id, artifacts, ToyDynamics().shape)
     first_blend = int(loaded.blend_edges()[0])
     set_animations(session, graph_id, edges={first_blend: _animation(session, artifacts)})
 
@@ -111,7 +111,7 @@ def test_incremental_saves_write_only_changes(
     expand_blend_edge(loaded, stored, dynamics, int(loaded.blend_edges()[0]))
     save_graph(session, graph_id, loaded, stored, artifacts)
 
-    again, bank_again = load_graph(session, graph_id, artifacts)
+    again, bank_again = load_graph(session, graph_id, artifacts, ToyDynamics().shape)
     assert_same_graph(again, loaded)
     assert_same_clips(bank_again, stored, range(loaded.n_clips))
     animation = session.scalar(
@@ -170,7 +170,7 @@ def test_100k_edge_round_trip_is_exact(session: Session, artifacts: ArtifactStor
     save_graph(session, graph_id, graph, bank, artifacts)
     session.flush()
     saved = time.perf_counter()
-    loaded, _ = load_graph(session, graph_id, artifacts)
+    loaded, _ = load_graph(session, graph_id, artifacts, synthetic_shape)
     loaded_at = time.perf_counter()
     print(f"100k edges: save {saved - started:.2f} s, load {loaded_at - saved:.2f} s")
     assert loaded.n_edges == graph.n_edges == 99_999
@@ -190,7 +190,9 @@ def test_the_shape_cache_holds_what_its_byte_budget_allows(
     shape = bank.features(0)
     per_clip = shape.occupancy.nbytes + np.asarray(shape.descriptor).nbytes
     for budget, entries in ((1_000 * per_clip, 1_000), (1, MIN_SHAPE_ENTRIES)):
-        _, stored = load_graph(session, graph_id, artifacts, shape_cache_bytes=budget)
+        _, stored = load_graph(
+            session, graph_id, artifacts, ToyDynamics().shape, shape_cache_bytes=budget
+        )
         assert_same_clips(stored, bank, range(graph.n_clips))
         cache = stored._shape_members
         assert cache is not None and cache.cache_info().maxsize == entries  # type: ignore[attr-defined]

@@ -174,7 +174,7 @@ def test_a_loaded_graph_orders_equal_energies_like_the_grown_one(
             session, name="ties", dynamics="toy", n_controls=3, frames_per_clip=10
         )
         save_graph(session, graph_id, graph, bank, artifacts)
-        loaded, _ = load_graph(session, graph_id, artifacts)
+        loaded, _ = load_graph(session, graph_id, artifacts, dynamics.shape)
     assert loaded._sim_edges == graph._sim_edges
 
 
@@ -225,4 +225,6 @@ def test_the_collect_artifacts_task_removes_old_orphans_only(settings: Settings)
     assert (freed["rows"], freed["files"]) == (0, 1) and not orphan.exists()
     assert {path for path in store.root.rglob("*") if path.is_file()} == kept
     with session_factory()() as session:
-        load_graph(session, graph_id, store)  # every bundle it uses is still there
+        load_graph(
+            session, graph_id, store, ToyDynamics().shape
+        )  # every bundle it uses is still there

@@ -52,6 +52,10 @@ def test_clip_frames_are_quantised_sdfs_and_features_are_consistent(
         volumes(dyn, tilted.frames), volumes(dyn, tilted.frames)[0], rtol=0.08
     )
     assert dyn.dist(f, f, 1) == 0.0
+    # what the store derives from the stored frames is what the features hold
+    occupancy, descriptor = dyn.shape(tilted.frames.copy())
+    np.testing.assert_array_equal(occupancy, f.occupancy)
+    np.testing.assert_array_equal(descriptor, f.descriptor)
 
 
 def test_settled_clips_of_one_control_are_at_distance_zero(
