@@ -221,6 +221,14 @@ def store(
     emit(result, as_json=True)
 
 
+@app.command("bytes")
+def stored_bytes(name: str = typer.Argument(..., help="a stored graph")) -> None:
+    """Everything a stored graph keeps, per simulated frame and by kind."""
+    from app.bench.footprint import bench_bytes
+
+    emit(bench_bytes(name), as_json=True)
+
+
 @app.command("dedup")
 def dedup(
     name: str = typer.Argument(..., help="a stored graph with rendered clips"),

@@ -1,0 +1,47 @@
+"""``srg bench bytes``: everything a stored graph keeps, per simulated frame and by kind.
+
+``srg bench clip`` sizes what one new clip adds; a grown graph also keeps a strip for
+every blend edge (about two per simulated clip with three controls), shares strips and
+bundles between equal or nearly equal clips, and holds array columns in its rows. This
+measures the whole, as the paper counts its graphs (bytes over simulated frames).
+"""
+
+from __future__ import annotations
+
+from typing import Any
+
+from app.db import transaction
+from app.store.footprint import graph_footprint
+from app.store.graphs import get_graph_row
+
+
+def bench_bytes(name: str) -> dict[str, Any]:
+    """The graph's bytes by kind, in all and per simulated frame, and its counts.
+
+    ``array_columns``: the clips' descriptor and potential columns; the fixed-size columns
+    of the rows (a few dozen bytes each) are reported as row counts only.
+    """
+    with transaction() as session:
+        row = get_graph_row(session, name)
+        footprint = graph_footprint(session, row.id)
+        frames_per_clip = row.frames_per_clip
+    frames = footprint.clips * frames_per_clip
+    stored = {
+        "bundles": footprint.bundle_bytes,
+        "clip_strips": footprint.sim_strip_bytes,
+        "blend_strips": footprint.blend_strip_bytes,
+        "array_columns": footprint.array_column_bytes,
+    }
+    stored["total"] = sum(stored.values())
+    return {
+        "graph": name,
+        "simulated_frames": frames,
+        "counts": {
+            "clips": footprint.clips,
+            "vertices": footprint.vertices,
+            "sim_edges": footprint.sim_edges,
+            "blend_edges": footprint.blend_edges,
+        },
+        "bytes": stored,
+        "bytes_per_frame": {kind: round(size / max(frames, 1)) for kind, size in stored.items()},
+    }
