@@ -41,7 +41,7 @@ def test_every_json_option_is_a_flag() -> None:
 
 def test_benchmarks_take_no_json_option() -> None:
     benches = [name for name in ALL if name.startswith("bench ")]
-    assert len(benches) == 8
+    assert len(benches) == 9
     assert [name for name in benches if "--json" in options_of(ALL[name])] == []
 
 
