@@ -8,23 +8,36 @@ measures the whole, as the paper counts its graphs (bytes over simulated frames)
 
 from __future__ import annotations
 
+from collections import Counter
 from typing import Any
 
+from app.config import Settings
 from app.db import transaction
-from app.store.footprint import graph_footprint
+from app.services.loading import artifact_store
+from app.store.array_codec import MAGIC, member_sizes
+from app.store.footprint import graph_bundles, graph_footprint
 from app.store.graphs import get_graph_row
 
 
-def bench_bytes(name: str) -> dict[str, Any]:
+def bench_bytes(settings: Settings, name: str) -> dict[str, Any]:
     """The graph's bytes by kind, in all and per simulated frame, and its counts.
 
     ``array_columns``: the clips' descriptor and potential columns; the fixed-size columns
     of the rows (a few dozen bytes each) are reported as row counts only.
+    ``bundle_members_per_frame``: the bundles' bytes by member (end state, frames; the
+    older bundles' occupancy and descriptor), read from each bundle's header; bundles
+    written before the arrays codec (npz) are counted under ``npz``.
     """
     with transaction() as session:
         row = get_graph_row(session, name)
         footprint = graph_footprint(session, row.id)
+        bundles = graph_bundles(session, row.id)
         frames_per_clip = row.frames_per_clip
+    artifacts = artifact_store(settings)
+    members: Counter[str] = Counter()
+    for digest in bundles:
+        data = artifacts.get_bytes(digest)
+        members.update(member_sizes(data) if data.startswith(MAGIC) else {"npz": len(data)})
     frames = footprint.clips * frames_per_clip
     stored = {
         "bundles": footprint.bundle_bytes,
@@ -44,4 +57,7 @@ def bench_bytes(name: str) -> dict[str, Any]:
         },
         "bytes": stored,
         "bytes_per_frame": {kind: round(size / max(frames, 1)) for kind, size in stored.items()},
+        "bundle_members_per_frame": {
+            member: round(size / max(frames, 1)) for member, size in sorted(members.items())
+        },
     }

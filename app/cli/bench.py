@@ -225,8 +225,9 @@ def store(
 def stored_bytes(name: str = typer.Argument(..., help="a stored graph")) -> None:
     """Everything a stored graph keeps, per simulated frame and by kind."""
     from app.bench.footprint import bench_bytes
+    from app.config import get_settings
 
-    emit(bench_bytes(name), as_json=True)
+    emit(bench_bytes(get_settings(), name), as_json=True)
 
 
 @app.command("dedup")

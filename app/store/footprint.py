@@ -65,6 +65,13 @@ def graph_footprint(session: Session, graph_id: int) -> GraphFootprint:
     )
 
 
+def graph_bundles(session: Session, graph_id: int) -> list[str]:
+    """The distinct bundle artifacts of a graph's clips."""
+    return list(
+        session.scalars(select(Clip.bundle).where(Clip.graph_id == graph_id).distinct()).all()
+    )
+
+
 def _sizes(session: Session, digests: Select[Any] | CompoundSelect) -> dict[str, int]:
     """Size of each distinct artifact among ``digests`` (a select of hashes)."""
     chosen = select(Artifact.hash, Artifact.size).where(Artifact.hash.in_(digests))
