@@ -24,6 +24,8 @@ def bench_bytes(settings: Settings, name: str) -> dict[str, Any]:
 
     ``array_columns``: the clips' descriptor and potential columns; the fixed-size columns
     of the rows (a few dozen bytes each) are reported as row counts only.
+    ``unshown_clip_strips``: the part of ``clip_strips`` that no edge shows (strips of
+    clips that end on a blend edge, shown only once that edge is expanded).
     ``bundle_members_per_frame``: the bundles' bytes by member (end state, frames; the
     older bundles' occupancy and descriptor), read from each bundle's header; bundles
     written before the arrays codec (npz) are counted under ``npz``.
@@ -57,6 +59,7 @@ def bench_bytes(settings: Settings, name: str) -> dict[str, Any]:
         },
         "bytes": stored,
         "bytes_per_frame": {kind: round(size / max(frames, 1)) for kind, size in stored.items()},
+        "unshown_clip_strips_per_frame": round(footprint.unshown_strip_bytes / max(frames, 1)),
         "bundle_members_per_frame": {
             member: round(size / max(frames, 1)) for member, size in sorted(members.items())
         },

@@ -28,6 +28,8 @@ class GraphFootprint:
     bundle_bytes: int
     sim_strip_bytes: int
     blend_strip_bytes: int
+    #: of ``sim_strip_bytes``, the strips of clips on blend edges that no edge shows
+    unshown_strip_bytes: int
     array_column_bytes: int
 
 
@@ -41,6 +43,13 @@ def graph_footprint(session: Session, graph_id: int) -> GraphFootprint:
     )
     sim = _sizes(session, clip_strips.union(sim_strips))
     blend = _sizes(session, blend_strips)
+    shown = set(_sizes(session, sim_strips)) | set(blend)
+    on_blend_edges = (
+        select(Clip.animation)
+        .join(Edge, (Edge.graph_id == Clip.graph_id) & (Edge.clip_idx == Clip.idx))
+        .where(Clip.graph_id == graph_id, Edge.kind == EdgeKind.BLEND)
+    )
+    unshown = _sizes(session, on_blend_edges)
     edges = dict(
         session.execute(
             select(Edge.kind, func.count()).where(Edge.graph_id == graph_id).group_by(Edge.kind)
@@ -61,6 +70,7 @@ def graph_footprint(session: Session, graph_id: int) -> GraphFootprint:
         bundle_bytes=sum(_sizes(session, bundles).values()),
         sim_strip_bytes=sum(sim.values()),
         blend_strip_bytes=sum(size for digest, size in blend.items() if digest not in sim),
+        unshown_strip_bytes=sum(size for digest, size in unshown.items() if digest not in shown),
         array_column_bytes=int(columns[1]),
     )
 

@@ -21,6 +21,7 @@ def test_the_bytes_add_up_and_match_the_strips_read_back(tmp_path: Path) -> None
     assert all(stored[kind] > 0 for kind in parts)
     assert stored["total"] == sum(stored[kind] for kind in parts)
     assert per_frame["total"] == round(stored["total"] / figures["simulated_frames"])
+    assert 0 <= figures["unshown_clip_strips_per_frame"] <= per_frame["clip_strips"]
     members = figures["bundle_members_per_frame"]
     assert set(members) == {"end_state", "frames"}  # occupancy and descriptor are derived
     assert 0 < sum(members.values()) <= per_frame["bundles"]

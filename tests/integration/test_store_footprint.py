@@ -24,13 +24,15 @@ def test_shared_strips_count_once_and_as_the_clips(
     _, graph, bank = toy_graph
     graph_id = create_graph(session, name="bytes", dynamics="toy", n_controls=3, frames_per_clip=10)
     save_graph(session, graph_id, graph, bank, artifacts)
-    own, shared, blend = (
+    own, shared, blend, unshown = (
         artifacts.put_bytes(data, media_type="video/x-ivf", session=session)
-        for data in (b"a" * 100, b"b" * 30, b"c" * 7)
+        for data in (b"a" * 100, b"b" * 30, b"c" * 7, b"d" * 11)
     )
     sim_edge = int(np.flatnonzero(np.asarray(graph.edge_kind) == EdgeKind.SIM)[0])
     first_blend, second_blend = graph.blend_edges()[:2]
-    set_animations(session, graph_id, clips={0: own}, edges={sim_edge: shared})
+    assert graph.edge_kind[graph.edge_clip.index(0)] == EdgeKind.SIM
+    blend_clip = graph.edge_clip[int(second_blend)]
+    set_animations(session, graph_id, clips={0: own, blend_clip: unshown}, edges={sim_edge: shared})
     set_animations(session, graph_id, edges={int(first_blend): shared, int(second_blend): blend})
     session.flush()
 
@@ -41,7 +43,8 @@ def test_shared_strips_count_once_and_as_the_clips(
         )
     )
     assert footprint.bundle_bytes == bundles > 0
-    assert (footprint.sim_strip_bytes, footprint.blend_strip_bytes) == (130, 7)
+    assert (footprint.sim_strip_bytes, footprint.blend_strip_bytes) == (141, 7)
+    assert footprint.unshown_strip_bytes == 11  # a clip's own strip while its edge blends
     assert footprint.clips == graph.n_clips and footprint.vertices == graph.n_vertices
     assert footprint.sim_edges + footprint.blend_edges == graph.n_edges
     assert footprint.blend_edges == len(graph.blend_edges())
