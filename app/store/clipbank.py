@@ -1,6 +1,9 @@
 """A :class:`~app.core.clipbank.ClipBank` backed by the artifact store.
 
-Each saved clip has one arrays bundle: its frames and end state. The small feature
+Each saved clip has one arrays bundle: its frames, and its end state while its edge is
+a blend. A blend edge's clip is expanded from its end state; once the edge is a
+simulation, no step reads that state again (an edge never turns back into a blend), so
+the store rewrites the bundle without it (docs/liquid.md, "Bytes"). The small feature
 columns (control, energies, score) come from the loaded graph; the occupancy and the
 descriptor are a function of the frames (``Dynamics.shape``), so they are derived from
 the frames when read rather than stored (docs/liquid.md, "Bytes"). Both reads go through
@@ -14,7 +17,7 @@ writes their bundles and calls :meth:`StoredClipBank.mark_saved`.
 
 from __future__ import annotations
 
-from collections.abc import Callable, Mapping
+from collections.abc import Callable, Iterable, Mapping
 from functools import lru_cache
 from typing import Protocol
 
@@ -43,9 +46,17 @@ class ShapeCache(Protocol):
 ShapeOf = Callable[[np.ndarray], tuple[np.ndarray, np.ndarray]]
 
 
-def clip_bundle(bank: ClipBank, clip: int) -> dict[str, np.ndarray]:
-    """The arrays of a clip's bundle artifact, from any bank holding the clip."""
-    return {"frames": np.asarray(bank.frames(clip)), "end_state": np.asarray(bank.end_state(clip))}
+class EndStateDropped(LookupError):
+    """The clip ends a simulated edge: its end state is no longer kept."""
+
+
+def clip_bundle(bank: ClipBank, clip: int, *, keep_state: bool) -> dict[str, np.ndarray]:
+    """The arrays of a clip's bundle artifact, from any bank holding the clip; its end
+    state only if ``keep_state`` (the clip's edge is a blend, still to be expanded)."""
+    bundle = {"frames": np.asarray(bank.frames(clip))}
+    if keep_state:
+        bundle["end_state"] = np.asarray(bank.end_state(clip))
+    return bundle
 
 
 class StoredClipBank:
@@ -66,6 +77,7 @@ class StoredClipBank:
         self._shape_cache_bytes = shape_cache_bytes
         self._shape_members: Callable[[int], tuple[np.ndarray, np.ndarray]] | None = None
         self._state_members = lru_cache(maxsize=BUNDLE_CACHE_SIZE)(self._read_state)
+        self._stateless: set[int] = set()
 
     def features(self, clip: int) -> ClipFeatures:
         if clip in self._pending:
@@ -84,7 +96,12 @@ class StoredClipBank:
     def end_state(self, clip: int) -> np.ndarray:
         if clip in self._pending:
             return self._pending[clip][0].end_state
-        return self._state_members(clip)[1]
+        state = self._state_members(clip)[1]
+        if state is None or clip in self._stateless:
+            raise EndStateDropped(
+                f"clip {clip} ends a simulated edge; its end state is no longer kept"
+            )
+        return state
 
     def frames(self, clip: int) -> np.ndarray:
         if clip in self._pending:
@@ -94,11 +111,15 @@ class StoredClipBank:
     def put(self, clip: int, sim: SimClip, features: ClipFeatures) -> None:
         self._pending[clip] = (sim, features)
 
-    def mark_saved(self, bundles: Mapping[int, str]) -> None:
-        """Record that these clips' bundles are stored; their arrays leave memory."""
+    def mark_saved(self, bundles: Mapping[int, str], stateless: Iterable[int] = ()) -> None:
+        """Record that these clips' bundles are stored; their arrays leave memory.
+
+        ``stateless``: the clips whose bundles were written without their end state.
+        """
         for clip, digest in bundles.items():
             self._bundles[clip] = digest
             self._pending.pop(clip, None)
+        self._stateless.update(stateless)
 
     def use_shape_cache(self, cache: ShapeCache) -> None:
         """Read occupancy grids through ``cache`` (Redis: the paper's animation cache)."""
@@ -125,6 +146,6 @@ class StoredClipBank:
             self._shape_cache.put(digest, occupancy, descriptor)
         return occupancy, descriptor
 
-    def _read_state(self, clip: int) -> tuple[np.ndarray, np.ndarray]:
-        arrays = self._artifacts.get_arrays(self._bundles[clip], ("frames", "end_state"))
-        return arrays["frames"], arrays["end_state"]
+    def _read_state(self, clip: int) -> tuple[np.ndarray, np.ndarray | None]:
+        arrays = self._artifacts.get_arrays(self._bundles[clip])
+        return arrays["frames"], arrays.get("end_state")

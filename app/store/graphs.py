@@ -219,23 +219,40 @@ def save_graph(
         get_graph_row(session, graph_id)
         raise StaleGraph(f"graph {graph_id} changed since revision {before.revision}; reload it")
 
+    edges = _edge_table(graph)
+    simulated = _simulated_clips(edges, graph.n_clips)
     new_clips = range(before.n_clips, graph.n_clips)
     digests = artifacts.put_many(
-        (encode_arrays(clip_bundle(bank, clip)) for clip in new_clips),
+        (encode_arrays(clip_bundle(bank, c, keep_state=c not in simulated)) for c in new_clips),
         media_type=ARRAYS_MEDIA_TYPE,
         session=session,
     )
     bulk_insert(session, Vertex, _vertex_rows(graph_id, graph, before.n_vertices))
     bulk_insert(session, Clip, _clip_rows(graph_id, graph, new_clips, digests))
-    edges = _edge_table(graph)
     old = len(before.edges)
     bulk_insert(session, Edge, _edge_rows(graph_id, graph, range(old, graph.n_edges)))
     changed = np.flatnonzero(np.any(edges[:old] != before.edges, axis=1))
     if len(changed):
         rows = _edge_rows(graph_id, graph, changed.tolist())
         session.execute(update(Edge), [{**row, "animation": None} for row in rows])
+    expanded = _expanded_clips(before.edges, edges[:old], changed)
+    rewritten = artifacts.put_many(
+        (encode_arrays(clip_bundle(bank, clip, keep_state=False)) for clip in expanded),
+        media_type=ARRAYS_MEDIA_TYPE,
+        session=session,
+    )
+    if expanded:
+        session.execute(
+            update(Clip),
+            [
+                {"graph_id": graph_id, "idx": clip, "bundle": digest}
+                for clip, digest in zip(expanded, rewritten, strict=True)
+            ],
+        )
     if isinstance(bank, StoredClipBank):
-        bank.mark_saved(dict(zip(new_clips, digests, strict=True)))
+        saved = dict(zip(new_clips, digests, strict=True))
+        saved.update(zip(expanded, rewritten, strict=True))
+        bank.mark_saved(saved, stateless=[*expanded, *(c for c in new_clips if c in simulated)])
     _remember(
         graph,
         _Persisted(graph_id, before.revision + 1, graph.n_vertices, graph.n_clips, edges),
@@ -355,6 +372,23 @@ def _load_edges(
         graph.edge_target.append(NO_TARGET if target is None else target)
         graph.edge_err.append(err)
     return [[(edge, clip, dst) for _, edge, clip, dst in sorted(s)] for s in sims]
+
+
+def _simulated_clips(edges: np.ndarray, n_clips: int) -> set[int]:
+    """The clips whose edge is a simulation (their end state is no longer needed)."""
+    sim = (edges[:, 0] == EdgeKind.SIM) & (edges[:, 1] >= 0) & (edges[:, 1] < n_clips)
+    return set(edges[sim, 1].astype(np.int64).tolist())
+
+
+def _expanded_clips(before: np.ndarray, after: np.ndarray, changed: np.ndarray) -> list[int]:
+    """Clips saved before whose blend edge has since become a simulation of the same clip."""
+    return sorted(
+        int(after[e, 1])
+        for e in changed
+        if before[e, 0] == EdgeKind.BLEND
+        and after[e, 0] == EdgeKind.SIM
+        and before[e, 1] == after[e, 1]
+    )
 
 
 def _vertex_rows(graph_id: int, graph: StateGraph, first: int) -> list[dict[str, Any]]:

@@ -11,13 +11,13 @@ from sqlalchemy.orm import Session
 
 from app.bench.store import synthetic_graph, synthetic_shape
 from app.core.clipbank import ClipBank, MemoryClipBank
-from app.core.graph import StateGraph
+from app.core.graph import EdgeKind, StateGraph
 from app.core.growth import best_target, expand_blend_edge, relink_all
 from app.core.toy import ToyDynamics
-from app.models import Edge, Graph
+from app.models import Clip, Edge, Graph
 from app.store.animations import set_animations
 from app.store.artifacts import ArtifactStore
-from app.store.clipbank import MIN_SHAPE_ENTRIES
+from app.store.clipbank import MIN_SHAPE_ENTRIES, EndStateDropped
 from app.store.graphs import (
     GraphNotFound,
     StaleGraph,
@@ -59,15 +59,24 @@ def assert_same_graph(loaded: StateGraph, graph: StateGraph) -> None:
             )
 
 
-def assert_same_clips(bank: ClipBank, reference: ClipBank, clips: range) -> None:
-    for clip in clips:
+def assert_same_clips(bank: ClipBank, reference: ClipBank, graph: StateGraph) -> None:
+    """Equal features and frames; equal end states where the clip's edge is still a blend,
+    none kept where it is a simulation (no step reads it again)."""
+    kinds = zip(graph.edge_clip, graph.edge_kind, strict=True)
+    simulated = {c for c, kind in kinds if kind == EdgeKind.SIM}
+    assert simulated and len(simulated) < graph.n_clips
+    for clip in range(graph.n_clips):
         a, b = bank.features(clip), reference.features(clip)
         assert (a.control, a.kinetic, a.score) == (b.control, b.kinetic, b.score)
         np.testing.assert_array_equal(a.potential, b.potential)
         np.testing.assert_array_equal(a.occupancy, b.occupancy)
         np.testing.assert_array_equal(a.descriptor, b.descriptor)
         np.testing.assert_array_equal(bank.frames(clip), reference.frames(clip))
-        np.testing.assert_array_equal(bank.end_state(clip), reference.end_state(clip))
+        if clip in simulated:
+            with pytest.raises(EndStateDropped, match=f"clip {clip} ends a simulated edge"):
+                bank.end_state(clip)
+        else:
+            np.testing.assert_array_equal(bank.end_state(clip), reference.end_state(clip))
 
 
 def test_round_trip_is_exact(session: Session, artifacts: ArtifactStore, toy_graph: Toy) -> None:
@@ -76,7 +85,7 @@ def test_round_trip_is_exact(session: Session, artifacts: ArtifactStore, toy_gra
     save_graph(session, graph_id, graph, bank, artifacts)
     loaded, stored = load_graph(session, graph_id, artifacts, ToyDynamics().shape)
     assert_same_graph(loaded, graph)
-    assert_same_clips(stored, bank, range(graph.n_clips))
+    assert_same_clips(stored, bank, graph)
 
 
 def test_loaded_graph_grows_like_the_original(
@@ -113,7 +122,7 @@ def test_incremental_saves_write_only_changes(
 
     again, bank_again = load_graph(session, graph_id, artifacts, ToyDynamics().shape)
     assert_same_graph(again, loaded)
-    assert_same_clips(bank_again, stored, range(loaded.n_clips))
+    assert_same_clips(bank_again, stored, loaded)
     animation = session.scalar(
         select(Edge.animation).where(
             Edge.graph_id == graph_id,
@@ -193,6 +202,35 @@ def test_the_shape_cache_holds_what_its_byte_budget_allows(
         _, stored = load_graph(
             session, graph_id, artifacts, ToyDynamics().shape, shape_cache_bytes=budget
         )
-        assert_same_clips(stored, bank, range(graph.n_clips))
+        assert_same_clips(stored, bank, graph)
         cache = stored._shape_members
         assert cache is not None and cache.cache_info().maxsize == entries  # type: ignore[attr-defined]
+
+
+def test_an_expanded_clip_is_rewritten_without_its_end_state(
+    session: Session, artifacts: ArtifactStore, toy_graph: Toy
+) -> None:
+    dynamics, graph, bank = toy_graph
+    graph_id = new_graph(session, graph)
+    save_graph(session, graph_id, graph, bank, artifacts)
+    loaded, stored = load_graph(session, graph_id, artifacts, dynamics.shape)
+    edge = int(loaded.blend_edges()[0])
+    clip = loaded.edge_clip[edge]
+
+    def bundle() -> dict[str, np.ndarray]:
+        digest = session.scalar(
+            select(Clip.bundle).where(Clip.graph_id == graph_id, Clip.idx == clip)
+        )
+        return artifacts.get_arrays(str(digest))
+
+    before = bundle()
+    assert set(before) == {"frames", "end_state"}  # a blend's clip: expanded from its state
+    expand_blend_edge(loaded, stored, dynamics, edge)
+    save_graph(session, graph_id, loaded, stored, artifacts)
+    after = bundle()
+    assert set(after) == {"frames"}
+    np.testing.assert_array_equal(after["frames"], before["frames"])
+    with pytest.raises(EndStateDropped):
+        stored.end_state(clip)
+    new_clips = range(graph.n_clips, loaded.n_clips)  # the expansion's clips end on blends
+    assert all(stored.end_state(c).size for c in new_clips)
