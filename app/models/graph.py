@@ -152,4 +152,6 @@ class ExpansionClip(Base):
     control: Mapped[int] = mapped_column(SmallInteger, primary_key=True)
     #: .npz artifact: frames, end_state and every ClipFeatures field
     clip: Mapped[str] = mapped_column(ForeignKey("artifacts.hash"))
+    #: the new clip's strip, as rendered before strips waited for their edge's expansion
+    #: (docs/runtime.md, "Strips"); no longer written, still read by the artifact GC
     animation: Mapped[str | None] = mapped_column(ForeignKey("artifacts.hash"))

@@ -101,7 +101,7 @@ class AnimationReuse:
         def features(clip: int) -> ClipFeatures:
             return rendered_clip_features(artifacts, rows[clip], dynamics.shape)
 
-        animations = {clip: row.animation for clip, row in rows.items()}
+        animations = {c: row.animation for c, row in rows.items() if row.animation is not None}
         return cls(dynamics, max_error, animations, columns, features)
 
     def strip(

@@ -1,8 +1,9 @@
 """The per-clip steps of an epoch: simulate, surface (the liquid's SDF), render.
 
-Each step reads and writes artifacts only, and the last two note the clip on an
-``expansion_clips`` row, so a worker can run any of them for any planned clip, and a
-redelivered step finds its work done. Simulating needs no database at all
+Simulating and surfacing read and write artifacts only and note the clip on an
+``expansion_clips`` row; rendering gives the expansion's dead-end clip its strip. So a
+worker can run any of them for any planned clip, and a redelivered step finds its work
+done. Simulating needs no database at all
 (:func:`simulate_job`), so the eager path computes outside any transaction.
 """
 
@@ -19,14 +20,10 @@ from app.config import Settings
 from app.core.dynamics import ClipFeatures, Dynamics, SimClip
 from app.core.errors import NotFound
 from app.models import Graph
-from app.services.animations import AnimationReuse, reuse_error_limit
+from app.services.animations import AnimationReuse, frames_strip, reuse_error_limit
 from app.services.loading import artifact_store, graph_dynamics
-from app.store.epochs import (
-    expansion_clip,
-    get_epoch,
-    record_clip,
-    set_clip_animation,
-)
+from app.store.animations import clip_features, set_animations, stored_clip
+from app.store.epochs import expansion_clip, get_epoch, record_clip
 from app.store.graphs import clip_bundle_digest, get_graph_row
 
 
@@ -172,23 +169,34 @@ def sdf_step(
 def render_step(
     session: Session, settings: Settings, clip: str, epoch_id: int, position: int, control: int
 ) -> str:
-    """Give a recorded clip its animation strip (once); return the clip artifact.
+    """Give the clip that expansion ``position`` makes a simulation its strip (once);
+    return ``clip``, the recorded new clip, as it came.
 
-    The strip is a nearly identical rendered clip's of the graph when there is one
-    (:mod:`app.core.dedup`), else the clip's frames rendered.
+    A new clip ends on a blend edge, which shows eq. 8's blend, not the clip: its own strip
+    is first shown when that edge is expanded. So an expansion renders one strip, its
+    dead-end clip's, in the pipeline of control 0 (docs/runtime.md, "Strips"): a nearly
+    identical earlier clip's when there is one (:mod:`app.core.dedup`), else its frames
+    rendered.
     """
-    found = expansion_clip(session, epoch_id, position, control)
-    if found is None:
+    if expansion_clip(session, epoch_id, position, control) is None:
         raise NotFound(f"epoch {epoch_id} has no clip {control} of expansion {position}")
-    if found.animation is None:
-        row, _ = planned_clip(session, epoch_id, position)
-        artifacts = artifact_store(settings)
-        dynamics = graph_dynamics(row, settings)
-        sim, features = clip_from_arrays(artifacts.get_arrays(found.clip))
-        limit = reuse_error_limit(settings, dynamics)
-        reuse = AnimationReuse.of_stored(
-            session, artifacts, dynamics, row.id, features.control, limit
-        )
-        strip, _ = reuse.strip(session, artifacts, features, lambda: sim.frames)
-        set_clip_animation(session, found, strip)
+    if control != 0:
+        return clip
+    row, dead_end = planned_clip(session, epoch_id, position)
+    stored = stored_clip(session, row.id, dead_end)
+    if stored.animation is not None:
+        return clip
+    artifacts = artifact_store(settings)
+    dynamics = graph_dynamics(row, settings)
+    frames = artifacts.get_arrays(stored.bundle, ("frames",))["frames"]
+    features = clip_features(stored, dynamics.shape(frames))
+    limit = reuse_error_limit(settings, dynamics)
+    reuse = AnimationReuse.of_stored(session, artifacts, dynamics, row.id, stored.control, limit)
+    found = reuse.substitute(features, before=dead_end)
+    strip = (
+        frames_strip(session, artifacts, dynamics, frames)
+        if found is None
+        else reuse.animations[found.clip]
+    )
+    set_animations(session, row.id, clips={dead_end: strip})
     return clip

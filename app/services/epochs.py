@@ -234,11 +234,6 @@ def integrate_step(
     )
     save_graph(session, row.id, graph, loaded.bank, loaded.artifacts)
     _canonical_descriptors(loaded, first_clip)
-    animations: dict[int, str] = {}
-    for control, clip in enumerate(expansion.clips):
-        if (animation := recorded[control].animation) is not None:
-            animations[clip] = animation
-    set_animations(session, row.id, clips=animations)
     beat(session, epoch_id)
     finished = _finish_if_complete(session, loaded, epoch, plan)
     keep_graph(session, loaded)

@@ -11,10 +11,11 @@ from collections.abc import Iterable, Mapping
 from typing import NamedTuple
 
 import numpy as np
-from sqlalchemy import func, select, update
+from sqlalchemy import ColumnElement, func, select, update
 from sqlalchemy.orm import Session
 
 from app.core.dynamics import ClipFeatures
+from app.core.errors import NotFound
 from app.core.graph import EdgeKind
 from app.models import Artifact, Clip, Edge, PublicationEdge
 from app.store.artifacts import ArtifactStore
@@ -81,7 +82,7 @@ def clip_animations(session: Session, graph_id: int) -> dict[int, str]:
 
 
 class RenderedClip(NamedTuple):
-    """A clip of the graph that has a strip, with the columns comparing clips needs."""
+    """A clip of the graph with the columns comparing clips needs, and its strip if any."""
 
     clip: int
     control: int
@@ -90,12 +91,27 @@ class RenderedClip(NamedTuple):
     score: float
     descriptor: np.ndarray
     bundle: str
-    animation: str
+    animation: str | None
 
 
 def rendered_clips(session: Session, graph_id: int, control: int) -> list[RenderedClip]:
     """Every clip of the graph under ``control`` that has a strip, in clip order
     (descriptors as stored): the only clips that may stand in for one of that control."""
+    return _clip_columns(
+        session,
+        (Clip.graph_id == graph_id, Clip.control == control, Clip.animation.is_not(None)),
+    )
+
+
+def stored_clip(session: Session, graph_id: int, clip: int) -> RenderedClip:
+    """One clip of the graph, with or without a strip."""
+    found = _clip_columns(session, (Clip.graph_id == graph_id, Clip.idx == clip))
+    if not found:
+        raise NotFound(f"graph {graph_id} has no clip {clip}")
+    return found[0]
+
+
+def _clip_columns(session: Session, where: tuple[ColumnElement[bool], ...]) -> list[RenderedClip]:
     rows = session.execute(
         select(
             Clip.idx,
@@ -107,7 +123,7 @@ def rendered_clips(session: Session, graph_id: int, control: int) -> list[Render
             Clip.bundle,
             Clip.animation,
         )
-        .where(Clip.graph_id == graph_id, Clip.control == control, Clip.animation.is_not(None))
+        .where(*where)
         .order_by(Clip.idx)
     )
     return [
@@ -122,7 +138,6 @@ def rendered_clips(session: Session, graph_id: int, control: int) -> list[Render
             animation=animation,
         )
         for idx, control, kinetic, potential, score, descriptor, bundle, animation in rows
-        if animation is not None
     ]
 
 
@@ -130,7 +145,12 @@ def rendered_clip_features(
     artifacts: ArtifactStore, clip: RenderedClip, shape_of: ShapeOf
 ) -> ClipFeatures:
     """The clip's features, its occupancy and descriptor derived from its bundle's frames."""
-    occupancy, descriptor = shape_of(artifacts.get_arrays(clip.bundle, ("frames",))["frames"])
+    return clip_features(clip, shape_of(artifacts.get_arrays(clip.bundle, ("frames",))["frames"]))
+
+
+def clip_features(clip: RenderedClip, shape: tuple[np.ndarray, np.ndarray]) -> ClipFeatures:
+    """The clip's features from its columns and its (occupancy, descriptor)."""
+    occupancy, descriptor = shape
     return ClipFeatures(
         control=clip.control,
         kinetic=clip.kinetic,

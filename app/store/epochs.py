@@ -189,9 +189,3 @@ def record_clip(session: Session, epoch_id: int, position: int, control: int, cl
         [{"epoch_id": epoch_id, "position": position, "control": control, "clip": clip}],
     )
     beat(session, epoch_id)
-
-
-def set_clip_animation(session: Session, clip: ExpansionClip, animation: str) -> None:
-    """Attach a recorded clip's animation strip (integration carries it to the clip)."""
-    clip.animation = animation
-    session.flush()

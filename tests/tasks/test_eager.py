@@ -12,20 +12,23 @@ from pathlib import Path
 import numpy as np
 import pytest
 from database_helpers import migrate
-from sqlalchemy import select
+from sqlalchemy import func, select
 from tasks_cluster import RedisServer
 from tasks_helpers import eager_reference, seed_graph, snapshot
 
 from app.config import Settings, get_settings
 from app.core.clipbank import MemoryClipBank
 from app.core.dynamics import Dynamics
+from app.core.graph import EdgeKind
 from app.core.growth import expand_blend_edge, initial_tree
 from app.core.player_models import PlayerModelKind
 from app.core.refinement import RefinerConfig
 from app.core.toy import ToyDynamics
 from app.db import get_engine, session_factory, transaction
-from app.models import Graph, GrowthEpoch
+from app.models import Clip, Graph, GrowthEpoch
 from app.services import clips, epochs, growing, refining
+from app.services.loading import open_graph
+from app.store.animations import clip_animations, edges_without_animation
 from app.store.artifacts import ArtifactStore
 from app.store.graphs import create_graph, load_graph, save_graph
 from app.store.occupancy_cache import RedisShapeCache
@@ -228,3 +231,24 @@ def test_the_collect_artifacts_task_removes_old_orphans_only(settings: Settings)
         load_graph(
             session, graph_id, store, ToyDynamics().shape
         )  # every bundle it uses is still there
+
+
+def test_an_epoch_renders_the_strips_its_expansions_show(settings: Settings) -> None:
+    """The dead-end clip of each expansion gets its strip, new blend edges their blends;
+    the new clips, which end on blend edges and show in no edge yet, get none."""
+    graph_id = seed_graph(settings)
+    with session_factory()() as session:
+        clips_before = session.scalar(select(func.count()).select_from(Clip))
+    result = growing.grow_graph(transaction, settings, name=graph_id, expansions=4, renders=True)
+    assert result.expansions == 4
+    with session_factory()() as session:
+        plan = session.scalars(select(GrowthEpoch.plan)).one()
+        strips = clip_animations(session, graph_id)
+        loaded = open_graph(session, settings, graph_id)
+        unrendered_blends = edges_without_animation(session, graph_id, 3, kind=EdgeKind.BLEND)
+    graph = loaded.graph
+    assert {int(dead_end) for _, dead_end in plan} <= set(strips)
+    assert not set(range(int(clips_before or 0), graph.n_clips)) & set(strips)
+    new_vertices = {graph.edge_dst[int(edge)] for edge, _ in plan}
+    new_blends = {v * 3 + c for v in new_vertices for c in range(3)}
+    assert new_blends and not new_blends & set(unrendered_blends)
