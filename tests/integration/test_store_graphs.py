@@ -17,7 +17,7 @@ from app.core.toy import ToyDynamics
 from app.models import Clip, Edge, Graph
 from app.store.animations import set_animations
 from app.store.artifacts import ArtifactStore
-from app.store.clipbank import MIN_SHAPE_ENTRIES, EndStateDropped
+from app.store.clipbank import MIN_SHAPE_ENTRIES, EndStateDropped, StoredClipBank
 from app.store.graphs import (
     GraphNotFound,
     StaleGraph,
@@ -39,6 +39,17 @@ def new_graph(session: Session, graph: StateGraph, name: str = "tank") -> int:
         frames_per_clip=graph.frames_per_clip,
         scene={"preset": "small"},
     )
+
+
+def saved_and_loaded(
+    session: Session, artifacts: ArtifactStore, toy: Toy
+) -> tuple[int, StateGraph, StoredClipBank]:
+    """The toy graph saved as a new graph, and loaded back with its stored bank."""
+    dynamics, graph, bank = toy
+    graph_id = new_graph(session, graph)
+    save_graph(session, graph_id, graph, bank, artifacts)
+    loaded, stored = load_graph(session, graph_id, artifacts, dynamics.shape)
+    return graph_id, loaded, stored
 
 
 def assert_same_graph(loaded: StateGraph, graph: StateGraph) -> None:
@@ -92,9 +103,7 @@ def test_loaded_graph_grows_like_the_original(
     session: Session, artifacts: ArtifactStore, toy_graph: Toy
 ) -> None:
     dynamics, graph, bank = toy_graph
-    graph_id = new_graph(session, graph)
-    save_graph(session, graph_id, graph, bank, artifacts)
-    loaded, stored = load_graph(session, graph_id, artifacts, dynamics.shape)
+    graph_id, loaded, stored = saved_and_loaded(session, artifacts, toy_graph)
     for clip, control in [(graph.n_clips - 1, 2), (0, 0)]:
         assert best_target(loaded, stored, dynamics, clip, control) == best_target(
             graph, bank, dynamics, clip, control
@@ -211,9 +220,7 @@ def test_an_expanded_clip_is_rewritten_without_its_end_state(
     session: Session, artifacts: ArtifactStore, toy_graph: Toy
 ) -> None:
     dynamics, graph, bank = toy_graph
-    graph_id = new_graph(session, graph)
-    save_graph(session, graph_id, graph, bank, artifacts)
-    loaded, stored = load_graph(session, graph_id, artifacts, dynamics.shape)
+    graph_id, loaded, stored = saved_and_loaded(session, artifacts, toy_graph)
     edge = int(loaded.blend_edges()[0])
     clip = loaded.edge_clip[edge]
 
