@@ -204,7 +204,9 @@ def save_graph(
     """Write what changed in ``graph`` since it was loaded or saved, bundles included.
 
     Changed edges lose their animation (it showed the old transition); render again and
-    call :func:`set_animations`. Raises :class:`StaleGraph` (see the module docstring).
+    call :func:`set_animations`. A clip's end state is written only while its edge is a
+    blend, and a clip whose blend edge became a simulation is rewritten without it
+    (``app.store.clipbank``). Raises :class:`StaleGraph` (see the module docstring).
     """
     graph.check()
     before = _snapshots.get(id(graph))
@@ -236,19 +238,7 @@ def save_graph(
         rows = _edge_rows(graph_id, graph, changed.tolist())
         session.execute(update(Edge), [{**row, "animation": None} for row in rows])
     expanded = _expanded_clips(before.edges, edges[:old], changed)
-    rewritten = artifacts.put_many(
-        (encode_arrays(clip_bundle(bank, clip, keep_state=False)) for clip in expanded),
-        media_type=ARRAYS_MEDIA_TYPE,
-        session=session,
-    )
-    if expanded:
-        session.execute(
-            update(Clip),
-            [
-                {"graph_id": graph_id, "idx": clip, "bundle": digest}
-                for clip, digest in zip(expanded, rewritten, strict=True)
-            ],
-        )
+    rewritten = _drop_end_states(session, graph_id, bank, artifacts, expanded)
     if isinstance(bank, StoredClipBank):
         saved = dict(zip(new_clips, digests, strict=True))
         saved.update(zip(expanded, rewritten, strict=True))
@@ -372,6 +362,24 @@ def _load_edges(
         graph.edge_target.append(NO_TARGET if target is None else target)
         graph.edge_err.append(err)
     return [[(edge, clip, dst) for _, edge, clip, dst in sorted(s)] for s in sims]
+
+
+def _drop_end_states(
+    session: Session, graph_id: int, bank: ClipBank, artifacts: ArtifactStore, clips: list[int]
+) -> list[str]:
+    """Rewrite these clips' bundles with their frames only; the new bundles' digests."""
+    digests = artifacts.put_many(
+        (encode_arrays(clip_bundle(bank, clip, keep_state=False)) for clip in clips),
+        media_type=ARRAYS_MEDIA_TYPE,
+        session=session,
+    )
+    if clips:
+        rows = [
+            {"graph_id": graph_id, "idx": clip, "bundle": digest}
+            for clip, digest in zip(clips, digests, strict=True)
+        ]
+        session.execute(update(Clip), rows)
+    return digests
 
 
 def _simulated_clips(edges: np.ndarray, n_clips: int) -> set[int]:
