@@ -17,7 +17,7 @@ writes their bundles and calls :meth:`StoredClipBank.mark_saved`.
 
 from __future__ import annotations
 
-from collections.abc import Callable, Iterable, Mapping
+from collections.abc import Callable, Mapping
 from functools import lru_cache
 from typing import Protocol
 
@@ -76,8 +76,7 @@ class StoredClipBank:
         self._shape_cache: ShapeCache | None = None
         self._shape_cache_bytes = shape_cache_bytes
         self._shape_members: Callable[[int], tuple[np.ndarray, np.ndarray]] | None = None
-        self._state_members = lru_cache(maxsize=BUNDLE_CACHE_SIZE)(self._read_state)
-        self._stateless: set[int] = set()
+        self._frames = lru_cache(maxsize=BUNDLE_CACHE_SIZE)(self._read_frames)
 
     def features(self, clip: int) -> ClipFeatures:
         if clip in self._pending:
@@ -96,30 +95,27 @@ class StoredClipBank:
     def end_state(self, clip: int) -> np.ndarray:
         if clip in self._pending:
             return self._pending[clip][0].end_state
-        state = self._state_members(clip)[1]
-        if state is None or clip in self._stateless:
+        digest = self._bundles[clip]
+        try:  # read once per expansion, so not cached
+            return self._artifacts.get_arrays(digest, ("end_state",))["end_state"]
+        except KeyError:
             raise EndStateDropped(
                 f"clip {clip} ends a simulated edge; its end state is no longer kept"
-            )
-        return state
+            ) from None
 
     def frames(self, clip: int) -> np.ndarray:
         if clip in self._pending:
             return self._pending[clip][0].frames
-        return self._state_members(clip)[0]
+        return self._frames(clip)
 
     def put(self, clip: int, sim: SimClip, features: ClipFeatures) -> None:
         self._pending[clip] = (sim, features)
 
-    def mark_saved(self, bundles: Mapping[int, str], stateless: Iterable[int] = ()) -> None:
-        """Record that these clips' bundles are stored; their arrays leave memory.
-
-        ``stateless``: the clips whose bundles were written without their end state.
-        """
+    def mark_saved(self, bundles: Mapping[int, str]) -> None:
+        """Record that these clips' bundles are stored; their arrays leave memory."""
         for clip, digest in bundles.items():
             self._bundles[clip] = digest
             self._pending.pop(clip, None)
-        self._stateless.update(stateless)
 
     def use_shape_cache(self, cache: ShapeCache) -> None:
         """Read occupancy grids through ``cache`` (Redis: the paper's animation cache)."""
@@ -146,6 +142,5 @@ class StoredClipBank:
             self._shape_cache.put(digest, occupancy, descriptor)
         return occupancy, descriptor
 
-    def _read_state(self, clip: int) -> tuple[np.ndarray, np.ndarray | None]:
-        arrays = self._artifacts.get_arrays(self._bundles[clip])
-        return arrays["frames"], arrays.get("end_state")
+    def _read_frames(self, clip: int) -> np.ndarray:
+        return self._artifacts.get_arrays(self._bundles[clip], ("frames",))["frames"]

@@ -242,7 +242,7 @@ def save_graph(
     if isinstance(bank, StoredClipBank):
         saved = dict(zip(new_clips, digests, strict=True))
         saved.update(zip(expanded, rewritten, strict=True))
-        bank.mark_saved(saved, stateless=[*expanded, *(c for c in new_clips if c in simulated)])
+        bank.mark_saved(saved)
     _remember(
         graph,
         _Persisted(graph_id, before.revision + 1, graph.n_vertices, graph.n_clips, edges),
