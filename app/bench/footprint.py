@@ -14,7 +14,7 @@ from typing import Any
 from app.config import Settings
 from app.db import transaction
 from app.services.loading import artifact_store
-from app.store.array_codec import MAGIC, member_sizes
+from app.store.array_codec import read_member_sizes
 from app.store.footprint import graph_bundles, graph_footprint
 from app.store.graphs import get_graph_row
 
@@ -38,8 +38,10 @@ def bench_bytes(settings: Settings, name: str) -> dict[str, Any]:
     artifacts = artifact_store(settings)
     members: Counter[str] = Counter()
     for digest in bundles:
-        data = artifacts.get_bytes(digest)
-        members.update(member_sizes(data) if data.startswith(MAGIC) else {"npz": len(data)})
+        path = artifacts.path_for(digest)
+        with path.open("rb") as stream:
+            sizes = read_member_sizes(stream)
+        members.update({"npz": path.stat().st_size} if sizes is None else sizes)
     frames = footprint.clips * frames_per_clip
     stored = {
         "bundles": footprint.bundle_bytes,

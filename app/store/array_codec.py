@@ -37,7 +37,7 @@ from __future__ import annotations
 import json
 import struct
 from collections.abc import Iterable, Mapping
-from typing import Any
+from typing import Any, BinaryIO
 
 import numpy as np
 import zstandard
@@ -95,6 +95,18 @@ def decode_arrays(data: bytes, names: Iterable[str] | None = None) -> dict[str, 
 def member_sizes(data: bytes) -> dict[str, int]:
     """The compressed bytes of each member of :func:`encode_arrays` bytes (header aside)."""
     return {name: member["length"] for name, (member, _) in _members(data).items()}
+
+
+def read_member_sizes(stream: BinaryIO) -> dict[str, int] | None:
+    """:func:`member_sizes` of the artifact in ``stream``, reading its header alone; None
+    if it holds no arrays artifact (an ``.npz`` from before the codec)."""
+    fixed = stream.read(len(MAGIC) + _HEADER_LENGTH.size)
+    if not fixed.startswith(MAGIC):
+        return None
+    if len(fixed) < len(MAGIC) + _HEADER_LENGTH.size:
+        raise CorruptArrays("arrays artifact cut short in its header")
+    (head_length,) = _HEADER_LENGTH.unpack_from(fixed, len(MAGIC))
+    return member_sizes(fixed + stream.read(head_length))
 
 
 def _members(data: bytes) -> dict[str, tuple[dict[str, Any], int]]:

@@ -10,7 +10,7 @@ from __future__ import annotations
 from dataclasses import dataclass
 from typing import Any
 
-from sqlalchemy import CompoundSelect, Select, func, select
+from sqlalchemy import Select, func, select
 from sqlalchemy.orm import Session
 
 from app.core.graph import EdgeKind
@@ -41,9 +41,10 @@ def graph_footprint(session: Session, graph_id: int) -> GraphFootprint:
     blend_strips = select(Edge.animation).where(
         Edge.graph_id == graph_id, Edge.kind == EdgeKind.BLEND
     )
-    sim = _sizes(session, clip_strips.union(sim_strips))
+    sim_edge = _sizes(session, sim_strips)
+    sim = _sizes(session, clip_strips) | sim_edge
     blend = _sizes(session, blend_strips)
-    shown = set(_sizes(session, sim_strips)) | set(blend)
+    shown = set(sim_edge) | set(blend)
     on_blend_edges = (
         select(Clip.animation)
         .join(Edge, (Edge.graph_id == Clip.graph_id) & (Edge.clip_idx == Clip.idx))
@@ -82,7 +83,7 @@ def graph_bundles(session: Session, graph_id: int) -> list[str]:
     )
 
 
-def _sizes(session: Session, digests: Select[Any] | CompoundSelect) -> dict[str, int]:
+def _sizes(session: Session, digests: Select[Any]) -> dict[str, int]:
     """Size of each distinct artifact among ``digests`` (a select of hashes)."""
     chosen = select(Artifact.hash, Artifact.size).where(Artifact.hash.in_(digests))
     return {digest: int(size) for digest, size in session.execute(chosen).all()}

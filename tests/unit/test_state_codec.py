@@ -6,6 +6,7 @@ The bounds are hand-checkable: snapping moves a coordinate by at most half its s
 
 from __future__ import annotations
 
+import io
 import json
 
 import numpy as np
@@ -19,7 +20,13 @@ from app.core.particle_lattice import (
     snap_state,
 )
 from app.core.scene import TILT_TANK_SPACINGS
-from app.store.array_codec import CorruptArrays, decode_arrays, encode_arrays
+from app.store.array_codec import (
+    CorruptArrays,
+    decode_arrays,
+    encode_arrays,
+    member_sizes,
+    read_member_sizes,
+)
 
 
 def splashing_state(n: int = 2000, seed: int = 0) -> np.ndarray:
@@ -167,3 +174,27 @@ def test_a_state_in_morton_order_is_coded_as_gaps_along_the_curve() -> None:
 def test_morton_cells_undo_morton_codes() -> None:
     cells = np.random.default_rng(6).integers(0, 2**21, (5000, 3))
     np.testing.assert_array_equal(morton_cells(morton_codes(cells)), cells)
+
+
+def test_member_sizes_can_be_read_from_the_header_alone() -> None:
+    data = encode_arrays({"frames": np.arange(4000, dtype=np.int16), "state": np.ones((9, 6))})
+    assert read_member_sizes(io.BytesIO(data)) == member_sizes(data)
+    assert read_member_sizes(_OnlyHeader(data, _header(data)[1])) == member_sizes(data)
+    buffer = io.BytesIO()
+    np.savez(buffer, frames=np.zeros(3))
+    assert read_member_sizes(io.BytesIO(buffer.getvalue())) is None  # an npz from before
+    with pytest.raises(CorruptArrays):
+        read_member_sizes(io.BytesIO(data[:8]))
+
+
+class _OnlyHeader(io.BytesIO):
+    """A stream that fails a read past ``end``: the payload must not be read."""
+
+    def __init__(self, data: bytes, end: int) -> None:
+        super().__init__(data)
+        self.end = end
+
+    def read(self, size: int | None = -1) -> bytes:
+        if size is None or size < 0 or self.tell() + size > self.end:
+            raise AssertionError("read past the header")
+        return super().read(size)
