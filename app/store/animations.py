@@ -81,7 +81,7 @@ def clip_animations(session: Session, graph_id: int) -> dict[int, str]:
     return {clip: animation for clip, animation in rows if animation is not None}
 
 
-class RenderedClip(NamedTuple):
+class ClipRow(NamedTuple):
     """A clip of the graph with the columns comparing clips needs, and its strip if any."""
 
     clip: int
@@ -94,7 +94,7 @@ class RenderedClip(NamedTuple):
     animation: str | None
 
 
-def rendered_clips(session: Session, graph_id: int, control: int) -> list[RenderedClip]:
+def rendered_clips(session: Session, graph_id: int, control: int) -> list[ClipRow]:
     """Every clip of the graph under ``control`` that has a strip, in clip order
     (descriptors as stored): the only clips that may stand in for one of that control."""
     return _clip_columns(
@@ -103,7 +103,7 @@ def rendered_clips(session: Session, graph_id: int, control: int) -> list[Render
     )
 
 
-def stored_clip(session: Session, graph_id: int, clip: int) -> RenderedClip:
+def stored_clip(session: Session, graph_id: int, clip: int) -> ClipRow:
     """One clip of the graph, with or without a strip."""
     found = _clip_columns(session, (Clip.graph_id == graph_id, Clip.idx == clip))
     if not found:
@@ -111,7 +111,7 @@ def stored_clip(session: Session, graph_id: int, clip: int) -> RenderedClip:
     return found[0]
 
 
-def _clip_columns(session: Session, where: tuple[ColumnElement[bool], ...]) -> list[RenderedClip]:
+def _clip_columns(session: Session, where: tuple[ColumnElement[bool], ...]) -> list[ClipRow]:
     rows = session.execute(
         select(
             Clip.idx,
@@ -127,7 +127,7 @@ def _clip_columns(session: Session, where: tuple[ColumnElement[bool], ...]) -> l
         .order_by(Clip.idx)
     )
     return [
-        RenderedClip(
+        ClipRow(
             clip=idx,
             control=control,
             kinetic=kinetic,
@@ -142,13 +142,13 @@ def _clip_columns(session: Session, where: tuple[ColumnElement[bool], ...]) -> l
 
 
 def rendered_clip_features(
-    artifacts: ArtifactStore, clip: RenderedClip, shape_of: ShapeOf
+    artifacts: ArtifactStore, clip: ClipRow, shape_of: ShapeOf
 ) -> ClipFeatures:
     """The clip's features, its occupancy and descriptor derived from its bundle's frames."""
     return clip_features(clip, shape_of(artifacts.get_arrays(clip.bundle, ("frames",))["frames"]))
 
 
-def clip_features(clip: RenderedClip, shape: tuple[np.ndarray, np.ndarray]) -> ClipFeatures:
+def clip_features(clip: ClipRow, shape: tuple[np.ndarray, np.ndarray]) -> ClipFeatures:
     """The clip's features from its columns and its (occupancy, descriptor)."""
     occupancy, descriptor = shape
     return ClipFeatures(
