@@ -19,6 +19,7 @@ from pathlib import Path
 from typing import Any
 
 from app.core.errors import InvalidInput
+from app.core.strategies import parse_strategy
 
 SRG = str(Path(sys.executable).with_name("srg"))
 
@@ -44,8 +45,9 @@ def bench_experiment(arguments: list[str]) -> dict[str, Any]:
         after = resource.getrusage(resource.RUSAGE_CHILDREN)
         result = json.loads(out.read_text())
     cpu = (after.ru_utime - before.ru_utime) + (after.ru_stime - before.ru_stime)
+    # a run that reads no traces is played by every crowd: the same graph in each
     runs = {
-        f"{strategy}/{seed}": {
+        _run_key(strategy, bot, seed): {
             "frames": rows[-1]["size_frames"],
             "grow_s": round(sum(float(r["grow_seconds"]) for r in rows), 1),
             "peak_resident_mb": rows[-1]["resident_mb"],
@@ -53,7 +55,8 @@ def bench_experiment(arguments: list[str]) -> dict[str, Any]:
                 1024 * rows[-1]["resident_mb"] / rows[-1]["size_frames"], 2
             ),
         }
-        for strategy, by_seed in result["results"].items()
+        for bot, crowd in result["crowds"].items()
+        for strategy, by_seed in crowd["results"].items()
         for seed, rows in by_seed.items()
     }
     frames = sum(run["frames"] for run in runs.values())
@@ -69,3 +72,9 @@ def bench_experiment(arguments: list[str]) -> dict[str, Any]:
         "load_average_1min": round(os.getloadavg()[0], 2),
         "runs": runs,
     }
+
+
+def _run_key(strategy: str, bot: str, seed: str) -> str:
+    if parse_strategy(strategy).learns_from_traces:
+        return f"{strategy}/{bot}/{seed}"
+    return f"{strategy}/{seed}"

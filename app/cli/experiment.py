@@ -2,7 +2,6 @@
 
 from __future__ import annotations
 
-import json
 from pathlib import Path
 from typing import TYPE_CHECKING, Any
 
@@ -29,10 +28,10 @@ def experiment(
     player_model: str | None = typer.Option(
         None, help="crowd model sr-crowd learns: eq2 (default, the paper's) or logit"
     ),
-    bot: str | None = typer.Option(
+    bots: str | None = typer.Option(
         None,
-        help="bots that play every checkpoint: goal-directed (default), heuristic, random, "
-        "hesitant or avoider",
+        help="comma-separated crowds (bots) that play: goal-directed (default), heuristic, "
+        "random, hesitant, avoider; each grows its own sr-crowd runs",
     ),
     fixed_graph_sessions: int | None = typer.Option(
         None, help="bot sessions per half of the fixed-graph prediction setting (default 100)"
@@ -74,7 +73,7 @@ def experiment(
     if jobs is not None and jobs < 1:
         raise InvalidInput(f"--jobs must be positive, got {jobs}")
     options = (dynamics, preset, fluid, strategies, seeds, checkpoints, sessions)
-    model_options = (player_model, bot, fixed_graph_sessions)
+    model_options = (player_model, bots, fixed_graph_sessions)
     name = name or "-".join(x for x in ("experiment", dynamics or "toy", preset, fluid) if x)
     settings = get_settings()
     if resume:
@@ -109,7 +108,15 @@ def experiment(
         write_result(result_path, result)
     if json_output:
         emit(result, as_json=True)
-    typer.echo(json.dumps(result["summary"], indent=2), err=json_output)
+    for bot, rows in result["comparison"].items():
+        for row in rows:
+            ratio = row["error_ratio"]
+            typer.echo(
+                f"{bot} at {row['checkpoint_frames']} frames: sr-crowd / baseline error "
+                f"{_number(ratio['mean'])} [{_number(ratio['low'])}, {_number(ratio['high'])}]"
+                f": {row['error_verdict']}",
+                err=json_output,
+            )
     typer.echo(f"report: {report}", err=True)
 
 
@@ -123,7 +130,7 @@ def _experiment_plan(
     checkpoints: str | None,
     sessions: int | None,
     player_model: str | None,
-    bot: str | None,
+    bots: str | None,
     fixed_graph_sessions: int | None,
 ) -> ExperimentPlan:
     from app.core.bots import parse_bot
@@ -145,8 +152,8 @@ def _experiment_plan(
         changes["sessions"] = sessions
     if player_model is not None:
         changes["player_model"] = parse_player_model(player_model)
-    if bot is not None:
-        changes["bot"] = parse_bot(bot)
+    if bots is not None:
+        changes["bots"] = tuple(parse_bot(b.strip()) for b in bots.split(","))
     if fixed_graph_sessions is not None:
         if fixed_graph_sessions < 1:
             raise InvalidInput(
@@ -156,3 +163,7 @@ def _experiment_plan(
     if quick:
         return ExperimentPlan.quick(dynamics, **changes)
     return ExperimentPlan(dynamics=dynamics, **changes)
+
+
+def _number(value: float | None) -> str:
+    return "n/a" if value is None else f"{value:.3f}"

@@ -1,8 +1,9 @@
 """Tables of the paper's evaluation: an experiment's plan and each checkpoint's results.
 
-An experiment grows one stored graph per (strategy, seed) run; a checkpoint row is
-written in the same transaction as the publication and the bots' traces it reports
-on, so a row exists exactly when its checkpoint is complete. That makes an interrupted
+An experiment grows one stored graph per run (a strategy and a seed, and for a strategy
+that learns from traces a crowd); a checkpoint row holds one crowd's play of one run's
+checkpoint, written in the same transaction as the publication and the bots' traces it
+reports on, so a row exists exactly when its checkpoint is complete. That makes an interrupted
 experiment resumable from its last completed checkpoint (docs/experiment.md).
 """
 
@@ -31,7 +32,12 @@ class ExperimentCheckpoint(Base):
     __tablename__ = "experiment_checkpoints"
     __table_args__ = (
         UniqueConstraint(
-            "experiment_id", "strategy", "seed", "checkpoint", name="uq_experiment_checkpoints_run"
+            "experiment_id",
+            "strategy",
+            "seed",
+            "bot",
+            "checkpoint",
+            name="uq_experiment_checkpoints_run",
         ),
     )
 
@@ -39,6 +45,8 @@ class ExperimentCheckpoint(Base):
     experiment_id: Mapped[int] = mapped_column(ForeignKey("experiments.id", ondelete="CASCADE"))
     strategy: Mapped[str] = mapped_column(String(32))
     seed: Mapped[int] = mapped_column(Integer)
+    #: the crowd that played this row (app.core.bots.BotKind)
+    bot: Mapped[str] = mapped_column(String(32), server_default="goal-directed")
     #: index into the plan's checkpoints
     checkpoint: Mapped[int] = mapped_column(Integer)
     graph_id: Mapped[int] = mapped_column(ForeignKey("graphs.id", ondelete="CASCADE"))

@@ -20,6 +20,11 @@ import matplotlib.pyplot as plt  # noqa: E402
 import numpy as np  # noqa: E402
 from matplotlib.collections import LineCollection  # noqa: E402
 
+from app.core.comparison import (  # noqa: E402
+    ERROR_RATIO_TARGET,
+    HIGH_ERROR_FLOOR,
+    HIGH_ERROR_RATIO_TARGET,
+)
 from app.reports.prediction import ingredients_section, settings_section  # noqa: E402
 
 ArraysLoader = Callable[[str], dict[str, np.ndarray]]
@@ -222,11 +227,11 @@ def markdown(
     scene = plan["dynamics"] + "".join(f" / {plan[k]}" for k in ("preset", "fluid") if plan.get(k))
     seconds = result["seconds"]
     lines = [
-        f"# Self-refining experiment `{result['name']}` on `{scene}`",
+        f"## Crowd `{plan['bot']}` on `{scene}`",
         "",
         f"Strategies {', '.join(plan['strategies'])}; seeds {plan['seeds']}; checkpoints "
         f"{plan['checkpoints']} frames; {plan['sessions']} "
-        f"{plan.get('bot', 'goal-directed')} bot sessions of mean {plan['mean_steps']} steps "
+        f"{plan['bot']} bot sessions of mean {plan['mean_steps']} steps "
         f"per checkpoint; {plan['batch_size']} expansions per growth epoch. "
         f"High-error threshold {_threshold(result):.4g}."
         + (
@@ -283,7 +288,7 @@ def markdown(
             f"high-error ratio <= {versus['high_error_ratio_target']}).",
         ]
     lines += _cost_section(result)
-    lines += [""] + [f"![{p.stem}]({p.name})" for p in images]
+    lines += [""] + [f"![{p.stem}]({p.as_posix()})" for p in images]
     return "\n".join(lines) + "\n"
 
 
@@ -367,27 +372,87 @@ def _number(value: float | None, digits: int = 2) -> str:
     return "n/a" if value is None or np.isnan(value) else f"{value:.{digits}f}"
 
 
+def crowd_view(result: dict[str, Any], bot: str) -> dict[str, Any]:
+    """What one crowd met, shaped as a one-crowd result: ``results`` and ``summary`` of
+    ``crowds.<bot>``, and the plan naming that bot (what a crowd's section reads)."""
+    return {
+        **{k: v for k, v in result.items() if k not in ("crowds", "comparison")},
+        "plan": {**result["plan"], "bot": bot},
+        **result["crowds"][bot],
+    }
+
+
+def comparison_section(result: dict[str, Any]) -> list[str]:
+    """sr-crowd / baseline per crowd and checkpoint: seed mean, interval, verdict."""
+    comparison = result.get("comparison") or {}
+    if not comparison:
+        return []
+    seeds = len(result["plan"]["seeds"])
+    lines = [
+        "",
+        "## sr-crowd against baseline, per crowd",
+        "",
+        f"Ratio of sr-crowd's to baseline's figure, mean over {seeds} seed(s) (each seed "
+        "pairs two graphs grown from one initial tree); the 95 % interval resamples the "
+        "seeds and, inside each, both graphs' sessions (a two-level bootstrap). Targets at "
+        f"the last checkpoint: error ratio <= {ERROR_RATIO_TARGET} with the interval's "
+        f"upper end below 1; high-error ratio <= {HIGH_ERROR_RATIO_TARGET} where "
+        f"baseline's high-error fraction is above {HIGH_ERROR_FLOOR}.",
+        "",
+        "| crowd | frames | error ratio [95 % interval] | per seed | verdict "
+        "| high-error ratio [95 % interval] | baseline high-error | targets |",
+        "|---|---|---|---|---|---|---|---|",
+    ]
+    for bot, rows in comparison.items():
+        for row in rows:
+            error, high = row["error_ratio"], row["high_error_ratio"]
+            met = row.get("meets_targets")
+            lines.append(
+                f"| {bot} | {row['checkpoint_frames']} | {_interval(error)} "
+                f"| {', '.join(_number(r, 2) for r in error['per_seed'])} "
+                f"| {row['error_verdict']} | {_interval(high)} "
+                f"| {row['baseline_high_error_fraction']:.3f} "
+                f"| {'' if met is None else ('met' if met else 'NOT met')} |"
+            )
+    return lines
+
+
+def _interval(ratio: dict[str, Any]) -> str:
+    return f"{_number(ratio['mean'], 2)} [{_number(ratio['low'], 2)}, {_number(ratio['high'], 2)}]"
+
+
 def write_report(
     result: dict[str, Any],
     out_dir: Path,
     load_arrays: ArraysLoader,
     ingredients: list[dict[str, Any]] | None = None,
 ) -> Path:
-    """PNG plots and ``report.md`` into ``out_dir``; returns the markdown path.
+    """``report.md`` into ``out_dir``: sr-crowd against baseline per crowd with intervals,
+    then one section per crowd with its PNG plots (in ``out_dir/<crowd>/``); returns the
+    markdown path.
 
     ``ingredients``: rows of :func:`app.services.ingredients.eq2_ingredients`, if wanted.
     """
     out_dir.mkdir(parents=True, exist_ok=True)
-    images = [
-        plot_metric(result, key, title, ylabel, out_dir / name)
-        for key, (title, ylabel, name) in FIGURES.items()
-    ]
-    images.append(plot_histograms(result, load_arrays, out_dir / "error-histogram.png"))
-    images.append(plot_density_scatter(result, load_arrays, out_dir / "density-scatter.png"))
-    for strategy in (s for s in COMPARED if s in result["results"]):
-        images.append(
-            plot_density_graph(result, strategy, load_arrays, out_dir / f"density-{strategy}.png")
+    sections = [f"# Self-refining experiment `{result['name']}`", *comparison_section(result)]
+    for bot in result["crowds"]:
+        view = crowd_view(result, bot)
+        pages = out_dir / bot
+        pages.mkdir(exist_ok=True)
+        images = [
+            plot_metric(view, key, title, ylabel, pages / name)
+            for key, (title, ylabel, name) in FIGURES.items()
+        ]
+        images.append(plot_histograms(view, load_arrays, pages / "error-histogram.png"))
+        images.append(plot_density_scatter(view, load_arrays, pages / "density-scatter.png"))
+        for strategy in (s for s in COMPARED if s in view["results"]):
+            images.append(
+                plot_density_graph(view, strategy, load_arrays, pages / f"density-{strategy}.png")
+            )
+        crowd_rows = [row for row in ingredients or [] if row["bot"] == bot]
+        sections.append(
+            markdown(view, [image.relative_to(out_dir) for image in images], crowd_rows)
         )
     report = out_dir / "report.md"
-    report.write_text(markdown(result, images, ingredients))
+    report.write_text("\n".join(sections))
     return report

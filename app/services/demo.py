@@ -123,8 +123,9 @@ def unrendered_edges(name: str, plan: ExperimentPlan) -> int:
 
 
 def demo_rows(result: dict[str, Any]) -> list[DemoRow]:
+    (played,) = result["crowds"].values()  # the demo's one crowd
     baseline, crowd = (
-        next(iter(result["results"][s.value].values())) for s in (Strategy.BASELINE, PLAYABLE)
+        next(iter(played["results"][s.value].values())) for s in (Strategy.BASELINE, PLAYABLE)
     )
     return [
         DemoRow(

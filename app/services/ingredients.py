@@ -26,7 +26,7 @@ from app.core.player_models import (
 from app.core.prediction import prediction_figures
 from app.core.strategies import Strategy
 from app.db import transaction
-from app.services.experiment.plan import run_graph_name, stored_experiment_id
+from app.services.experiment.plan import stored_experiment_id, stored_plan
 from app.services.loading import open_graph
 from app.services.refining import refiner_config
 from app.store.experiments import checkpoint_rows
@@ -48,8 +48,14 @@ VARIANTS = (
 
 
 def eq2_ingredients(settings: Settings, name: str) -> list[dict[str, Any]]:
-    """One row per (seed, checkpoint, variant) of the experiment's sr-crowd runs."""
+    """One row per (crowd, seed, checkpoint, variant) of the experiment's sr-crowd runs."""
     rows: list[dict[str, Any]] = []
+    plan = stored_plan(name)
+    graphs = {
+        (run.crowds[0].value, run.seed): plan.run_graph(name, run)
+        for run in plan.runs
+        if run.strategy is Strategy.SR_CROWD
+    }
     with transaction() as session:
         stored = stored_experiment_id(session, name)
         checkpoints = checkpoint_rows(session, stored, strategy=Strategy.SR_CROWD.value)
@@ -57,13 +63,12 @@ def eq2_ingredients(settings: Settings, name: str) -> list[dict[str, Any]]:
             earlier = [
                 c.publication_id
                 for c in checkpoints
-                if c.seed == checkpoint.seed and c.checkpoint < checkpoint.checkpoint
+                if (c.bot, c.seed) == (checkpoint.bot, checkpoint.seed)
+                and c.checkpoint < checkpoint.checkpoint
             ]
             if not earlier:
                 continue
-            loaded = open_graph(
-                session, settings, run_graph_name(name, Strategy.SR_CROWD, checkpoint.seed)
-            )
+            loaded = open_graph(session, settings, graphs[(checkpoint.bot, checkpoint.seed)])
             config = refiner_config(settings, loaded.dynamics)
             publication = load_publication(session, checkpoint.publication_id)
             played = load_traces(session, [checkpoint.publication_id])
@@ -92,6 +97,7 @@ def eq2_ingredients(settings: Settings, name: str) -> list[dict[str, Any]]:
                 )
                 rows.append(
                     {
+                        "bot": checkpoint.bot,
                         "seed": checkpoint.seed,
                         "checkpoint_frames": checkpoint.figures["checkpoint_frames"],
                         "variant": label,

@@ -46,14 +46,21 @@ def frames_of_graphs(session: Session, names: Sequence[str]) -> int:
     return int(total or 0)
 
 
-def done_checkpoints(session: Session, experiment: int, strategy: str, seed: int) -> set[int]:
-    """Indices (into the plan's checkpoints) of the run's completed checkpoints."""
+def done_checkpoints(
+    session: Session, experiment: int, strategy: str, seed: int, bot: str
+) -> set[int]:
+    """Indices (into the plan's checkpoints) of the run's checkpoints ``bot`` played.
+
+    Every crowd of a checkpoint is stored in one transaction, so any one of them says
+    whether the checkpoint is complete.
+    """
     return set(
         session.scalars(
             select(ExperimentCheckpoint.checkpoint).where(
                 ExperimentCheckpoint.experiment_id == experiment,
                 ExperimentCheckpoint.strategy == strategy,
                 ExperimentCheckpoint.seed == seed,
+                ExperimentCheckpoint.bot == bot,
             )
         )
     )
@@ -65,6 +72,7 @@ def add_checkpoint(
     *,
     strategy: str,
     seed: int,
+    bot: str,
     checkpoint: int,
     graph_id: int,
     publication_id: int,
@@ -77,6 +85,7 @@ def add_checkpoint(
             experiment_id=experiment,
             strategy=strategy,
             seed=seed,
+            bot=bot,
             checkpoint=checkpoint,
             graph_id=graph_id,
             publication_id=publication_id,
@@ -94,5 +103,5 @@ def checkpoint_rows(
     query = select(ExperimentCheckpoint).where(ExperimentCheckpoint.experiment_id == experiment)
     if strategy is not None:
         query = query.where(ExperimentCheckpoint.strategy == strategy)
-    order = (ExperimentCheckpoint.strategy, ExperimentCheckpoint.seed)
+    order = (ExperimentCheckpoint.bot, ExperimentCheckpoint.strategy, ExperimentCheckpoint.seed)
     return session.scalars(query.order_by(*order, ExperimentCheckpoint.checkpoint)).all()

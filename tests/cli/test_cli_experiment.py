@@ -30,15 +30,23 @@ LIQUID_PLAN = (
 
 
 def differences(a: dict[str, Any], b: dict[str, Any]) -> list[str]:
-    """(strategy, seed, checkpoint, figure) where two results' comparable figures differ."""
+    """(crowd, strategy, seed, checkpoint, figure) where two results' comparable figures
+    differ."""
     found = []
-    for strategy, by_seed in comparable_figures(a).items():
-        for seed, rows in by_seed.items():
-            other = comparable_figures(b)[strategy][seed]
-            assert len(rows) == len(other)
-            for index, (row, twin) in enumerate(zip(rows, other, strict=True)):
-                found += [f"{strategy}/{seed}/{index}/{k}" for k in row if row[k] != twin.get(k)]
+    for bot, crowd in comparable_figures(a).items():
+        for strategy, by_seed in crowd.items():
+            for seed, rows in by_seed.items():
+                other = comparable_figures(b)[bot][strategy][seed]
+                assert len(rows) == len(other)
+                for index, (row, twin) in enumerate(zip(rows, other, strict=True)):
+                    where = f"{bot}/{strategy}/{seed}/{index}"
+                    found += [f"{where}/{k}" for k in row if row[k] != twin.get(k)]
     return found
+
+
+def results(result: dict[str, Any], bot: str = "goal-directed") -> dict[str, Any]:
+    """What one crowd met: per strategy and seed, the rows of its checkpoints."""
+    return dict(result["crowds"][bot]["results"])
 
 
 def run_json(var: Path, *args: str) -> dict[str, Any]:
@@ -93,29 +101,33 @@ def test_a_killed_experiment_resumes_to_the_numbers_of_an_uninterrupted_one(
     expected = run_json(whole, *plan)
     kill_after_first_checkpoint(killed, *plan)
     stored = checkpoints_stored(killed)
-    assert 1 <= stored < sum(len(s) for s in expected["results"].values()) * 2
+    assert 1 <= stored < sum(len(s) for s in results(expected).values()) * 2
     resumed = run_json(killed, "--resume", "--name", expected["name"])
     assert resumed["complete"] and resumed["plan"] == expected["plan"]
     assert differences(resumed, expected) == []
-    assert resumed["summary"] == expected["summary"]
+    assert resumed["crowds"]["goal-directed"]["summary"] == expected["crowds"]["goal-directed"][
+        "summary"
+    ]
+    assert resumed["comparison"] == expected["comparison"]
 
 
 def test_a_toy_experiment_reports_every_strategy_and_the_ratio_per_seed(tmp_path: Path) -> None:
     ok(tmp_path, "db", "upgrade")
     result = run_json(tmp_path, "--quick", "--seeds", "0,1", "--checkpoints", "600,1200")
-    assert set(result["results"]) == {"max-error", "baseline", "sr-heuristic", "sr-crowd"}
-    assert result["complete"] and len(result["results"]["sr-crowd"]["1"]) == 2
-    per_seed = result["summary"]["sr_crowd_vs_baseline"]["per_seed"]
+    assert set(results(result)) == {"max-error", "baseline", "sr-heuristic", "sr-crowd"}
+    assert result["complete"] and len(results(result)["sr-crowd"]["1"]) == 2
+    summary = result["crowds"]["goal-directed"]["summary"]
+    per_seed = summary["sr_crowd_vs_baseline"]["per_seed"]
     assert [row["seed"] for row in per_seed] == ["0", "1"]
     assert all(row["error_ratio"] > 0 for row in per_seed)
-    last = result["results"]["baseline"]["0"][-1]
+    last = results(result)["baseline"]["0"][-1]
     assert last["size_frames"] >= 1200 and last["n_traces"] == 30
     report = (tmp_path / "experiment" / result["name"] / "report.md").read_text()
     assert "sr-crowd" in report
     # both prediction settings, and eq. 2's ingredients learned from sr-crowd's first play
-    fixed = result["summary"]["prediction"]["fixed_graph"]["baseline"]
+    fixed = summary["prediction"]["fixed_graph"]["baseline"]
     assert len(fixed["density_correlation"]) == 2 and fixed["density_correlation"][0] > 0.5
-    grown = result["summary"]["prediction"]["grown_graph"]["sr-crowd"]
+    grown = summary["prediction"]["grown_graph"]["sr-crowd"]
     assert grown["seeds"] == ["0", "1"] and len(grown["expected_error_relative_difference"]) == 2
     assert "| fixed_graph | baseline |" in report
     assert "| as built | 1" in report and "| radius x 2 |" in report
@@ -128,6 +140,45 @@ def test_a_toy_experiment_reports_every_strategy_and_the_ratio_per_seed(tmp_path
         assert connection.scalar(select(func.count()).select_from(GrowthEpoch)) == epochs
     engine.dispose()
     assert comparable_figures(again) == comparable_figures(result)
+
+
+def test_baseline_shared_by_crowds_gives_the_numbers_of_baseline_grown_per_crowd(
+    tmp_path: Path,
+) -> None:
+    """Baseline reads no traces: grown once and played by two crowds, each crowd meets
+    what it meets on a baseline of its own; each crowd grows its own sr-crowd."""
+    shared, alone = tmp_path / "shared", tmp_path / "alone"
+    plan = ("--strategies", "baseline,sr-crowd", "--seeds", "0,1", "--checkpoints", "600,1200",
+            "--sessions", "10")  # fmt: skip
+    for var in (shared, alone):
+        ok(var, "db", "upgrade")
+    both = run_json(shared, *plan, "--bots", "goal-directed,avoider")
+    one = run_json(alone, *plan, "--bots", "avoider")
+    assert set(both["crowds"]) == {"goal-directed", "avoider"}
+    assert comparable_figures(both)["avoider"] == comparable_figures(one)["avoider"]
+    assert both["comparison"]["avoider"] == one["comparison"]["avoider"]
+    engine = create_engine(f"sqlite:///{shared / 'srg.sqlite3'}")
+    with engine.connect() as connection:
+        graphs = set(connection.exec_driver_sql("SELECT name FROM graphs").scalars())
+    engine.dispose()
+    name = both["name"]
+    assert graphs == {
+        f"{name}.baseline.0",
+        f"{name}.baseline.1",
+        *(f"{name}.sr-crowd.{bot}.{seed}" for bot in ("goal-directed", "avoider") for seed in "01"),
+    }
+    # per crowd and checkpoint: the seed mean of sr-crowd / baseline, its interval, a verdict
+    for rows in both["comparison"].values():
+        assert [row["checkpoint_frames"] for row in rows] == [600, 1200]
+        for row in rows:
+            ratio = row["error_ratio"]
+            assert ratio["low"] <= ratio["mean"] <= ratio["high"]
+            assert len(ratio["per_seed"]) == 2
+            assert row["error_verdict"]
+        assert isinstance(rows[-1]["meets_targets"], bool)
+    report = (shared / "experiment" / name / "report.md").read_text()
+    assert "## sr-crowd against baseline, per crowd" in report
+    assert "## Crowd `avoider`" in report and "## Crowd `goal-directed`" in report
 
 
 @pytest.mark.parametrize(
@@ -143,13 +194,14 @@ def test_a_toy_experiment_reports_every_strategy_and_the_ratio_per_seed(tmp_path
         (("--seeds", "x"), "seeds must be comma-separated integers"),
         (("--sessions", "0"), "sessions"),
         (("--player-model", "softmax"), "unknown player model 'softmax'"),
-        (("--bot", "cheater"), "unknown bot 'cheater'"),
+        (("--bots", "cheater"), "unknown bot 'cheater'"),
+        (("--bots", "avoider,avoider"), "distinct bots"),
         (("--fixed-graph-sessions", "0"), "--fixed-graph-sessions must be positive"),
         (("--jobs", "0"), "--jobs must be positive"),
         (("--resume", "--name", "never-ran"), "no experiment named 'never-ran' to resume"),
         (("--resume", "--seeds", "1"), "--resume runs the stored plan"),
         (("--resume", "--player-model", "logit"), "--resume runs the stored plan"),
-        (("--resume", "--bot", "random"), "--resume runs the stored plan"),
+        (("--resume", "--bots", "random"), "--resume runs the stored plan"),
         (("--resume", "--fixed-graph-sessions", "5"), "--resume runs the stored plan"),
         (("--name", "a/b"), "no '/'"),
     ],

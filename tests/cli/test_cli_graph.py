@@ -117,18 +117,19 @@ def test_the_demo_grows_both_graphs_side_by_side_and_publishes_one_to_play(
     args = ["demo", "--dynamics", "toy", "--checkpoints", "300,900", "--sessions", "6"]
     printed = ok(tmp_path, *args, "--out", str(out), "--result", str(result_json))
     result = json.loads(result_json.read_text())
-    assert set(result["results"]) == {"baseline", "sr-crowd"}
-    sizes = [row["size_frames"] for row in result["results"]["sr-crowd"]["0"]]
+    played = result["crowds"]["goal-directed"]["results"]
+    assert set(played) == {"baseline", "sr-crowd"}
+    sizes = [row["size_frames"] for row in played["sr-crowd"]["0"]]
     assert sizes == [300, 900]
     report = (out / "report.md").read_text()
     assert "demo.sr-crowd.0" in report and "srg serve" in printed
-    assert (out / "error-per-step.png").stat().st_size > 0
+    assert (out / "goal-directed" / "error-per-step.png").stat().st_size > 0
     assert (out / "contact-sheet.png").stat().st_size > 0
     playable = json.loads(ok(tmp_path, "status", "demo.sr-crowd.0", "--json"))
     assert playable["unrendered_edges"] == 0 and playable["latest_publication"] == 3
     # run again: the demo is stored, so it grows nothing and only publishes again
     again = ok(tmp_path, *args, "--out", str(out), "--result", str(result_json))
     assert "report:" in again
-    assert json.loads(result_json.read_text())["results"] == result["results"]
+    assert json.loads(result_json.read_text())["crowds"] == result["crowds"]
     one_line_error(srg(tmp_path, "demo", "--sessions", "0"), "must be positive")
     one_line_error(srg(tmp_path, *args[:-1], "7"), "other settings")

@@ -123,13 +123,13 @@ def test_an_experiment_plans_the_player_model_bot_and_fixed_graph_sessions(
 ) -> None:
     ok(tmp_path, "db", "upgrade")
     args = ("--seeds", "0", "--checkpoints", "300", "--sessions", "3", "--strategies", "baseline")
-    chosen = ("--player-model", "logit", "--bot", "hesitant", "--fixed-graph-sessions", "4")
+    chosen = ("--player-model", "logit", "--bots", "hesitant", "--fixed-graph-sessions", "4")
     ok(tmp_path, "experiment", *args, *chosen, "--result", str(tmp_path / "result.json"))
     result = json.loads((tmp_path / "result.json").read_text())
     plan = result["plan"]
-    assert (plan["player_model"], plan["bot"], plan["fixed_graph_sessions"]) == (
+    assert (plan["player_model"], plan["bots"], plan["fixed_graph_sessions"]) == (
         "logit",
-        "hesitant",
+        ["hesitant"],
         4,
     )
     # resumed, it keeps its stored plan: these options are refused like every plan option

@@ -59,4 +59,6 @@ def test_the_experiment_grows_on_workers_to_the_embedded_numbers(
     subprocess.run([SRG, "db", "upgrade"], env=embedded_env, check=True, capture_output=True)
     embedded = experiment(embedded_env, tmp_path / "embedded.json")
     assert comparable_figures(on_workers) == comparable_figures(embedded)
-    assert on_workers["summary"] == embedded["summary"]
+    for bot, crowd in on_workers["crowds"].items():
+        assert crowd["summary"] == embedded["crowds"][bot]["summary"]
+    assert on_workers["comparison"] == embedded["comparison"]

@@ -66,7 +66,7 @@ def test_prediction_is_for_the_publication_played_from_earlier_traces(
     progress: list[int] = []
     grower = partial(grow_in_process, settings)
     result = run_experiment(settings, "prediction", grower, progress=progress.append)
-    rows = result["results"]["sr-crowd"]["1"]
+    rows = result["crowds"]["goal-directed"]["results"]["sr-crowd"]["1"]
     assert sum(progress) >= 1_500
     assert any(int(row["relinked_before_publish"]) > 0 for row in rows)  # type: ignore[call-overload]
     for row, publication, prob in zip(rows, played, predictions, strict=True):
@@ -104,12 +104,12 @@ def test_plan_round_trips_through_its_stored_dict() -> None:
         seeds=(3, 1),
         checkpoints=(500, 900),
         player_model=PlayerModelKind.LOGIT,
-        bot=BotKind.HESITANT,
+        bots=(BotKind.HESITANT, BotKind.AVOIDER),
         fixed_graph_sessions=7,
         high_error_threshold=0.25,
     )
     stored = plan.to_dict()
-    assert stored["player_model"] == "logit" and stored["bot"] == "hesitant"
+    assert stored["player_model"] == "logit" and stored["bots"] == ["hesitant", "avoider"]
     assert stored["fixed_graph_sessions"] == 7
     assert json.loads(json.dumps(stored)) == stored  # plain JSON, as the database keeps it
     assert ExperimentPlan.from_dict(json.loads(json.dumps(stored))) == plan
@@ -117,11 +117,11 @@ def test_plan_round_trips_through_its_stored_dict() -> None:
 
 def test_a_plan_stored_before_player_models_and_bots_loads_with_the_defaults() -> None:
     stored = ExperimentPlan(seeds=(4,), checkpoints=(700,), sessions=12).to_dict()
-    for key in ("player_model", "bot", "fixed_graph_sessions"):
+    for key in ("player_model", "bots", "fixed_graph_sessions"):
         del stored[key]
     plan = ExperimentPlan.from_dict(stored)
     assert plan.player_model is PlayerModelKind.EQ2
-    assert plan.bot is BotKind.GOAL_DIRECTED
+    assert plan.bots == (BotKind.GOAL_DIRECTED,)
     assert plan.fixed_graph_sessions == ExperimentPlan().fixed_graph_sessions
     assert (plan.seeds, plan.checkpoints, plan.sessions) == ((4,), (700,), 12)
 
@@ -139,13 +139,50 @@ def test_fixed_graph_sessions_must_be_positive(sessions: int) -> None:
 
 @pytest.mark.parametrize(
     ("key", "value", "message"),
-    [("player_model", "best", "eq2, logit"), ("bot", "cheater", "cheater")],
+    [
+        ("player_model", "best", "eq2, logit"),
+        ("bots", ["avoider", "cheater"], "cheater"),
+        ("bot", "cheater", "cheater"),
+    ],
 )
 def test_a_stored_plan_with_an_unknown_model_or_bot_is_refused(
-    key: str, value: str, message: str
+    key: str, value: object, message: str
 ) -> None:
+    stored = {k: v for k, v in ExperimentPlan().to_dict().items() if k != "bots" or key != "bot"}
     with pytest.raises(ValueError, match=message):
-        ExperimentPlan.from_dict({**ExperimentPlan().to_dict(), key: value})
+        ExperimentPlan.from_dict({**stored, key: value})
+
+
+def test_a_plan_stored_with_one_bot_plays_that_crowd() -> None:
+    stored = {k: v for k, v in ExperimentPlan().to_dict().items() if k != "bots"}
+    plan = ExperimentPlan.from_dict({**stored, "bot": "avoider"})
+    assert plan.bots == (BotKind.AVOIDER,)
+
+
+def test_runs_share_what_reads_no_traces_and_split_what_learns_by_crowd() -> None:
+    plan = ExperimentPlan(
+        strategies=(Strategy.BASELINE, Strategy.SR_CROWD),
+        seeds=(0, 1),
+        bots=(BotKind.GOAL_DIRECTED, BotKind.AVOIDER),
+    )
+    names = {plan.run_graph("x", run): run.crowds for run in plan.runs}
+    both = (BotKind.GOAL_DIRECTED, BotKind.AVOIDER)
+    assert names == {
+        "x.baseline.0": both,
+        "x.baseline.1": both,
+        "x.sr-crowd.goal-directed.0": (BotKind.GOAL_DIRECTED,),
+        "x.sr-crowd.goal-directed.1": (BotKind.GOAL_DIRECTED,),
+        "x.sr-crowd.avoider.0": (BotKind.AVOIDER,),
+        "x.sr-crowd.avoider.1": (BotKind.AVOIDER,),
+    }
+    alone = ExperimentPlan(strategies=(Strategy.SR_CROWD,), seeds=(0,))
+    assert [alone.run_graph("x", run) for run in alone.runs] == ["x.sr-crowd.0"]
+
+
+@pytest.mark.parametrize("bots", [(), (BotKind.AVOIDER, BotKind.AVOIDER)])
+def test_crowds_must_be_distinct_and_present(bots: tuple[BotKind, ...]) -> None:
+    with pytest.raises(ValueError, match="distinct bots"):
+        ExperimentPlan(bots=bots)
 
 
 def prediction_row(value: float, *, fixed: float | None = None) -> dict[str, Any]:

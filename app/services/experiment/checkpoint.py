@@ -8,13 +8,14 @@ on (docs/experiment.md).
 
 from __future__ import annotations
 
+from dataclasses import dataclass
 from typing import Any
 
 import numpy as np
 from sqlalchemy.orm import Session
 
 from app.config import Settings
-from app.core.bots import play_sessions
+from app.core.bots import BotKind, play_sessions
 from app.core.metrics import (
     evaluate_checkpoint,
     observed_edge_density,
@@ -27,10 +28,10 @@ from app.core.prediction import observed_error_relative_se
 from app.core.publication import Publication
 from app.core.refinement import Refiner
 from app.core.strategies import Strategy
-from app.services.experiment.plan import ExperimentPlan
-from app.services.loading import open_graph
+from app.services.experiment.plan import ExperimentPlan, Run
+from app.services.loading import LoadedGraph, open_graph
 from app.services.prediction import fixed_graph_prediction, model_fit
-from app.services.publishing import publish_graph
+from app.services.publishing import PublishResult, publish_graph
 from app.services.refining import refiner_for
 from app.services.status import graph_summary
 from app.store.publications import load_publication
@@ -46,11 +47,16 @@ def checkpoint_figures(
     settings: Settings,
     plan: ExperimentPlan,
     graph: str,
-    strategy: Strategy,
-    seed: int,
+    run: Run,
     index: int,
-) -> tuple[dict[str, Any], dict[str, np.ndarray]]:
-    """Publish, predict, let the bots play (traces stored), measure: one checkpoint."""
+) -> list[tuple[BotKind, dict[str, Any], dict[str, np.ndarray]]]:
+    """Publish, predict, let each of the run's crowds play (traces stored), measure: one
+    checkpoint, as (crowd, figures, arrays) per crowd.
+
+    The prediction is made once, before any crowd plays; a run that several crowds play
+    reads no traces, so what one crowd stored changes nothing another measures.
+    """
+    strategy = run.strategy
     published = publish_graph(session, settings, name=graph, render=False)
     loaded = open_graph(session, settings, graph)
     publication = load_publication(session, published.publication_id)
@@ -61,9 +67,56 @@ def checkpoint_figures(
         publication.edge_dst, model, publication.start, refiner.restart
     )
     context = _prediction_context(refiner, publication, predicted)
+    context["blend_edges"] = graph_summary(session, graph)["blend_edges"]
+    context["model_fit"] = model_fit(refiner)
+    predicted_on = _Predicted(published, publication, loaded, model, predicted, context)
+    last = index == len(plan.checkpoints) - 1
+    return [
+        _crowd_figures(
+            session,
+            settings,
+            plan,
+            graph,
+            predicted_on,
+            bot,
+            seed=run.seed,
+            index=index,
+            fixed_graph=strategy is Strategy.BASELINE and last,
+        )
+        for bot in run.crowds
+    ]
+
+
+@dataclass(frozen=True)
+class _Predicted:
+    """A checkpoint's publication and the strategy's prediction of its play."""
+
+    published: PublishResult
+    publication: Publication
+    loaded: LoadedGraph
+    model: np.ndarray
+    predicted: np.ndarray
+    context: dict[str, Any]
+
+
+def _crowd_figures(
+    session: Session,
+    settings: Settings,
+    plan: ExperimentPlan,
+    graph: str,
+    on: _Predicted,
+    bot: BotKind,
+    *,
+    seed: int,
+    index: int,
+    fixed_graph: bool,
+) -> tuple[BotKind, dict[str, Any], dict[str, np.ndarray]]:
+    """One crowd plays the publication; its traces are stored and its figures taken."""
+    published, publication, loaded = on.published, on.publication, on.loaded
+    model, predicted = on.model, on.predicted
     traces = play_sessions(
         publication,
-        plan.bot,
+        bot,
         sessions=plan.sessions,
         mean_steps=plan.mean_steps,
         seed=seed * 10_000 + index,
@@ -80,7 +133,8 @@ def checkpoint_figures(
         ),
     )
     player_id = bot_player(session, BOT_PLAYER)
-    key = f"{graph}.{index}"
+    # the first crowd keeps the keys of plans stored before crowds
+    key = f"{graph}.{index}" if bot is plan.bots[0] else f"{graph}.{index}.{bot.value}"
     for number, trace in enumerate(traces):
         record_trace(
             session,
@@ -91,37 +145,35 @@ def checkpoint_figures(
             publication=publication,
         )
     steps = np.concatenate(traces)
-    summary = graph_summary(session, graph)
     figures: dict[str, Any] = {
         "checkpoint_frames": plan.checkpoints[index],
         "size_frames": published.size_frames,
         "vertices": publication.n_vertices,
-        "blend_edges": summary["blend_edges"],
         "relinked_before_publish": published.relinked,
         "publication_id": published.publication_id,
-        "graph_id": summary["id"],
+        "graph_id": loaded.row.id,
         "mean_score_per_step": float(publication.edge_score[steps[:, 0] * n + steps[:, 1]].mean()),
         "observed_session_steps": mean_session_length(traces),
-        **context,
+        **on.context,
         **report.to_dict(),
-        "model_fit": model_fit(refiner),
         "observed_mean_error_relative_se": observed_error_relative_se(
             traces, publication.edge_err, n
         ),
     }
-    if strategy is Strategy.BASELINE and index == len(plan.checkpoints) - 1:
+    if fixed_graph:
         figures["fixed_graph"] = fixed_graph_prediction(
             settings,
             loaded,
             publication,
             model=plan.player_model,
-            bot=plan.bot,
+            bot=bot,
             sessions=plan.fixed_graph_sessions,
             mean_steps=plan.mean_steps,
             seed=seed * 10_000 + FIXED_GRAPH_SEED,
         )
     arrays = {
         "step_errors": observed_step_errors(traces, publication.edge_err, n),
+        "session_steps": np.array([len(trace) for trace in traces], dtype=np.int64),
         "predicted_density": predicted,
         "observed_density": observed_edge_density(traces, publication.edge_err.size, n),
         "edge_dst": publication.edge_dst,
@@ -129,16 +181,16 @@ def checkpoint_figures(
         "edge_err": publication.edge_err,
         "vertex_descriptors": loaded.graph.vertex_descriptors().astype(np.float32),
     }
-    return figures, arrays
+    return bot, figures, arrays
 
 
 def _prediction_context(
     refiner: Refiner, publication: Publication, predicted: np.ndarray
-) -> dict[str, float | None]:
+) -> dict[str, Any]:
     """What the prediction rests on: its session length and, for the crowd model, how
     much predicted play falls on vertices no earlier trace visited and on vertices that
     eq. 2's kernel does not reach (their controls are the eps prior's group average)."""
-    context: dict[str, float | None] = {
+    context: dict[str, Any] = {
         "predicted_session_steps": 1.0 / refiner.restart,
         "predicted_mass_unvisited": None,
         "predicted_mass_prior_only": None,

@@ -54,9 +54,11 @@ class ExperimentPlan:
     sessions: int = 30
     mean_steps: int = 60
     batch_size: int = 8
-    #: the crowd model sr-crowd learns, and the bots that play every checkpoint
+    #: the crowd model sr-crowd learns
     player_model: PlayerModelKind = PlayerModelKind.EQ2
-    bot: BotKind = BotKind.GOAL_DIRECTED
+    #: the crowds: each plays every checkpoint of the runs that read no traces, and grows
+    #: its own run of each strategy that learns from traces (docs/experiment.md, "Crowds")
+    bots: tuple[BotKind, ...] = (BotKind.GOAL_DIRECTED,)
     #: sessions per half of the fixed-graph setting (Fig. 8), on baseline's last checkpoint
     fixed_graph_sessions: int = 100
     #: fixed when the experiment is created (the calibration's, unless set), so that every
@@ -72,6 +74,8 @@ class ExperimentPlan:
             raise InvalidInput("give one or more distinct strategies")
         if not self.seeds or len(set(self.seeds)) != len(self.seeds):
             raise InvalidInput("give one or more distinct seeds")
+        if not self.bots or len(set(self.bots)) != len(self.bots):
+            raise InvalidInput("give one or more distinct bots")
         if min(self.sessions, self.batch_size, self.fixed_graph_sessions) < 1:
             raise InvalidInput("sessions and batch size must be positive")
         if self.mean_steps < 2:
@@ -86,14 +90,31 @@ class ExperimentPlan:
         return cls(dynamics=dynamics, **{"checkpoints": (1_000, 3_000, 6_000), **changes})
 
     @property
-    def runs(self) -> list[tuple[Strategy, int]]:
-        return [(strategy, seed) for strategy in self.strategies for seed in self.seeds]
+    def runs(self) -> list[Run]:
+        """One run per seed of each strategy that reads no traces, played by every crowd
+        (its growth is the same whoever plays it); one per crowd and seed of each strategy
+        that learns from traces, played by its own crowd."""
+        return [
+            Run(strategy, seed, crowds)
+            for strategy in self.strategies
+            for crowds in (
+                [(bot,) for bot in self.bots] if strategy.learns_from_traces else [self.bots]
+            )
+            for seed in self.seeds
+        ]
+
+    def run_graph(self, experiment: str, run: Run) -> str:
+        """The stored graph of ``run``: ``EXPERIMENT.STRATEGY.SEED``, with the crowd's name
+        before the seed for a learning run of a plan with several crowds."""
+        crowd = run.strategy.learns_from_traces and len(self.bots) > 1
+        return run_graph_name(experiment, run.strategy, run.seed, run.crowds[0] if crowd else None)
 
     def to_dict(self) -> dict[str, Any]:
         data = asdict(self)
         data["strategies"] = [s.value for s in self.strategies]
         data["seeds"], data["checkpoints"] = list(self.seeds), list(self.checkpoints)
-        data["player_model"], data["bot"] = self.player_model.value, self.bot.value
+        data["player_model"] = self.player_model.value
+        data["bots"] = [b.value for b in self.bots]
         return data
 
     @classmethod
@@ -105,13 +126,27 @@ class ExperimentPlan:
         values["checkpoints"] = tuple(int(c) for c in values["checkpoints"])
         if "player_model" in values:
             values["player_model"] = parse_player_model(values["player_model"])
-        if "bot" in values:
-            values["bot"] = parse_bot(values["bot"])
+        # plans stored before crowds name one bot
+        bots = data.get("bots", [data["bot"]] if "bot" in data else None)
+        if bots is not None:
+            values["bots"] = tuple(parse_bot(b) for b in bots)
         return cls(**values)
 
 
-def run_graph_name(experiment: str, strategy: Strategy, seed: int) -> str:
-    return f"{experiment}.{strategy.value}.{seed}"
+@dataclass(frozen=True)
+class Run:
+    """One stored graph of an experiment: a strategy, a seed and the crowds that play it."""
+
+    strategy: Strategy
+    seed: int
+    crowds: tuple[BotKind, ...]
+
+
+def run_graph_name(
+    experiment: str, strategy: Strategy, seed: int, crowd: BotKind | None = None
+) -> str:
+    middle = strategy.value if crowd is None else f"{strategy.value}.{crowd.value}"
+    return f"{experiment}.{middle}.{seed}"
 
 
 def create_experiment(settings: Settings, name: str, plan: ExperimentPlan) -> ExperimentPlan:
@@ -132,7 +167,7 @@ def create_experiment(settings: Settings, name: str, plan: ExperimentPlan) -> Ex
             raise ExperimentExists(
                 f"an experiment named {name!r} exists: add --resume, or choose another --name"
             )
-        runs = [run_graph_name(name, s, seed) for s, seed in plan.runs]
+        runs = [plan.run_graph(name, run) for run in plan.runs]
         clashes = existing_graph_names(session, runs)
         if clashes:
             taken = ", ".join(clashes)
@@ -170,7 +205,7 @@ def parse_checkpoints(text: str) -> tuple[int, ...]:
 
 
 def _check_name(name: str) -> None:
-    # 120, not the column's 200: the run graphs' names add ".<strategy>.<seed>"
+    # 120, not the column's 200: the run graphs' names add ".<strategy>[.<crowd>].<seed>"
     check_name(name, what="experiment", max_length=120)
 
 

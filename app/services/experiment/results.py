@@ -12,16 +12,20 @@ from typing import Any
 import numpy as np
 
 from app.config import Settings
+from app.core.comparison import (
+    ERROR_RATIO_TARGET,
+    HIGH_ERROR_RATIO_TARGET,
+    SessionSample,
+    meets_targets,
+    ratio_interval,
+)
 from app.core.metrics import relative_difference
+from app.core.strategies import Strategy
 from app.db import transaction
-from app.services.experiment.plan import stored_experiment_id, stored_plan
+from app.services.experiment.plan import ExperimentPlan, stored_experiment_id, stored_plan
 from app.services.loading import artifact_store
 from app.store.experiments import checkpoint_rows
 
-#: sr-crowd must reach these fractions of baseline's figures at the last checkpoint
-#: (the paper: about 0.5 and 0.1; our bar, set before any liquid run: 0.5 and 0.2)
-ERROR_RATIO_TARGET = 0.5
-HIGH_ERROR_RATIO_TARGET = 0.2
 #: figures that depend on the machine or on the order processes created rows in: two
 #: runs of one plan agree on everything else (see :func:`comparable_figures`)
 UNCOMPARABLE_KEYS = ("grow_seconds", "checkpoint_seconds", "resident_mb", "publication_id")
@@ -49,16 +53,26 @@ PREDICTION_KEYS = (
 
 
 def collect(settings: Settings, name: str, seconds: float | None = None) -> dict[str, Any]:
-    """Every stored checkpoint of the experiment as the result dict the report reads."""
+    """Every stored checkpoint of the experiment as the result dict the report reads.
+
+    ``crowds.<bot>`` holds what that crowd met on every run it played, in the shape of a
+    one-crowd experiment (``results.<strategy>.<seed>[i]`` and its ``summary``;
+    ``app.reports.experiment.crowd_view`` adds the plan); ``comparison.<bot>`` is
+    sr-crowd against baseline at every checkpoint, mean over seeds with its interval
+    (:func:`compare_with_baseline`).
+    """
     plan = stored_plan(name)
     with transaction() as session:
         rows = checkpoint_rows(session, stored_experiment_id(session, name))
-    results: dict[str, dict[str, list[dict[str, Any]]]] = {
-        s.value: {str(seed): [] for seed in plan.seeds} for s in plan.strategies
+    crowds: dict[str, dict[str, dict[str, list[dict[str, Any]]]]] = {
+        bot.value: {s.value: {str(seed): [] for seed in plan.seeds} for s in plan.strategies}
+        for bot in plan.bots
     }
+    samples: dict[tuple[str, str, str], list[tuple[np.ndarray, np.ndarray, float]]] = {}
     artifacts = artifact_store(settings)
     for row in rows:
-        errors = artifacts.get_arrays(row.arrays, ("step_errors",))["step_errors"]
+        arrays = artifacts.get_arrays(row.arrays)
+        errors = arrays["step_errors"]
         threshold = float(row.figures["high_error_threshold"])
         derived = {
             f"high_error_fraction_at_{label}_threshold": float(np.mean(errors > factor * threshold))
@@ -69,11 +83,17 @@ def collect(settings: Settings, name: str, seconds: float | None = None) -> dict
         blends = errors[errors > 0.0]
         derived["blend_step_fraction"] = float(blends.size / max(errors.size, 1))
         derived["mean_error_on_blend_steps"] = float(blends.mean()) if blends.size else 0.0
-        results[row.strategy][str(row.seed)].append(
+        crowds[row.bot][row.strategy][str(row.seed)].append(
             {**row.figures, **derived, "arrays": row.arrays}
+        )
+        # checkpoints stored before sessions' lengths were kept count as one session
+        sessions = arrays.get("session_steps", np.array([errors.size]))
+        samples.setdefault((row.bot, row.strategy, str(row.seed)), []).append(
+            (errors, sessions, threshold)
         )
     complete = all(
         len(by_seed) == len(plan.checkpoints)
+        for results in crowds.values()
         for runs in results.values()
         for by_seed in runs.values()
     )
@@ -81,10 +101,61 @@ def collect(settings: Settings, name: str, seconds: float | None = None) -> dict
         "name": name,
         "plan": plan.to_dict(),
         "complete": complete,
-        "results": results,
-        "summary": summarise(results) if complete else {},
+        "crowds": {
+            bot: {"results": results, "summary": summarise(results) if complete else {}}
+            for bot, results in crowds.items()
+        },
+        "comparison": compare_with_baseline(plan, samples) if complete else {},
         "seconds": None if seconds is None else round(seconds, 2),
     }
+
+
+def compare_with_baseline(
+    plan: ExperimentPlan,
+    samples: dict[tuple[str, str, str], list[tuple[np.ndarray, np.ndarray, float]]],
+) -> dict[str, list[dict[str, Any]]]:
+    """Per crowd and checkpoint, sr-crowd / baseline of the observed error and of the
+    high-error fraction: mean over seeds, 95 % interval, verdict, and at the last
+    checkpoint whether the targets are met; empty without both strategies."""
+    names = {s.value for s in plan.strategies}
+    if not {Strategy.BASELINE.value, Strategy.SR_CROWD.value} <= names:
+        return {}
+    comparison: dict[str, list[dict[str, Any]]] = {}
+    for bot in (b.value for b in plan.bots):
+        rows: list[dict[str, Any]] = []
+        for index, frames in enumerate(plan.checkpoints):
+            arms = [
+                [samples[(bot, strategy, str(seed))][index] for seed in plan.seeds]
+                for strategy in (Strategy.SR_CROWD.value, Strategy.BASELINE.value)
+            ]
+            errors, high = (
+                ratio_interval(
+                    *[[SessionSample.of(measure(e, t), n) for e, n, t in arm] for arm in arms]
+                )
+                for measure in (_error, _high_error)
+            )
+            baseline_high = float(np.mean([np.mean(e > t) for e, _, t in arms[1]]))
+            row: dict[str, Any] = {
+                "checkpoint_frames": frames,
+                "error_ratio": errors.to_dict(),
+                "error_verdict": errors.verdict("sr-crowd", "baseline"),
+                "high_error_ratio": high.to_dict(),
+                "high_error_verdict": high.verdict("sr-crowd", "baseline"),
+                "baseline_high_error_fraction": baseline_high,
+            }
+            if index == len(plan.checkpoints) - 1:
+                row["meets_targets"] = meets_targets(errors, high, baseline_high)
+            rows.append(row)
+        comparison[bot] = rows
+    return comparison
+
+
+def _error(errors: np.ndarray, threshold: float) -> np.ndarray:
+    return errors
+
+
+def _high_error(errors: np.ndarray, threshold: float) -> np.ndarray:
+    return (errors > threshold).astype(np.float64)
 
 
 def summarise(results: dict[str, dict[str, list[dict[str, Any]]]]) -> dict[str, object]:
@@ -159,13 +230,18 @@ def prediction_summary(results: dict[str, dict[str, list[dict[str, Any]]]]) -> d
 
 def comparable_figures(result: dict[str, Any]) -> dict[str, Any]:
     """The result's figures that any run of its plan reproduces exactly (resumed or not,
-    in processes or on workers): all but :data:`UNCOMPARABLE_KEYS`."""
+    in processes or on workers), per crowd: all but :data:`UNCOMPARABLE_KEYS`."""
     return {
-        strategy: {
-            seed: [{k: v for k, v in row.items() if k not in UNCOMPARABLE_KEYS} for row in rows]
-            for seed, rows in by_seed.items()
+        bot: {
+            strategy: {
+                seed: [
+                    {k: v for k, v in row.items() if k not in UNCOMPARABLE_KEYS} for row in rows
+                ]
+                for seed, rows in by_seed.items()
+            }
+            for strategy, by_seed in crowd["results"].items()
         }
-        for strategy, by_seed in result["results"].items()
+        for bot, crowd in result["crowds"].items()
     }
 
 

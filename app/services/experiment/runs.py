@@ -2,7 +2,8 @@
 
 Growth goes through a :data:`Grower`: in-process (:func:`grow_in_process`), or the
 Celery ``grow_epoch`` workflow on workers (``app.tasks.growth.grow_on_workers``), which
-the shell picks. Runs are independent, so they go to parallel processes; a run skips
+the shell picks. Runs (the plan's :class:`~app.services.experiment.plan.Run`) are
+independent, so they go to parallel processes; a run skips
 the checkpoints already stored, which is what makes ``--resume`` work
 (docs/experiment.md).
 """
@@ -16,14 +17,12 @@ from multiprocessing import get_context
 from typing import Any
 
 from app.config import Settings
-from app.core.strategies import parse_strategy
 from app.db import transaction
 from app.services.animations import Progress
 from app.services.creation import init_graph
 from app.services.experiment.checkpoint import checkpoint_figures
 from app.services.experiment.plan import (
     ExperimentPlan,
-    run_graph_name,
     stored_experiment_id,
     stored_plan,
 )
@@ -75,8 +74,8 @@ def run_experiment(
     plan = stored_plan(name)
     started = time.perf_counter()
     if jobs <= 1:
-        for strategy, seed in plan.runs:
-            run_one(settings, name, strategy.value, seed, grower, progress)
+        for run in range(len(plan.runs)):
+            run_one(settings, name, run, grower, progress)
     else:
         _run_in_processes(settings, name, plan, grower, jobs, progress)
     return collect(settings, name, seconds=time.perf_counter() - started)
@@ -94,8 +93,8 @@ def _run_in_processes(
     they finished is stored, so ``--resume`` goes on from there)."""
     with get_context("spawn").Pool(jobs, maxtasksperchild=1) as pool:  # exit: terminate
         pending = [
-            pool.apply_async(run_one, (settings, name, strategy.value, seed, grower, None))
-            for strategy, seed in plan.runs
+            pool.apply_async(run_one, (settings, name, run, grower, None))
+            for run in range(len(plan.runs))
         ]
         reported = 0
         while pending:
@@ -112,24 +111,25 @@ def _run_in_processes(
 def frames_grown(name: str, plan: ExperimentPlan) -> int:
     """Frames stored so far over every run's graph (what the progress bar counts)."""
     with transaction() as session:
-        return frames_of_graphs(session, [run_graph_name(name, s, seed) for s, seed in plan.runs])
+        return frames_of_graphs(session, [plan.run_graph(name, run) for run in plan.runs])
 
 
 def run_one(
     settings: Settings,
     name: str,
-    strategy_name: str,
-    seed: int,
+    run_index: int,
     grower: Grower,
     progress: Progress | None = None,
 ) -> None:
-    """One run through its checkpoints, skipping those already stored (a resume)."""
-    strategy = parse_strategy(strategy_name)
+    """The plan's run ``run_index`` through its checkpoints, skipping those already stored
+    (a resume)."""
     plan = stored_plan(name)
-    graph = run_graph_name(name, strategy, seed)
+    run = plan.runs[run_index]
+    strategy = run.strategy
+    graph = plan.run_graph(name, run)
     with transaction() as session:
         stored_id = stored_experiment_id(session, name)
-        done = done_checkpoints(session, stored_id, strategy.value, seed)
+        done = done_checkpoints(session, stored_id, strategy.value, run.seed, run.crowds[0].value)
         exists = graph_exists(session, graph)
     if not exists:
         with transaction() as session:
@@ -141,7 +141,7 @@ def run_one(
                 preset=plan.preset,
                 fluid=plan.fluid,
                 strategy=strategy.value,
-                seed=seed,
+                seed=run.seed,
                 player_model=plan.player_model.value,
             )
         if progress is not None:
@@ -153,24 +153,25 @@ def run_one(
         grower(graph, checkpoint, plan.batch_size, progress)
         grow_seconds = time.perf_counter() - started
         with transaction() as session:
-            figures, arrays = checkpoint_figures(
-                session, settings, plan, graph, strategy, seed, index
-            )
-            figures["grow_seconds"] = round(grow_seconds, 3)
-            figures["checkpoint_seconds"] = round(time.perf_counter() - started, 3)
-            figures["resident_mb"] = round(_resident_mb(), 1)
-            add_checkpoint(
-                session,
-                stored_id,
-                strategy=strategy.value,
-                seed=seed,
-                checkpoint=index,
-                graph_id=figures.pop("graph_id"),
-                publication_id=figures["publication_id"],
-                figures=figures,
-                arrays=artifact_store(settings).put_arrays(arrays, session=session),
-                seconds=figures["checkpoint_seconds"],
-            )
+            crowds = checkpoint_figures(session, settings, plan, graph, run, index)
+            seconds = round(time.perf_counter() - started, 3)
+            for bot, figures, arrays in crowds:
+                figures["grow_seconds"] = round(grow_seconds, 3)
+                figures["checkpoint_seconds"] = seconds
+                figures["resident_mb"] = round(_resident_mb(), 1)
+                add_checkpoint(
+                    session,
+                    stored_id,
+                    strategy=strategy.value,
+                    seed=run.seed,
+                    bot=bot.value,
+                    checkpoint=index,
+                    graph_id=figures.pop("graph_id"),
+                    publication_id=figures["publication_id"],
+                    figures=figures,
+                    arrays=artifact_store(settings).put_arrays(arrays, session=session),
+                    seconds=seconds,
+                )
 
 
 def _resident_mb() -> float:
