@@ -63,7 +63,7 @@ class Settings(BaseSettings):
     )
     beat_interval: float = Field(30.0, description="seconds between beat's growth ticks")
     player_model: str = Field(
-        "eq2", description="crowd model of new sr-crowd graphs: eq2 (the paper's) or logit"
+        "eq2", description="crowd model of new sr-crowd graphs: eq2 (the paper's), knn or logit"
     )
     epoch_check_after: float = Field(
         60.0,

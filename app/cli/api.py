@@ -39,7 +39,7 @@ def analytics(
     ),
     top: int = typer.Option(10, help="vertices shown in the per-vertex tables"),
     player_model: str | None = typer.Option(
-        None, help="crowd model whose prediction is shown: eq2 or logit (default: the graph's)"
+        None, help="crowd model whose prediction is shown: eq2, knn or logit (default: the graph's)"
     ),
 ) -> None:
     """Observed error, session lengths, visits and control probabilities from traces, and

@@ -35,6 +35,7 @@ def demo(
     from rich.table import Table
 
     from app.config import get_settings
+    from app.core.player_models import parse_player_model
     from app.liquid.devices import LiquidDevices
     from app.services.demo import (
         demo_plan,
@@ -49,10 +50,16 @@ def demo(
     from app.services.experiment.runs import grow_in_process
     from app.services.loading import artifact_store
 
-    plan = demo_plan(
-        dynamics, preset, fluid, parse_checkpoints(checkpoints), sessions=sessions, seed=seed
-    )
     settings = get_settings()
+    plan = demo_plan(
+        dynamics,
+        preset,
+        fluid,
+        parse_checkpoints(checkpoints),
+        sessions=sessions,
+        seed=seed,
+        player_model=parse_player_model(settings.player_model),
+    )
     devices = LiquidDevices.from_settings(settings)
     make_dynamics(plan.dynamics, plan.preset, plan.fluid, devices=devices)  # preset, calibration
     jobs = min(os.cpu_count() or 1, len(plan.runs))

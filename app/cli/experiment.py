@@ -26,7 +26,9 @@ def experiment(
     checkpoints: str | None = typer.Option(None, help="comma-separated frame counts"),
     sessions: int | None = typer.Option(None, help="bot sessions per checkpoint (default 30)"),
     player_model: str | None = typer.Option(
-        None, help="crowd model sr-crowd learns: eq2 (default, the paper's) or logit"
+        None,
+        help="crowd model sr-crowd learns: eq2 (the paper's), knn or logit "
+        "(default SRG_PLAYER_MODEL)",
     ),
     bots: str | None = typer.Option(
         None,
@@ -83,7 +85,14 @@ def experiment(
             )
         plan = stored_plan(name)
     else:
-        plan = _experiment_plan(dynamics or "toy", quick, *options[1:], *model_options)
+        plan = _experiment_plan(
+            dynamics or "toy",
+            quick,
+            *options[1:],
+            player_model or settings.player_model,
+            bots,
+            fixed_graph_sessions,
+        )
         plan = create_experiment(settings, name, plan)
     grower: Grower
     if settings.eager:

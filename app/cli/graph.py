@@ -21,7 +21,7 @@ def init(
     strategy: str = typer.Option("sr-crowd", help="max-error, baseline, sr-heuristic, sr-crowd"),
     depth: int = typer.Option(2, help="depth of the initial simulation tree (>= 2)"),
     player_model: str | None = typer.Option(
-        None, help="crowd model sr-crowd learns: eq2 or logit (default SRG_PLAYER_MODEL, eq2)"
+        None, help="crowd model sr-crowd learns: eq2, knn or logit (default SRG_PLAYER_MODEL)"
     ),
     json_output: bool = typer.Option(False, "--json", help=JSON_HELP),
 ) -> None:

@@ -27,6 +27,9 @@ class PlayerModelKind(StrEnum):
     EQ2 = "eq2"
     #: eq. 2's kernel counts under a logit prior over goal features (app.core.choice_model)
     LOGIT = "logit"
+    #: eq. 2 with a per-vertex radius, the k-th nearest visited vertex's distance, k chosen
+    #: by cross-validation (app.core.neighbour_model)
+    KNN = "knn"
 
 
 def parse_player_model(name: str) -> PlayerModelKind:

@@ -25,6 +25,7 @@ from app.core.growth import (
     relink_blend_edge,
     select_for_expansion,
 )
+from app.core.neighbour_model import NeighbourFit, choose_neighbours, neighbour_player_model
 from app.core.player_models import (
     PlayerModelKind,
     crowd_player_model,
@@ -111,6 +112,7 @@ class Refiner:
     played: list[tuple[Publication | None, list[Trace]]] = field(default_factory=list)
     _pi: np.ndarray | None = None
     _choice: ChoiceModel | None = None
+    _neighbours: NeighbourFit | None = None
 
     @property
     def traces(self) -> list[Trace]:
@@ -134,6 +136,15 @@ class Refiner:
         if not (self.strategy.learns_from_traces and traces):
             return heuristic
         counts = observed_control_counts(traces, self.graph.n_vertices, self.graph.n_controls)
+        if self.config.player_model is PlayerModelKind.KNN:
+            return neighbour_player_model(
+                self.graph.vertex_descriptors(),
+                np.asarray(self.graph.vertex_control),
+                counts,
+                self.neighbour_fit().neighbours,
+                self.config.crowd_eps,
+                fallback=self.heuristic_model(),
+            )[:vertices]
         if self.config.player_model is PlayerModelKind.LOGIT:
             graph = ChoiceGraph.of(
                 freeze(self.graph) if on is None else on,
@@ -158,6 +169,19 @@ class Refiner:
             np.asarray(self.graph.vertex_control),
             self.config.crowd_radius,
         )
+
+    def neighbour_fit(self) -> NeighbourFit:
+        """The neighbour count cross-validated on the sessions learnt so far (chosen once)."""
+        if self._neighbours is None:
+            self._neighbours = choose_neighbours(
+                self.graph.vertex_descriptors(),
+                np.asarray(self.graph.vertex_control),
+                self.traces,
+                self.graph.n_controls,
+                self.config.crowd_eps,
+                reference_radius=self.config.crowd_radius,
+            )
+        return self._neighbours
 
     def choice_model(self) -> ChoiceModel:
         """The logit-prior model fitted to the sessions learnt so far (fitted once)."""
@@ -262,3 +286,4 @@ class Refiner:
         """
         self.played.append((publication, [np.asarray(t, dtype=np.int64) for t in traces]))
         self._choice = None
+        self._neighbours = None

@@ -19,6 +19,7 @@ from sqlalchemy.orm import Session
 
 from app.config import Settings
 from app.core.graph import EdgeKind
+from app.core.player_models import PlayerModelKind
 from app.core.strategies import Strategy
 from app.db import transaction
 from app.reports.contact_sheet import Tile, contact_sheet
@@ -70,6 +71,7 @@ def demo_plan(
     checkpoints: tuple[int, ...] = DEMO_CHECKPOINTS,
     sessions: int = 30,
     seed: int = 0,
+    player_model: PlayerModelKind = PlayerModelKind.EQ2,
 ) -> ExperimentPlan:
     return ExperimentPlan(
         dynamics=dynamics,
@@ -79,6 +81,7 @@ def demo_plan(
         seeds=(seed,),
         checkpoints=checkpoints,
         sessions=sessions,
+        player_model=player_model,
     )
 
 

@@ -31,9 +31,19 @@ def crowd_refiner(settings: Settings, loaded: LoadedGraph, model: PlayerModelKin
 
 
 def model_fit(refiner: Refiner) -> dict[str, Any] | None:
-    """What cross-validation chose for the logit-prior model (None for eq. 2)."""
-    if refiner.config.player_model is not PlayerModelKind.LOGIT or not refiner.played:
+    """What cross-validation chose for the learned model (None for eq. 2 and before any
+    trace): the neighbour count with every candidate's held-out log-likelihood per step,
+    or the logit-prior model's hyper-parameters and weights."""
+    kind = refiner.config.player_model
+    if kind is PlayerModelKind.EQ2 or not any(len(t) for t in refiner.traces):
         return None
+    if kind is PlayerModelKind.KNN:
+        fit = refiner.neighbour_fit()
+        return {
+            "neighbours": fit.neighbours,
+            "cv_scores": {str(k): round(v, 6) for k, v in fit.cv_scores.items()},
+            "eq2_cv_score": fit.reference_score,
+        }
     fitted = refiner.choice_model()
     return {
         "horizon": fitted.horizon,

@@ -23,6 +23,7 @@ from app.core.metrics import (
     per_vertex_bound_edge_probabilities,
     predicted_edge_probabilities,
 )
+from app.core.neighbour_model import nearest_visited_distance
 from app.core.player_models import kernel_support, mean_session_length, observed_control_counts
 from app.core.prediction import observed_error_relative_se
 from app.core.publication import Publication
@@ -194,6 +195,7 @@ def _prediction_context(
         "predicted_session_steps": 1.0 / refiner.restart,
         "predicted_mass_unvisited": None,
         "predicted_mass_prior_only": None,
+        "median_distance_unvisited_to_visited": None,
     }
     if not (refiner.strategy.learns_from_traces and refiner.traces):
         return context
@@ -208,4 +210,14 @@ def _prediction_context(
     vertex_mass = predicted.reshape(-1, n).sum(axis=1)
     context["predicted_mass_unvisited"] = float(vertex_mass[~visited].sum())
     context["predicted_mass_prior_only"] = float(vertex_mass[~supported].sum())
+    # how far eq. 2's kernel would have to reach (its radius: crowd_radius)
+    reach = nearest_visited_distance(
+        graph.vertex_descriptors()[: publication.n_vertices],
+        np.asarray(graph.vertex_control)[: publication.n_vertices],
+        visited,
+    )
+    unvisited = reach[~visited]
+    context["median_distance_unvisited_to_visited"] = (
+        float(np.median(unvisited)) if unvisited.size and np.isfinite(unvisited).all() else None
+    )
     return context
