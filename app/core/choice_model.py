@@ -11,8 +11,11 @@ So the prior here is a multinomial logit over features of each (vertex, control)
 
     P_logit(c | v) = exp(F[v, c] . w) / sum_c' exp(F[v, c'] . w)
 
-- ``goal``: the clip-score value of taking c at v with a lookahead of ``horizon`` steps
-  and ``discount`` (dynamic programming over the graph), scaled per vertex to [-1, 0];
+- ``goal``: the expected clip score of taking c at v and then ``horizon - 1`` controls
+  drawn uniformly, discounted by ``discount`` (:func:`goal_values`), scaled per vertex
+  to [-1, 0]. It is written apart from how any bot decides (the bots look ahead for the
+  best path, ``app.core.lookahead``), so that the model does not contain the policy of the
+  bots that judge it, and its grid holds none of their parameters;
 - ``goal_before``: the same at the vertex's parent, for players who react late;
 - ``keep``: c is the control that produced v (players hold a tilt);
 - one indicator per control but the first (a bias per control).
@@ -39,14 +42,14 @@ import numpy as np
 from scipy.optimize import minimize
 from scipy.special import logsumexp
 
-from app.core.lookahead import lookahead_values, scaled_per_vertex
 from app.core.player_models import Trace, kernel_counts, observed_control_counts
 from app.core.publication import Publication
 
 FEATURE_NAMES = ("goal", "goal_before", "keep")
-#: the grid cross-validation searches: lookahead steps, discount, ridge penalty per step
-HORIZONS = (1, 2, 4, 8)
-DISCOUNTS = (0.5, 0.9)
+#: the grid cross-validation searches: steps of the goal value, discount, ridge penalty
+#: per step
+HORIZONS = (1, 2, 3, 6)
+DISCOUNTS = (0.5, 1.0)
 PENALTIES = (1e-4, 1e-2)
 #: pseudo-steps of the logit prior against eq. 2's kernel counts
 PRIOR_WEIGHTS = (0.3, 1.0, 3.0, 10.0, 30.0)
@@ -121,14 +124,35 @@ class ChoiceModel:
 
 
 def goal_values(graph: ChoiceGraph, horizon: int, discount: float) -> np.ndarray:
-    """Q(v, c) of the graph's clip scores (:func:`~app.core.lookahead.lookahead_values`)."""
-    return lookahead_values(graph.edge_dst, graph.edge_score, graph.n_controls, horizon, discount)
+    """G(v, c), shape (V, N): the expected discounted clip score of ``horizon`` steps that
+    take c at v, then controls drawn uniformly at every step.
+
+    ``G_1 = score``; ``G_h(v, c) = score(v, c) + discount * mean_c' G_{h-1}(dst(v, c), c')``.
+    Where a choice leads matters, not what a player then does best: a state that keeps
+    water near the target under any play scores high.
+    """
+    if horizon < 1 or not 0.0 <= discount <= 1.0:
+        raise ValueError(f"need horizon >= 1 and discount in [0, 1], got {horizon}, {discount}")
+    score = np.asarray(graph.edge_score, dtype=np.float64).reshape(-1, graph.n_controls)
+    dst = np.asarray(graph.edge_dst, dtype=np.int64).reshape(-1, graph.n_controls)
+    value = score
+    for _ in range(horizon - 1):
+        value = score + discount * value.mean(axis=1)[dst]
+    return value
+
+
+def scaled_goal(goal: np.ndarray) -> np.ndarray:
+    """Per vertex, (goal - max) / spread in [-1, 0]; 0 where every choice scores alike
+    (spread below 1e-9), so that one logit weight means the same at every vertex."""
+    top = goal.max(axis=1, keepdims=True)
+    spread = top - goal.min(axis=1, keepdims=True)
+    return np.where(spread > 1e-9, (goal - top) / np.maximum(spread, 1e-12), 0.0)
 
 
 def choice_features(graph: ChoiceGraph, horizon: int, discount: float) -> np.ndarray:
     """The features of every (vertex, control): shape (V, N, 3 + N - 1)."""
     n, v = graph.n_controls, graph.n_vertices
-    goal = scaled_per_vertex(goal_values(graph, horizon, discount))
+    goal = scaled_goal(goal_values(graph, horizon, discount))
     parent = np.asarray(graph.vertex_parent, dtype=np.int64)
     keep = np.zeros((v, n))
     keep[np.arange(v), np.asarray(graph.vertex_control, dtype=np.int64)] = 1.0

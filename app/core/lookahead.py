@@ -1,5 +1,8 @@
-"""Lookahead values over a published graph: what aiming players weigh, and what the logit
-player model reads as a player's goal (one computation for both, so they mean the same)."""
+"""Lookahead values over a published graph: what the aiming bots weigh (``app.core.bots``).
+
+Only the bots read them: a player model judged by these bots must not contain their
+policy, so the logit model's goal feature is computed apart (``app.core.choice_model``).
+"""
 
 from __future__ import annotations
 

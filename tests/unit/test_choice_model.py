@@ -18,10 +18,10 @@ from app.core.choice_model import (
     choice_features,
     fit_choice_model,
     goal_values,
+    scaled_goal,
 )
 from app.core.clipbank import MemoryClipBank
 from app.core.growth import expand_blend_edge, initial_tree
-from app.core.lookahead import scaled_per_vertex
 from app.core.player_models import (
     PlayerModelKind,
     crowd_player_model,
@@ -62,16 +62,19 @@ def test_goal_values_of_one_step_are_the_edge_scores() -> None:
 
 def test_goal_values_of_two_and_three_steps_by_hand() -> None:
     graph = tiny_graph()
-    # two steps: the best next score is 1 at vertex 0, 2 at vertex 1, 3 at vertex 2
+    # two steps: the mean next score is 0.5 at vertex 0, 1 at vertex 1, 2 at vertex 2
     np.testing.assert_allclose(
-        goal_values(graph, 2, 1.0), [[1 + 2, 0 + 3], [0 + 3, 2 + 1], [3 + 1, 1 + 2]]
+        goal_values(graph, 2, 1.0), [[1 + 1, 0 + 2], [0 + 2, 2 + 0.5], [3 + 0.5, 1 + 1]]
     )
     np.testing.assert_allclose(
-        goal_values(graph, 2, 0.5), [[2.0, 1.5], [1.5, 2.5], [3.5, 2.0]], rtol=0, atol=1e-15
+        goal_values(graph, 2, 0.5), [[1.5, 1.0], [1.0, 2.25], [3.25, 1.5]], rtol=0, atol=1e-15
     )
-    # three steps at discount 0.5: the two-step values' row maxima are 2, 2.5, 3.5
+    # three steps at discount 0.5: the two-step values' row means are 1.25, 1.625, 2.375
     np.testing.assert_allclose(
-        goal_values(graph, 3, 0.5), [[2.25, 1.75], [1.75, 3.0], [4.0, 2.25]], rtol=0, atol=1e-15
+        goal_values(graph, 3, 0.5),
+        [[1.8125, 1.1875], [1.1875, 2.625], [3.625, 1.8125]],
+        rtol=0,
+        atol=1e-15,
     )
     # no discount beyond the first step: the edge's own score
     np.testing.assert_array_equal(goal_values(graph, 3, 0.0), goal_values(graph, 1, 0.0))
@@ -93,25 +96,25 @@ def random_graph(
     )
 
 
-def best_path_value(graph: ChoiceGraph, vertex: int, control: int, horizon: int, d: float) -> float:
-    """The best discounted score over every control sequence of ``horizon`` steps."""
+def mean_path_value(graph: ChoiceGraph, vertex: int, control: int, horizon: int, d: float) -> float:
+    """The discounted score averaged over every control sequence of ``horizon`` steps."""
     n = graph.n_controls
-    best = -np.inf
+    totals = []
     for rest in itertools.product(range(n), repeat=horizon - 1):
         v, total = vertex, 0.0
         for step, c in enumerate((control, *rest)):
             total += d**step * graph.edge_score[v * n + c]
             v = int(graph.edge_dst[v * n + c])
-        best = max(best, total)
-    return float(best)
+        totals.append(total)
+    return float(np.mean(totals))
 
 
 @pytest.mark.parametrize(("horizon", "discount"), [(1, 0.9), (2, 0.9), (3, 0.5), (4, 1.0)])
-def test_goal_values_are_the_best_discounted_path(horizon: int, discount: float) -> None:
+def test_goal_values_are_the_mean_discounted_path(horizon: int, discount: float) -> None:
     graph = random_graph(4, n_vertices=12)
     q = goal_values(graph, horizon, discount)
     expected = [
-        [best_path_value(graph, v, c, horizon, discount) for c in range(N)] for v in range(12)
+        [mean_path_value(graph, v, c, horizon, discount) for c in range(N)] for v in range(12)
     ]
     np.testing.assert_allclose(q, expected, rtol=1e-12)
 
@@ -126,7 +129,7 @@ def test_scaled_goal_spans_minus_one_to_zero_and_is_zero_on_flat_rows() -> None:
     rng = np.random.default_rng(0)
     q = rng.normal(size=(50, 4)) * 10.0
     q[7] = 2.5  # every control alike
-    s = scaled_per_vertex(q)
+    s = scaled_goal(q)
     assert s.min() >= -1.0 and s.max() <= 0.0
     rows = np.delete(np.arange(50), 7)
     np.testing.assert_allclose(s[rows].max(axis=1), 0.0, atol=1e-15)
@@ -134,14 +137,14 @@ def test_scaled_goal_spans_minus_one_to_zero_and_is_zero_on_flat_rows() -> None:
     np.testing.assert_array_equal(s[7], 0.0)
     # order within a row is kept, and an affine change of a row's scores changes nothing
     np.testing.assert_array_equal(np.argsort(s[rows], axis=1), np.argsort(q[rows], axis=1))
-    np.testing.assert_allclose(scaled_per_vertex(3.0 * q + 1.0), s, atol=1e-12)
+    np.testing.assert_allclose(scaled_goal(3.0 * q + 1.0), s, atol=1e-12)
 
 
 def test_choice_features_columns() -> None:
     graph = random_graph(1, n_vertices=30)
     f = choice_features(graph, 2, 0.9)
     assert f.shape == (30, N, 3 + N - 1)
-    goal = scaled_per_vertex(goal_values(graph, 2, 0.9))
+    goal = scaled_goal(goal_values(graph, 2, 0.9))
     np.testing.assert_array_equal(f[:, :, 0], goal)
     np.testing.assert_array_equal(f[:, :, 1], goal[graph.vertex_parent])
     # keep: one at the control that produced the vertex, zero elsewhere

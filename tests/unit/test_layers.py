@@ -1,8 +1,9 @@
 """The layers of ``app`` (docs/design.md, "Runtime"), held by import-linter's contracts.
 
 The contracts live in ``pyproject.toml`` (``[tool.importlinter]``): the core imports
-nothing of ``app``, nothing imports the CLI, services import neither the shells nor the
-benchmarks, no import circles at any depth, and the layers from the CLI down to the core.
+nothing of ``app``, the learned player models import no bot's policy, nothing imports the
+CLI, services import neither the shells nor the benchmarks, no import circles at any depth,
+and the layers from the CLI down to the core.
 Function-level imports count: an arrow hidden inside a function is still an arrow.
 
 Import-linter sees packages, not statements, so one rule is checked here by reading the
@@ -19,7 +20,7 @@ from pathlib import Path
 
 ROOT = Path(__file__).resolve().parents[2]
 LINT_IMPORTS = Path(sys.executable).with_name("lint-imports")
-CONTRACTS = 5
+CONTRACTS = 6
 #: where SQL may be written: the store, the tables, the engines, and the benchmarks'
 #: throwaway databases (``CREATE DATABASE`` on a scratch server)
 SQL_HOMES = ("app/store/", "app/models/", "app/db.py", "app/bench/scratch.py")
@@ -51,7 +52,7 @@ def test_the_code_keeps_every_contract() -> None:
 
 def test_an_arrow_back_up_breaks_the_contracts(tmp_path: Path) -> None:
     # a copy of the package's modules, with the core importing the CLI (which imports the
-    # core: a circle too) and a service importing the tasks
+    # core: a circle too), a service importing the tasks and a player model the bots
     shutil.copytree(
         ROOT / "app",
         tmp_path / "app",
@@ -61,11 +62,14 @@ def test_an_arrow_back_up_breaks_the_contracts(tmp_path: Path) -> None:
     )
     (tmp_path / "app" / "core" / "upward.py").write_text("import app.cli.main\n")
     (tmp_path / "app" / "services" / "upward.py").write_text("import app.tasks\n")
+    model = tmp_path / "app" / "core" / "neighbour_model.py"
+    model.write_text(model.read_text() + "\nimport app.core.bots\n")
     done = lint_imports(tmp_path)
     assert done.returncode == 1, done.stdout + done.stderr
     assert f"Contracts: 0 kept, {CONTRACTS} broken." in done.stdout, done.stdout
     assert "app.core.upward -> app.cli.main" in done.stdout
     assert "app.services.upward -> app.tasks" in done.stdout
+    assert "app.core.neighbour_model -> app.core.bots" in done.stdout
 
 
 def sql_outside_the_store(root: Path) -> list[str]:

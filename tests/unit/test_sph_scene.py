@@ -73,11 +73,12 @@ def test_the_low_fluid_is_the_scene_graphs_were_grown_with(preset: str, substeps
 def test_the_high_fluid_differs_only_in_the_fluid_table(preset: str) -> None:
     low, high = tilt_tank(preset).to_dict(), tilt_tank(preset, "high").to_dict()
     changed = {key for key in low if low[key] != high[key]}
-    assert changed <= {"name", "viscosity", "wall_viscosity", "substeps"}
+    assert changed <= {"name", "viscosity", "wall_viscosity", "substeps", "target"}
     assert high["name"] == f"tilt-tank/{preset}-high"
-    assert (high["viscosity"], high["wall_viscosity"]) == (
+    assert (high["viscosity"], high["wall_viscosity"], tilt_tank(preset, "high").target) == (
         FLUIDS["high"].viscosity,
         FLUIDS["high"].wall_viscosity,
+        FLUIDS["high"].target,
     )
     assert high["viscosity"] >= 10 * low["viscosity"]
     # more substeps only where the viscosity needs them, never fewer than the CFL's
