@@ -1,0 +1,40 @@
+"""Each fluid's target: water's is the one its graphs were grown with, the thick one's is lower.
+
+The target is scene data (a row of ``FLUIDS``): the thick liquid gets the same column
+of the tank from a lower floor, where a held tilt brings it (docs/liquid.md, "Two
+fluids"; ``tests/kernels/test_high_fluid_validate.py`` simulates that).
+"""
+
+from __future__ import annotations
+
+import pytest
+
+from app.core.scene import FILL_HEIGHT, FLUIDS, Box, tilt_tank
+
+#: the target every low-fluid graph was grown and scored with
+WATER_TARGET = Box((0.2, 0.25, 0.0), (0.4, 0.4, 0.16))
+
+
+@pytest.mark.parametrize("preset", ["tiny", "small", "paper"])
+def test_the_low_fluid_keeps_its_target(preset: str) -> None:
+    assert tilt_tank(preset).target == WATER_TARGET
+    assert tilt_tank(preset, "low").target == WATER_TARGET
+
+
+@pytest.mark.parametrize("preset", ["tiny", "small", "paper"])
+def test_the_high_fluid_target_is_the_same_column_from_a_lower_floor(preset: str) -> None:
+    scene = tilt_tank(preset, "high")
+    assert scene.target == FLUIDS["high"].target
+    lo, hi = scene.target.lo, scene.target.hi
+    assert (lo[0], lo[2], hi) == (WATER_TARGET.lo[0], WATER_TARGET.lo[2], WATER_TARGET.hi)
+    assert lo[1] == 0.20 < WATER_TARGET.lo[1]
+    # still above the level tank's surface: a level tank scores nothing
+    assert lo[1] > FILL_HEIGHT
+
+
+def test_every_target_lies_inside_the_tank() -> None:
+    for fluid in FLUIDS:
+        scene = tilt_tank("tiny", fluid)
+        tank, target = scene.tank, scene.target
+        assert all(t <= lo for t, lo in zip(tank.lo, target.lo, strict=True))
+        assert all(hi <= t for t, hi in zip(tank.hi, target.hi, strict=True))
