@@ -45,7 +45,7 @@ def bench_experiment(arguments: list[str]) -> dict[str, Any]:
         after = resource.getrusage(resource.RUSAGE_CHILDREN)
         result = json.loads(out.read_text())
     cpu = (after.ru_utime - before.ru_utime) + (after.ru_stime - before.ru_stime)
-    # a run that reads no traces is played by every crowd: the same graph in each
+    # a run that reads no traces is played by every seed and crowd: one graph for all
     runs = {
         _run_key(strategy, bot, seed): {
             "frames": rows[-1]["size_frames"],
@@ -77,4 +77,4 @@ def bench_experiment(arguments: list[str]) -> dict[str, Any]:
 def _run_key(strategy: str, bot: str, seed: str) -> str:
     if parse_strategy(strategy).learns_from_traces:
         return f"{strategy}/{bot}/{seed}"
-    return f"{strategy}/{seed}"
+    return strategy

@@ -52,7 +52,7 @@ def eq2_ingredients(settings: Settings, name: str) -> list[dict[str, Any]]:
     rows: list[dict[str, Any]] = []
     plan = stored_plan(name)
     graphs = {
-        (run.crowds[0].value, run.seed): plan.run_graph(name, run)
+        (run.crowds[0].value, run.seeds[0]): plan.run_graph(name, run)
         for run in plan.runs
         if run.strategy is Strategy.SR_CROWD
     }

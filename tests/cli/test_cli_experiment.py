@@ -145,8 +145,9 @@ def test_a_toy_experiment_reports_every_strategy_and_the_ratio_per_seed(tmp_path
 def test_baseline_shared_by_crowds_gives_the_numbers_of_baseline_grown_per_crowd(
     tmp_path: Path,
 ) -> None:
-    """Baseline reads no traces: grown once and played by two crowds, each crowd meets
-    what it meets on a baseline of its own; each crowd grows its own sr-crowd."""
+    """Baseline reads no traces nor seeds: grown once and played by two crowds' bots of
+    two seeds, each crowd meets what it meets on a baseline of its own; each crowd grows
+    its own sr-crowd per seed."""
     shared, alone = tmp_path / "shared", tmp_path / "alone"
     plan = ("--strategies", "baseline,sr-crowd", "--seeds", "0,1", "--checkpoints", "600,1200",
             "--sessions", "10")  # fmt: skip
@@ -163,8 +164,7 @@ def test_baseline_shared_by_crowds_gives_the_numbers_of_baseline_grown_per_crowd
     engine.dispose()
     name = both["name"]
     assert graphs == {
-        f"{name}.baseline.0",
-        f"{name}.baseline.1",
+        f"{name}.baseline",
         *(f"{name}.sr-crowd.{bot}.{seed}" for bot in ("goal-directed", "avoider") for seed in "01"),
     }
     # per crowd and checkpoint: the seed mean of sr-crowd / baseline, its interval, a verdict
@@ -223,7 +223,7 @@ def test_the_experiment_benchmark_times_a_fresh_run_and_refuses_resume(tmp_path:
     args = ("--seeds", "0", "--checkpoints", "300", "--sessions", "3", "--strategies", "baseline")
     figures = json.loads(ok(tmp_path, "bench", "experiment", *args))
     assert figures["frames"] >= 300 and figures["wall_s"] > 0 and figures["cpu_s"] > 0
-    assert set(figures["runs"]) == {"baseline/0"}
+    assert set(figures["runs"]) == {"baseline"}
     one_line_error(srg(tmp_path, "bench", "experiment", "--resume"), "fresh experiment")
     one_line_error(srg(tmp_path, "bench", "experiment", "--preset", "huge"), "no preset")
 

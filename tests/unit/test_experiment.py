@@ -165,15 +165,15 @@ def test_runs_share_what_reads_no_traces_and_split_what_learns_by_crowd() -> Non
         seeds=(0, 1),
         bots=(BotKind.GOAL_DIRECTED, BotKind.AVOIDER),
     )
-    names = {plan.run_graph("x", run): run.crowds for run in plan.runs}
+    names = {plan.run_graph("x", run): (run.seeds, run.crowds) for run in plan.runs}
     both = (BotKind.GOAL_DIRECTED, BotKind.AVOIDER)
+    goal, avoider = (BotKind.GOAL_DIRECTED,), (BotKind.AVOIDER,)
     assert names == {
-        "x.baseline.0": both,
-        "x.baseline.1": both,
-        "x.sr-crowd.goal-directed.0": (BotKind.GOAL_DIRECTED,),
-        "x.sr-crowd.goal-directed.1": (BotKind.GOAL_DIRECTED,),
-        "x.sr-crowd.avoider.0": (BotKind.AVOIDER,),
-        "x.sr-crowd.avoider.1": (BotKind.AVOIDER,),
+        "x.baseline": ((0, 1), both),
+        "x.sr-crowd.goal-directed.0": ((0,), goal),
+        "x.sr-crowd.goal-directed.1": ((1,), goal),
+        "x.sr-crowd.avoider.0": ((0,), avoider),
+        "x.sr-crowd.avoider.1": ((1,), avoider),
     }
     alone = ExperimentPlan(strategies=(Strategy.SR_CROWD,), seeds=(0,))
     assert [alone.run_graph("x", run) for run in alone.runs] == ["x.sr-crowd.0"]

@@ -50,12 +50,12 @@ def checkpoint_figures(
     graph: str,
     run: Run,
     index: int,
-) -> list[tuple[BotKind, dict[str, Any], dict[str, np.ndarray]]]:
-    """Publish, predict, let each of the run's crowds play (traces stored), measure: one
-    checkpoint, as (crowd, figures, arrays) per crowd.
+) -> list[tuple[tuple[int, BotKind], dict[str, Any], dict[str, np.ndarray]]]:
+    """Publish, predict, let the bots of each of the run's seeds and crowds play (traces
+    stored), measure: one checkpoint, as ((seed, crowd), figures, arrays) per pair.
 
-    The prediction is made once, before any crowd plays; a run that several crowds play
-    reads no traces, so what one crowd stored changes nothing another measures.
+    The prediction is made once, before anyone plays; a run that several seeds or crowds
+    play reads no traces, so what one of them stored changes nothing another measures.
     """
     strategy = run.strategy
     published = publish_graph(session, settings, name=graph, render=False)
@@ -77,13 +77,13 @@ def checkpoint_figures(
             session,
             settings,
             plan,
-            graph,
             predicted_on,
             bot,
-            seed=run.seed,
+            seed=seed,
             index=index,
             fixed_graph=strategy is Strategy.BASELINE and last,
         )
+        for seed in run.seeds
         for bot in run.crowds
     ]
 
@@ -104,15 +104,15 @@ def _crowd_figures(
     session: Session,
     settings: Settings,
     plan: ExperimentPlan,
-    graph: str,
     on: _Predicted,
     bot: BotKind,
     *,
     seed: int,
     index: int,
     fixed_graph: bool,
-) -> tuple[BotKind, dict[str, Any], dict[str, np.ndarray]]:
-    """One crowd plays the publication; its traces are stored and its figures taken."""
+) -> tuple[tuple[int, BotKind], dict[str, Any], dict[str, np.ndarray]]:
+    """One seed's bots of one crowd play the publication; their traces are stored and
+    their figures taken."""
     published, publication, loaded = on.published, on.publication, on.loaded
     model, predicted = on.model, on.predicted
     traces = play_sessions(
@@ -134,8 +134,7 @@ def _crowd_figures(
         ),
     )
     player_id = bot_player(session, BOT_PLAYER)
-    # the first crowd keeps the keys of plans stored before crowds
-    key = f"{graph}.{index}" if bot is plan.bots[0] else f"{graph}.{index}.{bot.value}"
+    key = f"{published.publication_id}.{seed}.{bot.value}"
     for number, trace in enumerate(traces):
         record_trace(
             session,
@@ -182,7 +181,7 @@ def _crowd_figures(
         "edge_err": publication.edge_err,
         "vertex_descriptors": loaded.graph.vertex_descriptors().astype(np.float32),
     }
-    return bot, figures, arrays
+    return (seed, bot), figures, arrays
 
 
 def _prediction_context(

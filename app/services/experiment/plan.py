@@ -91,23 +91,28 @@ class ExperimentPlan:
 
     @property
     def runs(self) -> list[Run]:
-        """One run per seed of each strategy that reads no traces, played by every crowd
-        (its growth is the same whoever plays it); one per crowd and seed of each strategy
-        that learns from traces, played by its own crowd."""
+        """One run of each strategy that reads no traces, played by every seed's bots of
+        every crowd: its growth reads neither traces nor seeds, so a graph per seed or per
+        crowd would be the same graph grown again. One run per crowd and seed of each
+        strategy that learns from traces, played by its own crowd with its seed's bots."""
         return [
-            Run(strategy, seed, crowds)
+            run
             for strategy in self.strategies
-            for crowds in (
-                [(bot,) for bot in self.bots] if strategy.learns_from_traces else [self.bots]
+            for run in (
+                [Run(strategy, (seed,), (bot,)) for bot in self.bots for seed in self.seeds]
+                if strategy.learns_from_traces
+                else [Run(strategy, self.seeds, self.bots)]
             )
-            for seed in self.seeds
         ]
 
     def run_graph(self, experiment: str, run: Run) -> str:
-        """The stored graph of ``run``: ``EXPERIMENT.STRATEGY.SEED``, with the crowd's name
-        before the seed for a learning run of a plan with several crowds."""
-        crowd = run.strategy.learns_from_traces and len(self.bots) > 1
-        return run_graph_name(experiment, run.strategy, run.seed, run.crowds[0] if crowd else None)
+        """The stored graph of ``run``: ``EXPERIMENT.STRATEGY`` for a run that reads no
+        traces; ``EXPERIMENT.STRATEGY.SEED`` for one that learns, with the crowd's name
+        before the seed in a plan with several crowds."""
+        if not run.strategy.learns_from_traces:
+            return f"{experiment}.{run.strategy.value}"
+        crowd = run.crowds[0] if len(self.bots) > 1 else None
+        return run_graph_name(experiment, run.strategy, run.seeds[0], crowd)
 
     def to_dict(self) -> dict[str, Any]:
         data = asdict(self)
@@ -135,16 +140,18 @@ class ExperimentPlan:
 
 @dataclass(frozen=True)
 class Run:
-    """One stored graph of an experiment: a strategy, a seed and the crowds that play it."""
+    """One stored graph of an experiment: a strategy, and the seeds and crowds whose bots
+    play it (each pair gets its own checkpoint rows)."""
 
     strategy: Strategy
-    seed: int
+    seeds: tuple[int, ...]
     crowds: tuple[BotKind, ...]
 
 
 def run_graph_name(
     experiment: str, strategy: Strategy, seed: int, crowd: BotKind | None = None
 ) -> str:
+    """The graph of a learning run (:meth:`ExperimentPlan.run_graph`)."""
     middle = strategy.value if crowd is None else f"{strategy.value}.{crowd.value}"
     return f"{experiment}.{middle}.{seed}"
 

@@ -129,7 +129,9 @@ def run_one(
     graph = plan.run_graph(name, run)
     with transaction() as session:
         stored_id = stored_experiment_id(session, name)
-        done = done_checkpoints(session, stored_id, strategy.value, run.seed, run.crowds[0].value)
+        done = done_checkpoints(
+            session, stored_id, strategy.value, run.seeds[0], run.crowds[0].value
+        )
         exists = graph_exists(session, graph)
     if not exists:
         with transaction() as session:
@@ -141,7 +143,7 @@ def run_one(
                 preset=plan.preset,
                 fluid=plan.fluid,
                 strategy=strategy.value,
-                seed=run.seed,
+                seed=run.seeds[0],
                 player_model=plan.player_model.value,
             )
         if progress is not None:
@@ -155,7 +157,7 @@ def run_one(
         with transaction() as session:
             crowds = checkpoint_figures(session, settings, plan, graph, run, index)
             seconds = round(time.perf_counter() - started, 3)
-            for bot, figures, arrays in crowds:
+            for (seed, bot), figures, arrays in crowds:
                 figures["grow_seconds"] = round(grow_seconds, 3)
                 figures["checkpoint_seconds"] = seconds
                 figures["resident_mb"] = round(_resident_mb(), 1)
@@ -163,7 +165,7 @@ def run_one(
                     session,
                     stored_id,
                     strategy=strategy.value,
-                    seed=run.seed,
+                    seed=seed,
                     bot=bot.value,
                     checkpoint=index,
                     graph_id=figures.pop("graph_id"),
