@@ -46,9 +46,10 @@ from app.core.particle_lattice import MORTON_BITS, morton_cells, morton_codes
 
 ARRAYS_MEDIA_TYPE = "application/x-srg-arrays+zstd"
 MAGIC = b"SRGA1\n"
-#: zstd level: on clip bundles 3-4 % smaller than level 12 at about its speed; 17 and up
-#: gain under 1 % more, and 19 takes 1.6-1.8 times as long (docs/liquid.md, "Bytes")
-ZSTD_LEVEL = 16
+#: zstd level: on the `tiny` liquid's clip records 5.5 ms of CPU a member set against 19.7
+#: at level 16, for 3.9 % more bytes; level 16's compression was a quarter of an
+#: experiment's growth (docs/runtime.md, "Where an experiment's time goes")
+ZSTD_LEVEL = 9
 #: the fast zstd level that picks a member's coding before it is compressed at ZSTD_LEVEL
 SELECTION_LEVEL = 3
 #: members this small are stored as raw bytes: trying codings would cost more than it saves
