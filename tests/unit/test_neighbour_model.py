@@ -6,13 +6,19 @@ from __future__ import annotations
 import numpy as np
 import pytest
 
+from app.core.bots import BotKind, play_sessions
+from app.core.clipbank import MemoryClipBank
+from app.core.growth import initial_tree
 from app.core.neighbour_model import (
     NEIGHBOURS,
     choose_neighbours,
     neighbour_counts,
     neighbour_player_model,
 )
-from app.core.player_models import crowd_player_model, observed_control_counts
+from app.core.player_models import PlayerModelKind, crowd_player_model, observed_control_counts
+from app.core.refinement import Refiner, RefinerConfig
+from app.core.strategies import Strategy
+from app.core.toy import ToyDynamics
 
 
 def test_the_k_nearest_visited_count_from_one_down_to_a_half() -> None:
@@ -95,3 +101,33 @@ def test_the_chosen_model_predicts_unvisited_states_better_than_a_short_radius(
         return float(np.mean(np.log(model[fresh[:, 0], fresh[:, 1]])))
 
     assert log_likelihood(knn) > log_likelihood(eq2) + 0.1
+
+
+def test_a_knn_refiner_answers_from_the_crowd_where_eq2_has_only_its_prior() -> None:
+    """On a toy graph grown past what bots played, eq. 2 (its radius) gives most new
+    vertices the group prior; the knn model answers each from its nearest played states,
+    keeps its chosen count until new sessions come, and reports what it chose."""
+    dynamics = ToyDynamics()
+    bank = MemoryClipBank()
+    config = RefinerConfig(batch_size=4, player_model=PlayerModelKind.KNN)
+    r = Refiner(initial_tree(dynamics, bank), bank, dynamics, Strategy.SR_CROWD, config)
+    r.grow(expansions=20)
+    first = r.publish()[0]
+    r.learn(play_sessions(first, BotKind.GOAL_DIRECTED, sessions=12, mean_steps=30, seed=2))
+    r.grow(expansions=12)
+    model = r.player_model()
+    assert model.shape == (r.graph.n_vertices, 3)
+    np.testing.assert_allclose(model.sum(axis=1), 1.0, rtol=0, atol=1e-12)
+    eq2 = Refiner(r.graph, r.bank, dynamics, Strategy.SR_CROWD, RefinerConfig(), played=r.played)
+    visited = observed_control_counts(r.traces, r.graph.n_vertices, 3).sum(axis=1) > 0
+    control = np.asarray(r.graph.vertex_control)
+    # eq. 2: all unvisited vertices of a group beyond its radius share one row (the prior)
+    rows = {tuple(np.round(row, 9)) for row in eq2.player_model()[~visited & (control == 0)]}
+    knn_rows = {tuple(np.round(row, 9)) for row in model[~visited & (control == 0)]}
+    assert len(knn_rows) > len(rows)
+    fit = r.neighbour_fit()
+    assert r.neighbour_fit() is fit and fit.neighbours in NEIGHBOURS
+    assert fit.reference_score is not None
+    second = r.publish()[0]
+    r.learn(play_sessions(second, BotKind.RANDOM, sessions=6, mean_steps=20, seed=3))
+    assert r.neighbour_fit() is not fit
