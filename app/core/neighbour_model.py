@@ -26,7 +26,13 @@ from dataclasses import dataclass, field
 import numpy as np
 from scipy.spatial import cKDTree
 
-from app.core.player_models import Trace, crowd_player_model, observed_control_counts
+from app.core.player_models import (
+    Trace,
+    control_groups,
+    crowd_player_model,
+    observed_control_counts,
+    with_group_prior,
+)
 
 #: the neighbour counts cross-validation chooses from
 NEIGHBOURS = (1, 2, 4, 8, 16, 32, 64)
@@ -53,9 +59,7 @@ def neighbour_counts(
     vertex_control = np.asarray(vertex_control)
     scores = np.zeros_like(counts)
     visited = counts.sum(axis=1) > 0.0
-    for group in range(counts.shape[1]):
-        members = np.flatnonzero(vertex_control == group)
-        sources = np.flatnonzero((vertex_control == group) & visited)
+    for members, sources in control_groups(vertex_control, visited, counts.shape[1]):
         if sources.size == 0 or members.size == 0:
             continue
         k = min(neighbours, sources.size)
@@ -78,17 +82,9 @@ def neighbour_player_model(
 ) -> np.ndarray:
     """P(c|v) for every vertex: :func:`neighbour_counts` plus eq. 2's eps prior (the
     group's control counts), normalised; ``fallback[v]`` where a row has no support."""
-    counts = np.asarray(control_counts, dtype=np.float64)
     vertex_control = np.asarray(vertex_control)
-    scores = neighbour_counts(descriptors, vertex_control, counts, neighbours)
-    for group in range(counts.shape[1]):
-        in_group = vertex_control == group
-        scores[in_group] += eps * counts[in_group].sum(axis=0)
-    totals = scores.sum(axis=1)
-    supported = totals > 0.0
-    model = np.array(fallback, dtype=np.float64, copy=True)
-    model[supported] = scores[supported] / totals[supported, None]
-    return model
+    scores = neighbour_counts(descriptors, vertex_control, control_counts, neighbours)
+    return with_group_prior(scores, vertex_control, control_counts, eps, fallback=fallback)
 
 
 def nearest_visited_distance(
@@ -99,11 +95,9 @@ def nearest_visited_distance(
     reach to answer there from the crowd's choices."""
     descriptors = np.asarray(descriptors, dtype=np.float64)
     vertex_control = np.asarray(vertex_control)
-    visited = np.asarray(visited, dtype=bool)
     distance = np.full(vertex_control.size, np.inf)
-    for group in np.unique(vertex_control):
-        members = np.flatnonzero(vertex_control == group)
-        sources = np.flatnonzero((vertex_control == group) & visited)
+    groups = int(vertex_control.max()) + 1 if vertex_control.size else 0
+    for members, sources in control_groups(vertex_control, np.asarray(visited, bool), groups):
         if sources.size:
             distance[members] = cKDTree(descriptors[sources]).query(descriptors[members])[0]
     return distance

@@ -7,7 +7,7 @@ graph; the crowd model is learned from traces, each a sequence of (vertex, contr
 
 from __future__ import annotations
 
-from collections.abc import Iterable, Sequence
+from collections.abc import Iterable, Iterator, Sequence
 from enum import StrEnum
 
 import numpy as np
@@ -150,17 +150,41 @@ def crowd_player_model(
         raise ValueError(f"eps must be non-negative, got {eps}")
 
     scores = kernel_counts(descriptors, vertex_control, counts, radius)
-    for group in range(n_controls):
+    return with_group_prior(scores, vertex_control, counts, eps, fallback=fallback)
+
+
+def with_group_prior(
+    evidence: np.ndarray,
+    vertex_control: np.ndarray,
+    control_counts: np.ndarray,
+    eps: float,
+    *,
+    fallback: np.ndarray,
+) -> np.ndarray:
+    """Kernel evidence (V, N) plus eq. 2's eps prior, the control counts of each vertex's
+    whole control group, normalised per row; ``fallback[v]`` where a row has no support."""
+    scores = np.array(evidence, dtype=np.float64, copy=True)
+    counts = np.asarray(control_counts, dtype=np.float64)
+    for group in range(counts.shape[1]):
         in_group = vertex_control == group
         group_counts = counts[in_group].sum(axis=0)
         if group_counts.sum() > 0.0:
             scores[in_group] += eps * group_counts
-
     totals = scores.sum(axis=1)
     supported = totals > 0.0
-    model = fallback.copy()
+    model = np.array(fallback, dtype=np.float64, copy=True)
     model[supported] = scores[supported] / totals[supported, None]
     return model
+
+
+def control_groups(
+    vertex_control: np.ndarray, visited: np.ndarray, n_groups: int
+) -> Iterator[tuple[np.ndarray, np.ndarray]]:
+    """Per control group (eq. 2 compares a vertex only with vertices reached by the same
+    control): the group's vertices, and those of them that were visited."""
+    for group in range(n_groups):
+        in_group = vertex_control == group
+        yield np.flatnonzero(in_group), np.flatnonzero(in_group & visited)
 
 
 def kernel_counts(
@@ -178,10 +202,7 @@ def kernel_counts(
     vertex_control = np.asarray(vertex_control)
     scores = np.zeros_like(counts)
     visited = counts.sum(axis=1) > 0.0
-    for group in range(counts.shape[1]):
-        in_group = vertex_control == group
-        members = np.flatnonzero(in_group)
-        sources = np.flatnonzero(in_group & visited)
+    for members, sources in control_groups(vertex_control, visited, counts.shape[1]):
         if sources.size == 0:
             continue
         pairs = cKDTree(descriptors[members]).sparse_distance_matrix(

@@ -13,6 +13,7 @@ from app.core.neighbour_model import (
     NEIGHBOURS,
     choose_neighbours,
     neighbour_counts,
+    nearest_visited_distance,
     neighbour_player_model,
 )
 from app.core.player_models import PlayerModelKind, crowd_player_model, observed_control_counts
@@ -131,3 +132,11 @@ def test_a_knn_refiner_answers_from_the_crowd_where_eq2_has_only_its_prior() -> 
     second = r.publish()[0]
     r.learn(play_sessions(second, BotKind.RANDOM, sessions=6, mean_steps=20, seed=3))
     assert r.neighbour_fit() is not fit
+
+
+def test_the_distance_to_the_nearest_visited_vertex_of_the_group() -> None:
+    descriptors = np.array([[0.0], [3.0], [1.0], [7.0]])
+    distance = nearest_visited_distance(
+        descriptors, np.array([0, 0, 1, 1]), np.array([True, False, False, False])
+    )
+    np.testing.assert_array_equal(distance, [0.0, 3.0, np.inf, np.inf])
