@@ -12,8 +12,8 @@ from app.core.growth import initial_tree
 from app.core.neighbour_model import (
     NEIGHBOURS,
     choose_neighbours,
-    neighbour_counts,
     nearest_visited_distance,
+    neighbour_counts,
     neighbour_player_model,
 )
 from app.core.player_models import PlayerModelKind, crowd_player_model, observed_control_counts
