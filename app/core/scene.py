@@ -163,8 +163,8 @@ class FluidProperties:
     """What differs between the liquids of the tilt tank.
 
     The viscosities are kinematic (m^2/s). The target is per fluid because a game needs a
-    goal its liquid can reach: water splashes into the upper middle of the tank when
-    rocked, a thick liquid only climbs the lowered wall of a held tilt.
+    goal its liquid can reach: rocked, water splashes into the upper middle of the tank;
+    a thick liquid never crosses the middle high up, it only runs up the lowered wall.
     """
 
     viscosity: float
@@ -174,9 +174,9 @@ class FluidProperties:
 
 #: the two fluids of the paper's study (section 7): today's liquid and a thick one, ten
 #: times as viscous, with the same wall-to-fluid viscosity ratio. The thick one's target
-#: is the same column of the tank from 0.20 m up instead of 0.25 m: tilted, its surface
-#: crosses the target's inner edge at about 0.22 m and never reaches 0.25 m there
-#: (docs/liquid.md, "Two fluids")
+#: is the top 60 mm of the tank across its whole width, which the crest of its run-up
+#: reaches when a tilt starts: goal-directed players then score on it about as much as
+#: on water's (docs/liquid.md, "A goal for each fluid")
 FLUIDS = {
     "low": FluidProperties(
         viscosity=1e-3,
@@ -186,7 +186,7 @@ FLUIDS = {
     "high": FluidProperties(
         viscosity=1e-2,
         wall_viscosity=5e-3,
-        target=Box((0.2, 0.20, 0.0), (0.4, 0.4, TILT_TANK_SIZE[2])),
+        target=Box((0.0, 0.34, 0.0), TILT_TANK_SIZE),
     ),
 }
 #: the fluid wherever none is named: water; its scenes and calibrations carry no suffix

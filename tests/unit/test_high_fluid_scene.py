@@ -1,8 +1,9 @@
-"""Each fluid's target: water's is the one its graphs were grown with, the thick one's is lower.
+"""Each fluid's target: water's is the one its graphs were grown with, the thick one's a band.
 
-The target is scene data (a row of ``FLUIDS``): the thick liquid gets the same column
-of the tank from a lower floor, where a held tilt brings it (docs/liquid.md, "Two
-fluids"; ``tests/kernels/test_high_fluid_validate.py`` simulates that).
+The target is scene data (a row of ``FLUIDS``): the thick liquid gets the top of the
+tank across its whole width, where the crest of its run-up reaches when a tilt starts
+(docs/liquid.md, "A goal for each fluid"; ``tests/kernels/test_high_fluid_validate.py``
+simulates that).
 """
 
 from __future__ import annotations
@@ -22,14 +23,12 @@ def test_the_low_fluid_keeps_its_target(preset: str) -> None:
 
 
 @pytest.mark.parametrize("preset", ["tiny", "small", "paper"])
-def test_the_high_fluid_target_is_the_same_column_from_a_lower_floor(preset: str) -> None:
+def test_the_high_fluid_target_is_the_top_of_the_tank_wall_to_wall(preset: str) -> None:
     scene = tilt_tank(preset, "high")
     assert scene.target == FLUIDS["high"].target
-    lo, hi = scene.target.lo, scene.target.hi
-    assert (lo[0], lo[2], hi) == (WATER_TARGET.lo[0], WATER_TARGET.lo[2], WATER_TARGET.hi)
-    assert lo[1] == 0.20 < WATER_TARGET.lo[1]
-    # still above the level tank's surface: a level tank scores nothing
-    assert lo[1] > FILL_HEIGHT
+    assert scene.target == Box((0.0, 0.34, 0.0), scene.tank.hi)
+    # far above the level tank's surface: only a tilt's run-up gets there
+    assert scene.target.lo[1] > 1.5 * FILL_HEIGHT
 
 
 def test_every_target_lies_inside_the_tank() -> None:
