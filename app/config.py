@@ -63,7 +63,9 @@ class Settings(BaseSettings):
     )
     beat_interval: float = Field(30.0, description="seconds between beat's growth ticks")
     player_model: str = Field(
-        "eq2", description="crowd model of new sr-crowd graphs: eq2 (the paper's), knn or logit"
+        "knn",
+        description="crowd model of new sr-crowd graphs: knn (default: docs/player-models.md), "
+        "eq2 (the paper's) or logit",
     )
     epoch_check_after: float = Field(
         60.0,
