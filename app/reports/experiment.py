@@ -450,9 +450,10 @@ def write_report(
                 plot_density_graph(view, strategy, load_arrays, pages / f"density-{strategy}.png")
             )
         crowd_rows = [row for row in ingredients or [] if row["bot"] == bot]
-        sections.append(
-            markdown(view, [image.relative_to(out_dir) for image in images], crowd_rows)
-        )
+        sections += [
+            "",
+            markdown(view, [image.relative_to(out_dir) for image in images], crowd_rows),
+        ]
     report = out_dir / "report.md"
     report.write_text("\n".join(sections))
     return report
