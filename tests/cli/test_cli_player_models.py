@@ -26,11 +26,12 @@ PREDICTION_FIGURES = (
 
 @pytest.fixture(scope="module")
 def var(tmp_path_factory: pytest.TempPathFactory) -> Path:
-    """A toy graph played on two publications (grown in between), and one played on one."""
+    """A toy graph played on two publications (grown in between), and one played on one;
+    both learn eq. 2, the paper's model."""
     var = tmp_path_factory.mktemp("var")
     ok(var, "db", "upgrade")
     for name in ("twice", "once"):
-        ok(var, "init", name)
+        ok(var, "init", name, "--player-model", "eq2")
         ok(var, "grow", name, "--expansions", "6")
         ok(var, "publish", name)
         ok(var, "play", name, "--sessions", "8")
@@ -102,6 +103,10 @@ def test_analytics_evaluates_another_model_when_asked(var: Path) -> None:
     text = ok(var, "analytics", "twice", "--player-model", "logit")
     assert "prediction of the latest publication's play" in text
     assert "predicted_expected_error" in text and "model fit:" in text
+    knn = analytics(var, "twice", "--player-model", "knn")["prediction"]
+    assert knn["player_model"] == "knn" and knn["model_fit"]["neighbours"] >= 1
+    assert knn["model_fit"]["eq2_cv_score"] < 0.0  # a log-likelihood per step
+    assert knn["predicted_expected_error"] != eq2["predicted_expected_error"]
 
 
 def test_analytics_before_two_played_publications_says_so_in_one_line(var: Path) -> None:
