@@ -138,9 +138,10 @@ def choose_neighbours(
     descriptors = np.asarray(descriptors, dtype=np.float64)
     vertex_control = np.asarray(vertex_control)
     n_vertices = descriptors.shape[0]
-    k = max(2, min(folds, len(sessions)))
+    n_folds = max(2, min(folds, len(sessions)))
     fold_counts = [
-        observed_control_counts(sessions[i::k], n_vertices, n_controls) for i in range(k)
+        observed_control_counts(sessions[i::n_folds], n_vertices, n_controls)
+        for i in range(n_folds)
     ]
     total = np.sum(fold_counts, axis=0)
     steps = float(total.sum())
@@ -159,7 +160,7 @@ def choose_neighbours(
             descriptors, vertex_control, counts, k, eps, fallback=uniform
         )
 
-    scores = {int(k): held_out(neighbours_model(int(k))) for k in candidates}
+    scores = {int(n): held_out(neighbours_model(int(n))) for n in candidates}
     reference = None
     if reference_radius is not None:
         reference = held_out(
