@@ -66,7 +66,7 @@ def experiment(
 
     from app.config import get_settings
     from app.core.strategies import Strategy
-    from app.reports.experiment import write_report
+    from app.reports.experiment import interval_text, write_report
     from app.services.experiment.plan import create_experiment, stored_plan
     from app.services.experiment.runs import Grower, grow_in_process, run_experiment
     from app.services.ingredients import eq2_ingredients
@@ -119,11 +119,9 @@ def experiment(
         emit(result, as_json=True)
     for bot, rows in result["comparison"].items():
         for row in rows:
-            ratio = row["error_ratio"]
             typer.echo(
                 f"{bot} at {row['checkpoint_frames']} frames: sr-crowd / baseline error "
-                f"{_number(ratio['mean'])} [{_number(ratio['low'])}, {_number(ratio['high'])}]"
-                f": {row['error_verdict']}",
+                f"{interval_text(row['error_ratio'], 3)}: {row['error_verdict']}",
                 err=json_output,
             )
     typer.echo(f"report: {report}", err=True)
@@ -172,7 +170,3 @@ def _experiment_plan(
     if quick:
         return ExperimentPlan.quick(dynamics, **changes)
     return ExperimentPlan(dynamics=dynamics, **changes)
-
-
-def _number(value: float | None) -> str:
-    return "n/a" if value is None else f"{value:.3f}"

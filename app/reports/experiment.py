@@ -408,17 +408,19 @@ def comparison_section(result: dict[str, Any]) -> list[str]:
             error, high = row["error_ratio"], row["high_error_ratio"]
             met = row.get("meets_targets")
             lines.append(
-                f"| {bot} | {row['checkpoint_frames']} | {_interval(error)} "
+                f"| {bot} | {row['checkpoint_frames']} | {interval_text(error)} "
                 f"| {', '.join(_number(r, 2) for r in error['per_seed'])} "
-                f"| {row['error_verdict']} | {_interval(high)} "
+                f"| {row['error_verdict']} | {interval_text(high)} "
                 f"| {row['baseline_high_error_fraction']:.3f} "
                 f"| {'' if met is None else ('met' if met else 'NOT met')} |"
             )
     return lines
 
 
-def _interval(ratio: dict[str, Any]) -> str:
-    return f"{_number(ratio['mean'], 2)} [{_number(ratio['low'], 2)}, {_number(ratio['high'], 2)}]"
+def interval_text(ratio: dict[str, Any], digits: int = 2) -> str:
+    """``mean [low, high]`` of a comparison's ratio (``n/a`` where undefined)."""
+    mean, low, high = (_number(ratio[key], digits) for key in ("mean", "low", "high"))
+    return f"{mean} [{low}, {high}]"
 
 
 def write_report(

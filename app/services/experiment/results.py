@@ -24,6 +24,7 @@ from app.core.strategies import Strategy
 from app.db import transaction
 from app.services.experiment.plan import ExperimentPlan, stored_experiment_id, stored_plan
 from app.services.loading import artifact_store
+from app.store.artifacts import ArtifactStore
 from app.store.experiments import checkpoint_rows
 
 #: figures that depend on the machine or on the order processes created rows in: two
@@ -71,8 +72,7 @@ def collect(settings: Settings, name: str, seconds: float | None = None) -> dict
     samples: dict[tuple[str, str, str], list[tuple[np.ndarray, np.ndarray, float]]] = {}
     artifacts = artifact_store(settings)
     for row in rows:
-        arrays = artifacts.get_arrays(row.arrays)
-        errors = arrays["step_errors"]
+        errors, sessions = _step_errors(artifacts, row.arrays)
         threshold = float(row.figures["high_error_threshold"])
         derived = {
             f"high_error_fraction_at_{label}_threshold": float(np.mean(errors > factor * threshold))
@@ -86,8 +86,6 @@ def collect(settings: Settings, name: str, seconds: float | None = None) -> dict
         crowds[row.bot][row.strategy][str(row.seed)].append(
             {**row.figures, **derived, "arrays": row.arrays}
         )
-        # checkpoints stored before sessions' lengths were kept count as one session
-        sessions = arrays.get("session_steps", np.array([errors.size]))
         samples.setdefault((row.bot, row.strategy, str(row.seed)), []).append(
             (errors, sessions, threshold)
         )
@@ -108,6 +106,17 @@ def collect(settings: Settings, name: str, seconds: float | None = None) -> dict
         "comparison": compare_with_baseline(plan, samples) if complete else {},
         "seconds": None if seconds is None else round(seconds, 2),
     }
+
+
+def _step_errors(artifacts: ArtifactStore, digest: str) -> tuple[np.ndarray, np.ndarray]:
+    """A checkpoint's per-step errors and its sessions' lengths, decoding nothing else;
+    checkpoints stored before the lengths were kept count as one session."""
+    try:
+        arrays = artifacts.get_arrays(digest, ("step_errors", "session_steps"))
+    except KeyError:
+        errors = artifacts.get_arrays(digest, ("step_errors",))["step_errors"]
+        return errors, np.array([errors.size])
+    return arrays["step_errors"], arrays["session_steps"]
 
 
 def compare_with_baseline(
