@@ -89,6 +89,33 @@ def test_prediction_is_for_the_publication_played_from_earlier_traces(
     assert 0.0 <= float(rows[1]["predicted_mass_prior_only"]) <= 1.0  # type: ignore[arg-type]
 
 
+def test_every_run_reaches_a_checkpoint_before_any_grows_towards_the_next(
+    monkeypatch: pytest.MonkeyPatch, tmp_path: Path
+) -> None:
+    """An experiment stopped anywhere then holds a complete comparison up to its last
+    checkpoint."""
+    monkeypatch.setenv("SRG_VAR_DIR", str(tmp_path))
+    monkeypatch.delenv("SRG_DATABASE_URL", raising=False)
+    get_settings.cache_clear()
+    get_engine.cache_clear()
+    migrate(get_settings().resolved_database_url)
+    settings = get_settings()
+    plan = ExperimentPlan(
+        strategies=(Strategy.BASELINE, Strategy.SR_CROWD), seeds=(1,),
+        checkpoints=(400, 700), sessions=4, mean_steps=10,
+    )  # fmt: skip
+    create_experiment(settings, "waves", plan)
+    grown: list[tuple[str, int]] = []
+
+    def recording_grower(name: str, to_frames: int, batch: int, progress: Any) -> None:
+        grown.append((name, to_frames))
+        grow_in_process(settings, name, to_frames, batch, progress)
+
+    run_experiment(settings, "waves", recording_grower)
+    assert [frames for _, frames in grown] == [400, 400, 700, 700]
+    assert {name for name, _ in grown[:2]} == {name for name, _ in grown[2:]}
+
+
 @pytest.fixture(autouse=True)
 def _fresh_settings() -> Any:
     yield

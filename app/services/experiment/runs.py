@@ -3,9 +3,10 @@
 Growth goes through a :data:`Grower`: in-process (:func:`grow_in_process`), or the
 Celery ``grow_epoch`` workflow on workers (``app.tasks.growth.grow_on_workers``), which
 the shell picks. Runs (the plan's :class:`~app.services.experiment.plan.Run`) are
-independent, so they go to parallel processes; a run skips
-the checkpoints already stored, which is what makes ``--resume`` work
-(docs/experiment.md).
+independent, so they go to parallel processes, one checkpoint at a time: every run
+reaches a checkpoint before any grows towards the next, so an experiment stopped
+anywhere holds a complete comparison up to its last checkpoint. A run skips the
+checkpoints already stored, which is what makes ``--resume`` work (docs/experiment.md).
 """
 
 from __future__ import annotations
@@ -73,11 +74,15 @@ def run_experiment(
     """
     plan = stored_plan(name)
     started = time.perf_counter()
-    if jobs <= 1:
-        for run in range(len(plan.runs)):
-            run_one(settings, name, run, grower, progress)
-    else:
-        _run_in_processes(settings, name, plan, grower, jobs, progress)
+    reported = 0
+    for last in range(len(plan.checkpoints)):
+        if jobs <= 1:
+            for run in range(len(plan.runs)):
+                run_one(settings, name, run, grower, progress, last=last)
+        else:
+            reported = _run_in_processes(
+                settings, name, plan, grower, jobs, progress, last, reported
+            )
     return collect(settings, name, seconds=time.perf_counter() - started)
 
 
@@ -88,15 +93,17 @@ def _run_in_processes(
     grower: Grower,
     jobs: int,
     progress: Progress | None,
-) -> None:
-    """The runs in a pool of spawned processes; the first failure stops them all (what
-    they finished is stored, so ``--resume`` goes on from there)."""
+    last: int,
+    reported: int,
+) -> int:
+    """The runs through checkpoint ``last`` in a pool of spawned processes; the first
+    failure stops them all (what they finished is stored, so ``--resume`` goes on from
+    there). Returns the frames reported to ``progress`` so far, ``reported`` included."""
     with get_context("spawn").Pool(jobs, maxtasksperchild=1) as pool:  # exit: terminate
         pending = [
-            pool.apply_async(run_one, (settings, name, run, grower, None))
+            pool.apply_async(run_one, (settings, name, run, grower, None, last))
             for run in range(len(plan.runs))
         ]
-        reported = 0
         while pending:
             time.sleep(PROGRESS_POLL)
             for finished in [run for run in pending if run.ready()]:
@@ -106,6 +113,7 @@ def _run_in_processes(
                 grown = frames_grown(name, plan)
                 progress(grown - reported)
                 reported = grown
+    return reported
 
 
 def frames_grown(name: str, plan: ExperimentPlan) -> int:
@@ -120,9 +128,10 @@ def run_one(
     run_index: int,
     grower: Grower,
     progress: Progress | None = None,
+    last: int | None = None,
 ) -> None:
-    """The plan's run ``run_index`` through its checkpoints, skipping those already stored
-    (a resume)."""
+    """The plan's run ``run_index`` through its checkpoints (up to index ``last``, all
+    when None), skipping those already stored (a resume)."""
     plan = stored_plan(name)
     run = plan.runs[run_index]
     strategy = run.strategy
@@ -148,7 +157,7 @@ def run_one(
             )
         if progress is not None:
             progress(int(summary["size_frames"]))  # type: ignore[call-overload]
-    for index, checkpoint in enumerate(plan.checkpoints):
+    for index, checkpoint in enumerate(plan.checkpoints[: None if last is None else last + 1]):
         if index in done:
             continue
         started = time.perf_counter()
