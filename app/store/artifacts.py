@@ -11,10 +11,17 @@ are a function of the arrays alone, so equal arrays give equal bytes and hence t
 hash. Artifacts written before it are ``.npz`` zip files; :meth:`ArtifactStore.get_arrays`
 reads both, telling them apart by their first bytes (a zip's ``PK\\x03\\x04``, the codec's
 ``MAGIC``).
+
+Every read is checked against the hash that names the file (docs/runtime.md, "Artifacts
+verified on read"): a file whose bytes do not hash to its name is moved aside under
+``root/corrupt/`` and the read raises :class:`ArtifactCorrupt`, so a flipped bit is never
+decoded into a graph nor served. A process remembers which files it verified, by their
+size, inode and modification time, so a hot path hashes each file once.
 """
 
 from __future__ import annotations
 
+import contextlib
 import hashlib
 import io
 import os
@@ -27,7 +34,7 @@ from pathlib import Path
 import numpy as np
 from sqlalchemy.orm import Session
 
-from app.core.errors import NotFound
+from app.core.errors import NotFound, Unavailable
 from app.models import Artifact
 from app.store._sql import insert_ignoring_duplicates
 from app.store.array_codec import ARRAYS_MEDIA_TYPE, decode_arrays, encode_arrays
@@ -36,10 +43,20 @@ from app.store.array_codec import ARRAYS_MEDIA_TYPE, decode_arrays, encode_array
 ZIP_MAGIC = b"PK\x03\x04"
 WRITER_THREADS = 8
 WRITE_CHUNK = 512
+#: where files that failed their hash check are moved, under the store's root
+CORRUPT_DIR = "corrupt"
+
+#: path -> (size, inode, mtime_ns) of each file this process found to match its hash
+_verified: dict[str, tuple[int, int, int]] = {}
 
 
 class ArtifactNotFound(NotFound):
     """No file with that hash in the artifact store."""
+
+
+class ArtifactCorrupt(Unavailable):
+    """A stored file's bytes do not match its hash: it was moved aside, not used
+    (``srg fsck --repair`` recomputes what can be recomputed)."""
 
 
 class ArtifactStore:
@@ -73,11 +90,36 @@ class ArtifactStore:
         insert_ignoring_duplicates(session, Artifact, list(rows.values()))
         return digests
 
+    def corrupt_path(self, digest: str) -> Path:
+        """Where the file of ``digest`` goes once it fails its hash check."""
+        return self.root / CORRUPT_DIR / digest
+
     def get_bytes(self, digest: str) -> bytes:
+        """The bytes of ``digest``, checked against it (:class:`ArtifactCorrupt` if not)."""
+        path = self.path_for(digest)
         try:
-            return self.path_for(digest).read_bytes()
+            with path.open("rb") as file:
+                key = _identity(os.fstat(file.fileno()))
+                data = file.read()
         except FileNotFoundError:
-            raise ArtifactNotFound(f"no artifact {digest} under {self.root}") from None
+            raise self._missing(digest) from None
+        if _verified.get(str(path)) != key:
+            if hashlib.sha256(data).hexdigest() != digest:
+                self._move_aside(digest)
+                raise self._corrupt(digest)
+            _verified[str(path)] = key
+        return data
+
+    def verified_path(self, digest: str) -> Path:
+        """The file of ``digest`` once its bytes are checked: for serving it as it lies."""
+        path = self.path_for(digest)
+        try:
+            key = _identity(path.stat())
+        except FileNotFoundError:
+            raise self._missing(digest) from None
+        if _verified.get(str(path)) != key:
+            self.get_bytes(digest)
+        return path
 
     def put_arrays(self, arrays: Mapping[str, np.ndarray], *, session: Session) -> str:
         return self.put_bytes(encode_arrays(arrays), media_type=ARRAYS_MEDIA_TYPE, session=session)
@@ -89,6 +131,25 @@ class ArtifactStore:
             return decode_arrays(data, names)
         with np.load(io.BytesIO(data), allow_pickle=False) as npz:
             return {name: npz[name] for name in (npz.files if names is None else names)}
+
+    def _move_aside(self, digest: str) -> None:
+        """Take a corrupt file out of the store; a later put of the true bytes heals it."""
+        aside = self.corrupt_path(digest)
+        aside.parent.mkdir(parents=True, exist_ok=True)
+        self._written.discard(digest)
+        with contextlib.suppress(FileNotFoundError):  # another reader moved it first
+            os.replace(self.path_for(digest), aside)
+
+    def _missing(self, digest: str) -> ArtifactNotFound | ArtifactCorrupt:
+        if self.corrupt_path(digest).exists():
+            return self._corrupt(digest)
+        return ArtifactNotFound(f"no artifact {digest} under {self.root}")
+
+    def _corrupt(self, digest: str) -> ArtifactCorrupt:
+        return ArtifactCorrupt(
+            f"artifact {digest} does not match its hash; it was moved to "
+            f"{self.corrupt_path(digest)} (run srg fsck --repair)"
+        )
 
     def _write(self, data: bytes) -> str:
         digest = hashlib.sha256(data).hexdigest()
@@ -109,6 +170,11 @@ class ArtifactStore:
             raise
         self._written.add(digest)
         return digest
+
+
+def _identity(stat: os.stat_result) -> tuple[int, int, int]:
+    """What tells a verified file from a rewritten one without reading it."""
+    return stat.st_size, stat.st_ino, stat.st_mtime_ns
 
 
 def _touch(path: Path) -> bool:

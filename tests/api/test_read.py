@@ -83,6 +83,29 @@ def test_animations_are_served_immutable_by_hash(client: TestClient, published: 
     assert again.status_code == 304 and again.content == b""
 
 
+def test_a_corrupted_animation_is_never_served_under_its_hash(
+    client: TestClient, published: Published, artifacts: ArtifactStore
+) -> None:
+    """One flipped byte: 503 with the usual body (never 200 with the hash as ETag, cached
+    for a year), the file moved aside, and the next request answered the same way."""
+    url = f"/api/animations/{published.animation}"
+    assert client.get(url).status_code == 200  # verified once: the next reads trust the stat
+    path = artifacts.path_for(published.animation)
+    data = bytearray(path.read_bytes())
+    data[3] ^= 0x01
+    path.write_bytes(bytes(data))
+    for method in (client.get, client.head, client.get):
+        reply = method(url)
+        assert reply.status_code == 503, reply.status_code
+        assert "etag" not in reply.headers and "immutable" not in reply.headers.get(
+            "cache-control", ""
+        )
+    body = client.get(url).json()
+    assert "does not match its hash" in body["error"] and set(body) == {"error", "details"}
+    assert not path.exists()
+    assert artifacts.corrupt_path(published.animation).read_bytes() == bytes(data)
+
+
 def test_only_stored_image_artifacts_are_served(client: TestClient, published: Published) -> None:
     for digest in ("0" * 64, "not-a-hash", published.bundle):
         reply = client.get(f"/api/animations/{digest}")

@@ -13,7 +13,7 @@ from sqlalchemy.orm import Session
 
 from app.models import Artifact
 from app.store.array_codec import ARRAYS_MEDIA_TYPE, MAGIC
-from app.store.artifacts import ArtifactNotFound, ArtifactStore
+from app.store.artifacts import ArtifactCorrupt, ArtifactNotFound, ArtifactStore
 
 
 def test_bytes_are_stored_by_sha256_with_fan_out(
@@ -81,3 +81,24 @@ def test_missing_artifact_is_a_named_error(artifacts: ArtifactStore) -> None:
 def test_object_arrays_are_refused(artifacts: ArtifactStore, session: Session) -> None:
     with pytest.raises(ValueError, match="pickle"):
         artifacts.put_arrays({"rows": np.array([{"a": 1}], dtype=object)}, session=session)
+
+
+@pytest.mark.parametrize("flip", [0, 5, -1])
+def test_a_flipped_bit_is_caught_on_read_and_the_file_moved_aside(
+    artifacts: ArtifactStore, session: Session, flip: int
+) -> None:
+    arrays = {"frames": np.arange(400, dtype=np.float32).reshape(20, 20)}
+    digest = artifacts.put_arrays(arrays, session=session)
+    assert artifacts.get_arrays(digest)["frames"].sum() == arrays["frames"].sum()
+    path = artifacts.path_for(digest)
+    data = bytearray(path.read_bytes())
+    data[flip] ^= 0x10
+    path.write_bytes(bytes(data))
+    with pytest.raises(ArtifactCorrupt, match="does not match its hash"):
+        artifacts.get_arrays(digest)
+    assert not path.exists() and artifacts.corrupt_path(digest).exists()
+    with pytest.raises(ArtifactCorrupt):  # a later read names the same cause
+        ArtifactStore(artifacts.root).get_bytes(digest)
+    # storing the true bytes again heals it
+    assert artifacts.put_arrays(arrays, session=session) == digest
+    np.testing.assert_array_equal(artifacts.get_arrays(digest)["frames"], arrays["frames"])

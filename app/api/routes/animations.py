@@ -32,22 +32,30 @@ from app.render.animation import (
     phone_strip,
 )
 from app.store.animations import animation_media_type
-from app.store.artifacts import ArtifactStore
+from app.store.artifacts import ArtifactNotFound, ArtifactStore
 
 router = APIRouter(prefix="/api/animations", tags=["animations"])
 
 SHA256_HEX = re.compile(r"[0-9a-f]{64}")
 IMMUTABLE = "public, max-age=31536000, immutable"
+CORRUPT = "the stored file no longer matches its hash: moved aside, not served"
 
 
 def _stored(session: Session, request: Request, digest: str) -> tuple[Path, str]:
-    """The file and media type of an animation artifact, or a 404."""
+    """The file, checked against its hash, and media type of an animation artifact.
+
+    A 404 when there is none; a file whose bytes no longer match the hash is never
+    served under it (its ETag would be a lie, cached for a year): the store moves it
+    aside and :class:`~app.store.artifacts.ArtifactCorrupt` answers 503.
+    """
     media_type = animation_media_type(session, digest) if SHA256_HEX.fullmatch(digest) else None
-    store: ArtifactStore = request.app.state.artifacts
-    path = store.path_for(digest) if media_type else None
-    if media_type is None or path is None or not path.is_file():
+    if media_type is None:
         raise ApiError(404, f"no animation {digest}")
-    return path, media_type
+    store: ArtifactStore = request.app.state.artifacts
+    try:
+        return store.verified_path(digest), media_type
+    except ArtifactNotFound:
+        raise ApiError(404, f"no animation {digest}") from None
 
 
 def _not_modified(request: Request, etag: str) -> Response | None:
@@ -72,7 +80,7 @@ ANIMATION_RESPONSES: dict[int | str, dict[str, object]] = {
         "headers": _CACHING_HEADERS,
     },
     **_NOT_MODIFIED,
-    **error_responses(404, s404="no animation of that hash"),
+    **error_responses(404, 503, s404="no animation of that hash", s503=CORRUPT),
 }
 POSTER_RESPONSES: dict[int | str, dict[str, object]] = {
     200: {
@@ -82,7 +90,12 @@ POSTER_RESPONSES: dict[int | str, dict[str, object]] = {
     },
     **_NOT_MODIFIED,
     **error_responses(
-        404, 422, s404="no animation of that hash", s422="not a strip of that many frames"
+        404,
+        422,
+        503,
+        s404="no animation of that hash",
+        s422="not a strip of that many frames",
+        s503=CORRUPT,
     ),
 }
 PHONE_RESPONSES: dict[int | str, dict[str, object]] = {
@@ -128,14 +141,15 @@ def _derived(
     Cutting one costs a decode and an encode (about 0.1 s for a phone clip), so each is
     cut once per process and kept (``app.state.derived``): the stored clip never changes.
     """
-    path, _ = _stored(session, request, digest)
+    _stored(session, request, digest)
+    store: ArtifactStore = request.app.state.artifacts
     etag = f'"{digest}-{kind}-{frames}"'
     cached = _not_modified(request, etag)
     if cached is not None:
         return cached
     try:
         derived: FrozenCache[bytes] = request.app.state.derived
-        body = derived.get_or_load((digest, kind, frames), lambda: derive(path.read_bytes()))
+        body = derived.get_or_load((digest, kind, frames), lambda: derive(store.get_bytes(digest)))
     except (ValueError, OSError) as exc:  # not a strip of that many frames, or no image
         raise ApiError(
             422, f"animation {digest} is not a strip of {frames} frames: {exc}"
