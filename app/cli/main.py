@@ -28,6 +28,7 @@ COMMANDS: dict[str, Callable[..., None]] = {
     "play": graph.play,
     "status": graph.status,
     "gc": graph.gc,
+    "fsck": graph.fsck,
     "experiment": experiment.experiment,
     "demo": demo.demo,
     "serve": api.serve,

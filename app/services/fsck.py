@@ -1,0 +1,178 @@
+"""``srg fsck``: is every stored byte what the database says it is, and can what is not be
+recomputed?
+
+The scan hashes every registered artifact (:meth:`ArtifactStore.get_bytes` moves a file
+that fails aside), lists rows without files and, on SQLite, runs the file's own
+``PRAGMA integrity_check``. A repair recomputes what is a function of stored state
+(docs/runtime.md, "Artifacts verified on read"):
+
+- a clip's bundle or an expansion's recorded clip: simulated again from the state it
+  started from, which is its predecessor's end state when still kept, else recomputed
+  back along the chain of clips to the start vertex; stored only when the recomputed
+  bytes hash to the digest the database holds, which proves them;
+- a STATERANK warm start: forgotten (it only speeds up the next ranking).
+
+Anything else (a rendered strip, a checkpoint's arrays) is reported, not guessed.
+"""
+
+from __future__ import annotations
+
+import hashlib
+from collections.abc import Callable, Iterator
+from dataclasses import dataclass, field
+
+import numpy as np
+from sqlalchemy.orm import Session
+
+from app.config import Settings
+from app.core.dynamics import Dynamics
+from app.db import get_engine, session_factory, transaction
+from app.models import Graph
+from app.services.clips import ClipJob, finish_clip, planned_clip, simulate_job
+from app.services.loading import artifact_store, graph_dynamics
+from app.store.array_codec import ARRAYS_MEDIA_TYPE, encode_arrays
+from app.store.artifacts import ArtifactCorrupt, ArtifactNotFound, ArtifactStore
+from app.store.fsck import (
+    artifact_rows,
+    bundle_of,
+    clip_start,
+    clip_with_bundle,
+    count_artifacts,
+    drop_warm_starts,
+    expansion_clip_with,
+    sqlite_integrity,
+)
+
+
+@dataclass
+class FsckResult:
+    #: ``PRAGMA integrity_check``'s lines on SQLite (``["ok"]``), else why not run
+    database: list[str]
+    artifacts: int = 0
+    verified: int = 0
+    #: digests whose bytes did not match (their files are now under ``corrupt/``)
+    corrupt: list[str] = field(default_factory=list)
+    #: digests registered without a file
+    missing: list[str] = field(default_factory=list)
+    repaired: list[str] = field(default_factory=list)
+    #: digest -> why it was not repaired
+    unrepaired: dict[str, str] = field(default_factory=dict)
+
+    @property
+    def sound(self) -> bool:
+        """Whether nothing found is left unrepaired."""
+        broken = set(self.corrupt) | set(self.missing)
+        return self.database == ["ok"] and broken <= set(self.repaired)
+
+
+def count_to_scan() -> int:
+    """Artifacts :func:`fsck` hashes (for a progress bar)."""
+    with session_factory()() as session:
+        return count_artifacts(session)
+
+
+def fsck(
+    settings: Settings, *, repair: bool = False, progress: Callable[[int], None] | None = None
+) -> FsckResult:
+    """Check the database and every artifact; with ``repair``, recompute what can be.
+
+    ``progress(1)`` is called per artifact hashed. Reads run outside any write
+    transaction, so growth and play go on while it scans.
+    """
+    store = artifact_store(settings)
+    with session_factory()() as session:
+        result = FsckResult(database=_database_check(session))
+        for digest, _ in artifact_rows(session):
+            result.artifacts += 1
+            try:
+                store.get_bytes(digest)
+                result.verified += 1
+            except ArtifactCorrupt:
+                result.corrupt.append(digest)
+            except ArtifactNotFound:
+                result.missing.append(digest)
+            if progress is not None:
+                progress(1)
+    if repair:
+        for digest in [*result.corrupt, *result.missing]:
+            why = _repair(settings, store, digest)
+            if why is None:
+                result.repaired.append(digest)
+            else:
+                result.unrepaired[digest] = why
+    return result
+
+
+def _database_check(session: Session) -> list[str]:
+    if get_engine().dialect.name != "sqlite":
+        return ["ok"]  # PostgreSQL checksums its own pages; nothing cheap to ask here
+    return sqlite_integrity(session)
+
+
+def _repair(settings: Settings, store: ArtifactStore, digest: str) -> str | None:
+    """Recompute and store ``digest``; None when done, else why not."""
+    arrays = _recomputed(settings, store, digest)
+    if arrays is None:
+        with transaction() as session:
+            if drop_warm_starts(session, digest):
+                return None
+        return "not recomputable (a rendered strip, a checkpoint's arrays or a trace)"
+    for data in _encodings(arrays):
+        if hashlib.sha256(data).hexdigest() == digest:
+            with transaction() as session:
+                store.put_bytes(data, media_type=ARRAYS_MEDIA_TYPE, session=session)
+            return None
+    return "recomputed, but the clip's bytes differ from its hash: left aside"
+
+
+def _recomputed(
+    settings: Settings, store: ArtifactStore, digest: str
+) -> dict[str, np.ndarray] | None:
+    """The arrays of the clip stored as ``digest``, simulated again; None if no clip is."""
+    with session_factory()() as session:
+        if (clip := clip_with_bundle(session, digest)) is not None:
+            graph_id, idx = clip
+            row = session.get_one(Graph, graph_id)
+            before, control = clip_start(session, graph_id, idx)
+        elif (recorded := expansion_clip_with(session, digest)) is not None:
+            epoch_id, position, control = recorded
+            row, before = planned_clip(session, epoch_id, position)
+        else:
+            return None
+        return _recompute(session, store, graph_dynamics(row, settings), row.id, before, control)
+
+
+def _recompute(
+    session: Session,
+    store: ArtifactStore,
+    dynamics: Dynamics,
+    graph_id: int,
+    before: int | None,
+    control: int,
+) -> dict[str, np.ndarray]:
+    """The clip playing ``control`` from the end state of clip ``before`` (None: the
+    start state), walking back along the clips whose end states are no longer kept."""
+    controls = [control]
+    state: np.ndarray | None = None
+    while before is not None and state is None:
+        try:
+            bundle = store.get_arrays(bundle_of(session, graph_id, before), ("end_state",))
+            state = bundle["end_state"]
+        except (KeyError, ArtifactNotFound, ArtifactCorrupt):
+            before, played = clip_start(session, graph_id, before)
+            controls.append(played)
+    if state is None:
+        state = dynamics.initial_state()
+    for played in reversed(controls):
+        stage = simulate_job(ClipJob(dynamics, state, played))
+        arrays = finish_clip(dynamics, stage) or stage
+        state = arrays["end_state"]
+    return arrays
+
+
+def _encodings(arrays: dict[str, np.ndarray]) -> Iterator[bytes]:
+    """The byte forms a recomputed clip is stored in: an expansion's whole record, a
+    graph bundle with its end state (a blend edge's) and without it."""
+    yield encode_arrays(arrays)
+    yield encode_arrays({"frames": arrays["frames"], "end_state": arrays["end_state"]})
+    yield encode_arrays({"frames": arrays["frames"]})
