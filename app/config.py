@@ -13,9 +13,13 @@ from pathlib import Path
 from pydantic import AliasChoices, Field
 from pydantic_settings import BaseSettings, SettingsConfigDict
 
+from app.core.player_models import PlayerModelKind
+
 
 class Settings(BaseSettings):
-    model_config = SettingsConfigDict(env_prefix="SRG_", env_file=".env", extra="ignore")
+    model_config = SettingsConfigDict(
+        env_prefix="SRG_", env_file=".env", extra="ignore", allow_inf_nan=False
+    )
 
     var_dir: Path = Path("var")
     database_url: str = ""
@@ -25,16 +29,20 @@ class Settings(BaseSettings):
     redis_url: str = ""
 
     # Growth
-    batch_size: int = Field(4, description="blend edges expanded per growth epoch")
-    prefilter_k: int = Field(100, description="energy pre-filter size for best-target search")
-    restart_steps: float = Field(90.0, description="default mean session length L (steps)")
+    batch_size: int = Field(4, ge=1, description="blend edges expanded per growth epoch")
+    prefilter_k: int = Field(100, ge=1, description="energy pre-filter size for best-target search")
+    restart_steps: float = Field(90.0, ge=1.0, description="default mean session length L (steps)")
     max_session_steps: float = Field(
         900.0, ge=2.0, description="ceiling of the session length L STATERANK restarts with"
     )
-    alpha: float = Field(0.8, description="heuristic player model: keep-control probability")
-    crowd_radius: float = Field(0.0, description="crowd model kernel radius r (0: per dynamics)")
-    crowd_eps: float = Field(1e-3, description="crowd model prior weight epsilon")
-    high_error_threshold: float = Field(0.0, description="0: per dynamics default")
+    alpha: float = Field(
+        0.8, ge=0.0, le=1.0, description="heuristic player model: keep-control probability"
+    )
+    crowd_radius: float = Field(
+        0.0, ge=0.0, description="crowd model kernel radius r (0: per dynamics)"
+    )
+    crowd_eps: float = Field(1e-3, gt=0.0, le=1.0, description="crowd model prior weight epsilon")
+    high_error_threshold: float = Field(0.0, ge=0.0, description="0: per dynamics default")
     dedup_error_fraction: float = Field(
         0.1,
         ge=0.0,
@@ -56,14 +64,14 @@ class Settings(BaseSettings):
     opencl_device: str = Field("", description="substring of the OpenCL device name; '' = PoCL CPU")
 
     # Celery
-    task_soft_time_limit: int = 600
-    task_time_limit: int = 900
+    task_soft_time_limit: int = Field(600, ge=1)
+    task_time_limit: int = Field(900, ge=1)
     task_max_retries: int = Field(
-        3, description="retries of a task that waits, and redeliveries of a lost one, at most"
+        3, ge=0, description="retries of a task that waits, and redeliveries of a lost one, at most"
     )
-    beat_interval: float = Field(30.0, description="seconds between beat's growth ticks")
-    player_model: str = Field(
-        "knn",
+    beat_interval: float = Field(30.0, gt=0.0, description="seconds between beat's growth ticks")
+    player_model: PlayerModelKind = Field(
+        PlayerModelKind.KNN,
         description="crowd model of new sr-crowd graphs: knn (default: docs/player-models.md), "
         "eq2 (the paper's) or logit",
     )
@@ -75,6 +83,7 @@ class Settings(BaseSettings):
     )
     epoch_resend_after: float = Field(
         1800.0,
+        gt=0,
         description="seconds without progress after which a running epoch is re-sent, "
         "alive or not (the backstop)",
     )
@@ -87,12 +96,16 @@ class Settings(BaseSettings):
     growth_renders: bool = Field(
         True, description="render clip and blend animations while growing (else at publish)"
     )
-    occupancy_cache_ttl: int = Field(7 * 24 * 3600, description="Redis occupancy cache TTL (s)")
+    occupancy_cache_ttl: int = Field(
+        7 * 24 * 3600, ge=1, description="Redis occupancy cache TTL (s)"
+    )
     clip_cache_mb: int = Field(
         256, ge=1, description="per-process memory for cached occupancy grids of a loaded graph"
     )
     test_simulate_delay: float = Field(
-        0.0, description="TEST ONLY: seconds `simulate` sleeps first, to kill a worker mid-task"
+        0.0,
+        ge=0.0,
+        description="TEST ONLY: seconds `simulate` sleeps first, to kill a worker mid-task",
     )
     test_postgres_url: str = Field(
         "postgresql+psycopg://postgres@127.0.0.1:5432/srg_test",
@@ -104,11 +117,11 @@ class Settings(BaseSettings):
     admin_token: str = Field(
         "", description="bearer token of the admin routes; '' (no default secret): routes off"
     )
-    max_trace_bytes: int = 1_000_000
+    max_trace_bytes: int = Field(1_000_000, ge=1)
     max_trace_steps: int = Field(
         2_000, ge=1, description="steps per uploaded trace (the web client sends <= 1,800)"
     )
-    uploads_per_minute: int = 60
+    uploads_per_minute: int = Field(60, ge=1)
     max_body_bytes: int = Field(
         16_384, ge=1, description="bodies of every request but trace uploads (413 beyond)"
     )

@@ -9,6 +9,11 @@ The embedded default is also migrated on first use (:func:`get_engine`), as a us
 embedded database expects; a configured database is the operator's, so for one that does
 not exist or has no tables the CLI says to run ``srg db upgrade`` instead, and nothing
 (not even an empty SQLite file) is made.
+
+What a database error means to the user has its home here too
+(:func:`database_unavailable`): one that says the database cannot serve is a 503 in the
+API and one line from the CLI, and ``srg serve`` and the commands that write look for
+those before they start (:func:`require_current_schema`, :func:`require_intact`).
 """
 
 from __future__ import annotations
@@ -22,7 +27,7 @@ from typing import Any
 
 from sqlalchemy import Engine, create_engine, event, inspect, text
 from sqlalchemy.engine import URL, make_url
-from sqlalchemy.exc import ArgumentError, DBAPIError, NoSuchModuleError
+from sqlalchemy.exc import ArgumentError, DBAPIError, NoSuchModuleError, OperationalError
 from sqlalchemy.orm import Session, sessionmaker
 
 from app.config import get_settings
@@ -43,12 +48,30 @@ class InvalidDatabaseURL(InvalidInput):
     """The database URL cannot be parsed, or names a database SQLAlchemy does not know."""
 
 
-class DatabaseNotReady(Unavailable):
+class DatabaseUnavailable(Unavailable):
+    """The database cannot serve srg now; ``problem`` says why in a few words.
+
+    The message names the database (its file, or its URL without the password) for the
+    operator; the API tells its clients the ``problem`` alone.
+    """
+
+    problem = "unavailable"
+
+    def __init__(self, message: str, problem: str | None = None) -> None:
+        super().__init__(message)
+        self.problem = problem or self.problem
+
+
+class DatabaseNotReady(DatabaseUnavailable):
     """The configured database does not exist yet, or has no srg schema: upgrade it."""
 
+    problem = "not migrated"
 
-class DatabaseUnusable(Unavailable):
-    """The database file is not a database (corrupted, or some other file)."""
+
+class DatabaseUnusable(DatabaseUnavailable):
+    """The database file is not a database, or a damaged one."""
+
+    problem = "not a database"
 
 
 def make_engine(url: str, **kwargs: Any) -> Engine:
@@ -158,15 +181,12 @@ def create_embedded_schema(engine: Engine) -> bool:
     """
     from alembic import command
 
-    try:
+    with unavailable_raised(engine):
         writer = engine.connect().execution_options(**{SQLITE_BEGIN: "IMMEDIATE"})
         with writer as connection, connection.begin():
             if inspect(connection).get_table_names():
                 return False
             command.upgrade(alembic_config(connection), "head")
-    except DBAPIError as exc:
-        raise_if_unusable(exc, engine.url.database)
-        raise
     return True
 
 
@@ -196,16 +216,120 @@ def schema_missing(exc: DBAPIError) -> bool:
     return str(orig).startswith(("no such table", "no such column"))
 
 
-def raise_if_unusable(exc: DBAPIError, where: str | None = None) -> None:
-    """Raise :class:`DatabaseUnusable` if ``exc`` is SQLite finding no database in its file.
+#: SQLite's primary result codes (https://www.sqlite.org/rescode.html) that say the file
+#: cannot serve as it is, whatever the statement; what each means to the user
+_SQLITE_PROBLEMS = {
+    sqlite3.SQLITE_BUSY: "locked",
+    sqlite3.SQLITE_LOCKED: "locked",
+    sqlite3.SQLITE_CANTOPEN: "cannot be opened",
+    sqlite3.SQLITE_READONLY: "read-only",
+    sqlite3.SQLITE_IOERR: "I/O error",
+    sqlite3.SQLITE_FULL: "disk full",
+    sqlite3.SQLITE_NOTADB: "not a database",
+    sqlite3.SQLITE_CORRUPT: "corrupt",
+}
+#: PostgreSQL's SQLSTATE classes that say the server cannot serve now, whatever the statement
+_SERVER_PROBLEMS = {
+    "08": "unreachable",
+    "53": "out of resources",
+    "57": "stopped by its operator",
+    "58": "I/O error",
+}
 
-    SQLite raises a bare ``DatabaseError`` ("file is not a database", "database disk
-    image is malformed") for a file it cannot read as one; any other database error is
-    left to its caller (a real bug must show as one).
+
+def database_unavailable(exc: DBAPIError, where: str) -> DatabaseUnavailable | None:
+    """What ``exc`` says about the database when it says it cannot serve; ``None`` for a bug.
+
+    It cannot serve when its server cannot be reached (or dropped the connection), its
+    file is not a database or is damaged, a lock outlasts the busy timeout and the write
+    retries (:mod:`app.store.transactions`), or it has no srg schema. A statement the
+    database refuses (a constraint, a syntax error) is our bug and stays one; both drivers
+    raise some of those as ``OperationalError`` too, so the driver's code decides, not the
+    exception's class. ``where`` names the database in the message.
     """
-    if type(exc.orig) is sqlite3.DatabaseError:
-        at = f" ({where})" if where else ""
-        raise DatabaseUnusable(f"cannot use the database{at}: {exc.orig}") from None
+    if schema_missing(exc):
+        return DatabaseNotReady(
+            f"the database {where} has no srg schema (or an older one): {UPGRADE_HINT}"
+        )
+    orig = exc.orig
+    if isinstance(orig, sqlite3.Error):
+        problem = _SQLITE_PROBLEMS.get((getattr(orig, "sqlite_errorcode", None) or 0) & 0xFF)
+    elif exc.connection_invalidated or (
+        isinstance(exc, OperationalError) and getattr(orig, "sqlstate", None) is None
+    ):
+        problem = "unreachable"  # the connection failed or was lost: no SQLSTATE for that
+    else:
+        problem = _SERVER_PROBLEMS.get(str(getattr(orig, "sqlstate", ""))[:2])
+    if problem is None:
+        return None
+    kind = DatabaseUnusable if problem in ("not a database", "corrupt") else DatabaseUnavailable
+    detail = (str(orig).splitlines() or [type(orig).__name__])[0]
+    return kind(f"cannot use the database {where} ({problem}): {detail}", problem)
+
+
+def shown_database(url: URL) -> str:
+    """How messages name a database: its file for SQLite, else its URL without password."""
+    if url.get_backend_name() == "sqlite" and url.database:
+        return url.database
+    return url.render_as_string(hide_password=True)
+
+
+@contextmanager
+def unavailable_raised(engine: Engine) -> Iterator[None]:
+    """Raise what :func:`database_unavailable` makes of a database error, where it is one."""
+    try:
+        yield
+    except DBAPIError as exc:
+        unavailable = database_unavailable(exc, shown_database(engine.url))
+        if unavailable is None:
+            raise
+        raise unavailable from None
+
+
+def require_intact(engine: Engine | None = None) -> None:
+    """Refuse a SQLite file that ``PRAGMA quick_check`` finds damaged, before writing to it.
+
+    SQLite notices a damaged page only when a statement reads it, so a command whose
+    reads miss the damage (growth, publishing and play read a few rows each) writes on,
+    spreading it, and succeeds. quick_check reads every page once, skipping
+    integrity_check's comparison of each index with its table; so its cost grows with the
+    file: about 0.3 s for 300 MB from the page cache on two busy cores, next to the
+    seconds to hours of a command that writes. That is why the commands that write run it
+    once at their start, and neither reads nor each transaction do. A database server
+    checks its own pages: there it only connects.
+    """
+    engine = engine or get_engine()
+    with unavailable_raised(engine), engine.connect() as connection:
+        if connection.dialect.name != "sqlite":
+            return
+        found = [row[0] for row in connection.exec_driver_sql("PRAGMA quick_check(1)")]
+    if found != ["ok"]:  # the first problem, under a "*** in database main ***" line
+        raise DatabaseUnusable(
+            f"cannot use the database {shown_database(engine.url)} (corrupt): "
+            f"{found[0].splitlines()[-1]}; restore it from a backup",
+            "corrupt",
+        )
+
+
+def require_current_schema(engine: Engine) -> None:
+    """Refuse a database that is unreachable or not at this checkout's schema revision.
+
+    Alembic's own record (``alembic_version``) against the migrations' head: a database
+    made some other way, or not upgraded since a migration was added, would fail on its
+    first request instead.
+    """
+    from alembic.runtime.migration import MigrationContext
+    from alembic.script import ScriptDirectory
+
+    heads = set(ScriptDirectory.from_config(alembic_config()).get_heads())
+    with unavailable_raised(engine), engine.connect() as connection:
+        current = set(MigrationContext.configure(connection).get_current_heads())
+    if current != heads:
+        raise DatabaseNotReady(
+            f"the database {shown_database(engine.url)} is at schema revision "
+            f"{', '.join(sorted(current)) or 'none'}, not {', '.join(sorted(heads))}: "
+            f"{UPGRADE_HINT}"
+        )
 
 
 def session_factory(engine: Engine | None = None) -> sessionmaker[Session]:

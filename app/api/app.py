@@ -22,7 +22,7 @@ from fastapi.staticfiles import StaticFiles
 from app.api.bodylimit import BodyLimit
 from app.api.cache import FrozenCache
 from app.api.encoding import EncodedJson
-from app.api.errors import ANY_METHOD, install_error_handlers, no_route
+from app.api.errors import ANY_METHOD, error_responses, install_error_handlers, no_route
 from app.api.growth_jobs import GrowthJobs
 from app.api.ratelimit import RateLimits
 from app.api.routes import admin, animations, graphs, health, players, traces
@@ -71,7 +71,7 @@ def create_app(settings: Settings | None = None) -> FastAPI:
     app.state.growth_jobs = GrowthJobs()
     install_error_handlers(app)
     for module in (graphs, animations, players, traces, admin, health):
-        app.include_router(module.router)
+        app.include_router(module.router, responses=error_responses(503))  # every one reads
     app.add_route("/api/{path:path}", no_route, methods=ANY_METHOD, include_in_schema=False)
     app.mount("/", StaticFiles(directory=STATIC_DIR, html=True), name="client")
     app.add_middleware(

@@ -5,7 +5,10 @@ Routes raise :class:`ApiError` for the API's own refusals; the handlers installe
 own HTTP errors and any :class:`~app.core.errors.SrgError` (a graph not found: 404, a
 name refused: 422, ...; the ``http_status`` of its kind) into that one shape
 (:class:`~app.api.schemas.ErrorBody`), so a client needs one code path for failures.
-Any other exception is a bug: a 500 that says no more than "internal error".
+A database that cannot serve (unreachable, not a database, damaged, locked past the write
+retries, not migrated: :func:`~app.db.database_unavailable`) is a 503 naming the problem
+alone, neither the URL nor the file, so any route can answer it; the error is logged in
+full. Any other exception is a bug: a 500 that says no more than "internal error".
 :func:`error_responses` declares the same shape in the OpenAPI document for each status a
 route can answer.
 
@@ -24,11 +27,13 @@ from fastapi import FastAPI, Request
 from fastapi.exceptions import RequestValidationError
 from fastapi.responses import JSONResponse
 from pydantic import ValidationError
+from sqlalchemy.exc import DBAPIError
 from starlette.exceptions import HTTPException as StarletteHTTPException
 from starlette.routing import Match, Mount, Route
 
 from app.api.schemas import ErrorBody
 from app.core.errors import SrgError
+from app.db import database_unavailable, parse_database_url, shown_database
 
 log = logging.getLogger(__name__)
 
@@ -45,7 +50,7 @@ ERROR_DESCRIPTIONS = {
     413: "body or trace too large",
     422: "invalid request",
     429: "over a rate limit: retry after Retry-After seconds",
-    503: "a service the API needs is unreachable",
+    503: "the database cannot serve: unreachable, damaged, locked or not migrated",
 }
 _HEADER_OF = {
     401: {"WWW-Authenticate": {"description": "Bearer", "schema": {"type": "string"}}},
@@ -155,8 +160,23 @@ def install_error_handlers(app: FastAPI) -> None:
         log.exception("unhandled error", exc_info=exc)
         return error_response(500, "internal error")
 
+    async def database_error(request: Request, exc: Exception) -> JSONResponse:
+        assert isinstance(exc, DBAPIError)
+        url = parse_database_url(request.app.state.settings.resolved_database_url)
+        unavailable = database_unavailable(exc, shown_database(url))
+        if unavailable is None:
+            return await unexpected(request, exc)
+        log.error("%s", unavailable)
+        dialect = url.get_backend_name()
+        return error_response(
+            503,
+            f"the database is unavailable: {unavailable.problem}",
+            details={"database": dialect, "reason": unavailable.problem},
+        )
+
     app.add_exception_handler(ApiError, api_error)
     app.add_exception_handler(RequestValidationError, invalid_request)
     app.add_exception_handler(StarletteHTTPException, http_error)
     app.add_exception_handler(SrgError, user_error)
+    app.add_exception_handler(DBAPIError, database_error)
     app.add_exception_handler(Exception, unexpected)

@@ -23,9 +23,13 @@ def serve(
     import uvicorn
 
     from app.api.app import create_app
-    from app.db import get_engine
+    from app.db import get_engine, require_current_schema, require_intact
 
-    get_engine()  # the embedded default migrated on first use; a missing database in one line
+    # refused here in one line, rather than served as a 503 to every request: a database
+    # unreachable, not a database, damaged or not migrated (the embedded default migrates)
+    engine = get_engine()
+    require_current_schema(engine)
+    require_intact(engine)
     # proxy_headers off: the app alone decides whose X-Forwarded-For to trust
     # (SRG_TRUSTED_PROXIES); uvicorn would otherwise trust any from loopback
     uvicorn.run(create_app(), host=host, port=port, proxy_headers=False)

@@ -36,6 +36,7 @@ def demo(
 
     from app.config import get_settings
     from app.core.player_models import parse_player_model
+    from app.db import require_intact
     from app.liquid.devices import LiquidDevices
     from app.services.demo import (
         demo_plan,
@@ -51,6 +52,7 @@ def demo(
     from app.services.loading import artifact_store
 
     settings = get_settings()
+    require_intact()
     plan = demo_plan(
         dynamics,
         preset,

@@ -66,6 +66,7 @@ def experiment(
 
     from app.config import get_settings
     from app.core.strategies import Strategy
+    from app.db import require_intact
     from app.reports.experiment import interval_text, write_report
     from app.services.experiment.plan import create_experiment, stored_plan
     from app.services.experiment.runs import Grower, grow_in_process, run_experiment
@@ -78,6 +79,7 @@ def experiment(
     model_options = (player_model, bots, fixed_graph_sessions)
     name = name or "-".join(x for x in ("experiment", dynamics or "toy", preset, fluid) if x)
     settings = get_settings()
+    require_intact()
     if resume:
         if quick or any(option is not None for option in (*options, *model_options)):
             raise InvalidInput(

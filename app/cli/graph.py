@@ -1,7 +1,8 @@
 """``srg init``, ``grow``, ``publish``, ``play``, ``status``, ``gc``: persisted graphs.
 
 Each command runs one service call in one transaction: it commits when the service
-returns and rolls back (writing nothing) when it raises.
+returns and rolls back (writing nothing) when it raises. Those that write refuse a
+damaged SQLite file first (:func:`app.db.require_intact`).
 """
 
 from __future__ import annotations
@@ -10,7 +11,7 @@ import typer
 
 from app.cli.output import JSON_HELP, emit, progress_bar
 from app.core.errors import InvalidInput
-from app.db import transaction
+from app.db import require_intact, transaction
 
 
 def init(
@@ -37,6 +38,7 @@ def init(
         check_fluid(fluid)
     if player_model is not None:  # '' too: it names no model, not the default
         parse_player_model(player_model)
+    require_intact()
     with transaction() as session:
         summary = init_graph(
             session,
@@ -63,15 +65,19 @@ def grow(
     from app.config import get_settings
     from app.core.strategies import parse_strategy
     from app.services.growing import grow_graph
+    from app.store.graphs import MAX_ROW_ID
 
     if frames is not None and expansions is not None:
         raise InvalidInput("give --frames or --expansions, not both")
     for option, budget in (("--frames", frames), ("--expansions", expansions)):
         if budget is not None and budget <= 0:  # before the bar: it never shows 0/-5
             raise InvalidInput(f"{option} must be positive, got {budget}")
+        if budget is not None and budget > MAX_ROW_ID:  # more clips than a graph can number
+            raise InvalidInput(f"{option} must be at most {MAX_ROW_ID}, got {budget}")
     if strategy is not None:
         parse_strategy(strategy)
     settings = get_settings()
+    require_intact()
     total = frames if frames is not None else expansions or settings.batch_size
     label = "frames" if frames is not None else "expansions"
     with progress_bar(total, label) as advance:
@@ -97,6 +103,7 @@ def publish(
     from app.store.animations import count_missing_animations
     from app.store.graphs import get_graph_row
 
+    require_intact()
     with transaction() as session:
         missing = count_missing_animations(session, get_graph_row(session, name).id)
         with progress_bar(missing, "animations") as advance:
@@ -128,6 +135,7 @@ def play(
         return
     from app.services.play import play_graph
 
+    require_intact()
     with transaction() as session:
         result = play_graph(
             session,
@@ -187,6 +195,8 @@ def gc(
 
     settings = get_settings()
     grace = grace_seconds(settings, older_than)  # refused before the bar shows
+    if not dry_run:
+        require_intact()
     directories = count_fanout_directories(artifact_store(settings))
     with progress_bar(directories, "artifact directories") as advance:
         result = collect_artifacts(settings, older_than=grace, dry_run=dry_run, progress=advance)

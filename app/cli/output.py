@@ -121,19 +121,13 @@ def user_error_message(exc: Exception) -> str | None:
 def database_user_error(exc: DBAPIError) -> str | None:
     """What a database error means to the user, when it is theirs to fix; else ``None``.
 
-    A database without srg's tables (never upgraded: "no such table", undefined_table)
-    and a file that is no database are; a constraint violated or a wrong statement is a
-    bug and keeps its traceback.
+    A database that cannot serve (never upgraded, unreachable, not a database, damaged,
+    locked: :func:`app.db.database_unavailable`) is; a constraint violated or a wrong
+    statement is a bug and keeps its traceback.
     """
     from app.config import get_settings
-    from app.db import UPGRADE_HINT, parse_database_url, raise_if_unusable, schema_missing
+    from app.db import database_unavailable, parse_database_url, shown_database
 
     url = parse_database_url(get_settings().resolved_database_url)
-    shown = url.render_as_string(hide_password=True)
-    if schema_missing(exc):
-        return f"the database {shown} has no srg schema (or an older one): {UPGRADE_HINT}"
-    try:
-        raise_if_unusable(exc, url.database if url.get_backend_name() == "sqlite" else shown)
-    except SrgError as unusable:
-        return str(unusable)
-    return None
+    unavailable = database_unavailable(exc, shown_database(url))
+    return None if unavailable is None else str(unavailable)

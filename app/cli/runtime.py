@@ -69,9 +69,10 @@ def set_growing(
     on: bool = typer.Option(..., "--on/--off", help="grow it on every beat tick, or stop"),
 ) -> None:
     """Mark a graph for beat's periodic growth (or take it off)."""
-    from app.db import transaction
+    from app.db import require_intact, transaction
     from app.services.between_epochs import set_growing as mark
 
+    require_intact()
     with transaction() as session:
         emit(mark(session, name, on), as_json=False)
 

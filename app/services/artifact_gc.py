@@ -6,6 +6,7 @@ See :mod:`app.store.artifact_gc` for what is collected and why the grace period
 
 from __future__ import annotations
 
+import math
 from collections.abc import Callable
 from dataclasses import dataclass
 
@@ -36,8 +37,8 @@ class ArtifactGcResult:
 def grace_seconds(settings: Settings, older_than: float | None) -> float:
     """The grace period a collection keeps: ``older_than``, else the configured one."""
     grace = settings.artifact_gc_grace if older_than is None else older_than
-    if not grace >= 0:
-        raise InvalidInput(f"--older-than must be a number of seconds >= 0, not {grace}")
+    if not 0 <= grace < math.inf:
+        raise InvalidInput(f"--older-than must be a finite number of seconds >= 0, not {grace}")
     return grace
 
 

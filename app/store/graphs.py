@@ -78,6 +78,7 @@ def create_graph(
 
 #: the largest id an ``Integer`` primary key holds on every backend (PostgreSQL's int4)
 MAX_ROW_ID = 2**31 - 1
+MAX_ID_DIGITS = len(str(MAX_ROW_ID))
 _ASCII_DIGITS = re.compile(r"[0-9]+")
 
 
@@ -89,14 +90,18 @@ def get_graph_row(session: Session, name_or_id: str | int) -> Graph:
     """
     row: Graph | None
     if isinstance(name_or_id, int) or _ASCII_DIGITS.fullmatch(name_or_id):
-        graph_id = int(name_or_id)
+        # more digits than the largest id names no graph, and would not even parse
+        too_long = isinstance(name_or_id, str) and len(name_or_id.lstrip("0")) > MAX_ID_DIGITS
+        graph_id = 0 if too_long else int(name_or_id)
         row = session.get(Graph, graph_id) if 1 <= graph_id <= MAX_ROW_ID else None
     elif "\x00" in name_or_id:  # PostgreSQL refuses NUL in text; no name holds one
         row = None
     else:
         row = session.scalars(select(Graph).where(Graph.name == name_or_id)).one_or_none()
     if row is None:
-        raise GraphNotFound(f"no graph {name_or_id!r}")
+        named = str(name_or_id)
+        shown = repr(named) if len(named) <= 80 else f"{named[:40]!r}... ({len(named)} characters)"
+        raise GraphNotFound(f"no graph {shown}")
     return row
 
 

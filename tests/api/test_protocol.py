@@ -45,12 +45,13 @@ def test_the_document_declares_the_error_body_every_route_sends(
             schema = operation["responses"][str(status)]["content"]["application/json"]["schema"]
             assert schema == {"$ref": ERROR_BODY}, (method, path, status)
         declared[f"{method.upper()} {path}"] = errors
-    assert declared["POST /api/traces"] == {401, 403, 404, 409, 413, 422, 429}
-    assert declared["POST /api/players"] == {400, 413, 422, 429}
-    assert declared["POST /api/graphs/{name}/grow"] == {400, 401, 403, 404, 409, 413, 422}
-    assert declared["POST /api/graphs/{name}/publish"] == {401, 403, 404, 413}
-    assert declared["GET /api/graphs/{name}/epochs"] == {401, 403, 404, 422}
-    assert declared["GET /api/animations/{digest}/poster"] == {404, 422}
+    assert declared["POST /api/traces"] == {401, 403, 404, 409, 413, 422, 429, 503}
+    assert declared["POST /api/players"] == {400, 413, 422, 429, 503}
+    assert declared["POST /api/graphs/{name}/grow"] == {400, 401, 403, 404, 409, 413, 422, 503}
+    assert declared["POST /api/graphs/{name}/publish"] == {401, 403, 404, 413, 503}
+    assert declared["GET /api/graphs/{name}/epochs"] == {401, 403, 404, 422, 503}
+    assert declared["GET /api/animations/{digest}/poster"] == {404, 422, 503}
+    assert all(503 in statuses for statuses in declared.values())  # every route reads
     assert declared["GET /api/health"] == {503}
     retry_after = document["paths"]["/api/traces"]["post"]["responses"]["429"]["headers"]
     assert "Retry-After" in retry_after

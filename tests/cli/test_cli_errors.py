@@ -240,6 +240,18 @@ def test_a_negative_budget_is_refused_before_any_bar(tmp_path: Path, budget: lis
     assert "/-5" not in done.stderr and "0/0" not in done.stderr
 
 
+def test_a_budget_beyond_what_a_graph_can_number_is_refused(tmp_path: Path) -> None:
+    ok(tmp_path, "init", "g")
+    one_line_error(srg(tmp_path, "grow", "g", "--expansions", "1" + "0" * 30), "at most")
+
+
+def test_an_id_of_thousands_of_digits_names_no_graph_in_one_short_line(tmp_path: Path) -> None:
+    ok(tmp_path, "init", "g")
+    done = srg(tmp_path, "status", "9" * 5000)
+    one_line_error(done, "no graph '9999")
+    assert "(5000 characters)" in done.stderr and len(done.stderr) < 200
+
+
 def test_the_progress_bar_stays_within_zero_and_its_total(
     capsys: pytest.CaptureFixture[str],
 ) -> None:
@@ -306,6 +318,31 @@ def test_status_shows_play_traces_players_and_the_last_upload(tmp_path: Path) ->
 def test_a_setting_of_the_wrong_type_is_named_in_one_line(tmp_path: Path) -> None:
     done = srg(tmp_path, "status", SRG_BATCH_SIZE="abc")
     one_line_error(done, "SRG_BATCH_SIZE: Input should be a valid integer")
+
+
+@pytest.mark.parametrize(
+    ("variable", "value", "says"),
+    [
+        ("SRG_PREFILTER_K", "-1", "greater than or equal to 1"),
+        ("SRG_ALPHA", "2", "less than or equal to 1"),
+        ("SRG_BATCH_SIZE", "0", "greater than or equal to 1"),
+        ("SRG_BATCH_SIZE", "-3", "greater than or equal to 1"),
+        ("SRG_CROWD_EPS", "-1", "greater than 0"),
+        ("SRG_RESTART_STEPS", "0", "greater than or equal to 1"),
+        ("SRG_MAX_TRACE_BYTES", "-1", "greater than or equal to 1"),
+        ("SRG_UPLOADS_PER_MINUTE", "0", "greater than or equal to 1"),
+        ("SRG_HIGH_ERROR_THRESHOLD", "nan", "finite number"),
+        ("SRG_BEAT_INTERVAL", "inf", "finite number"),
+        ("SRG_PLAYER_MODEL", "bogus", "'eq2', 'logit' or 'knn'"),
+    ],
+)
+def test_a_setting_out_of_its_range_is_named_in_one_line_before_anything_runs(
+    tmp_path: Path, variable: str, value: str, says: str
+) -> None:
+    done = srg(tmp_path, "init", "g", "--dynamics", "toy", **{variable: value})
+    one_line_error(done, f"{variable}: Input should be")
+    assert says in done.stderr
+    assert not (tmp_path / "srg.sqlite3").exists()
 
 
 @pytest.mark.parametrize(

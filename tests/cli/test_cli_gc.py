@@ -82,7 +82,10 @@ def test_gc_collects_what_an_interrupted_grow_left_and_keeps_the_graph(var: Path
     assert "rows=0 files=0 bytes_freed=0" in ok(var, "gc")
 
 
-def test_a_negative_grace_period_is_refused_before_any_scan(var: Path) -> None:
-    done = srg(var, "gc", "--older-than", "-1")
-    one_line_error(done, "--older-than must be")
+@pytest.mark.parametrize("grace", ["-1", "inf", "nan"])
+def test_a_grace_period_that_is_no_number_of_seconds_is_refused_before_any_scan(
+    var: Path, grace: str
+) -> None:
+    done = srg(var, "gc", "--older-than", grace)
+    one_line_error(done, "--older-than must be a finite number of seconds")
     assert len(done.stderr.splitlines()) == 1, done.stderr  # no progress bar first

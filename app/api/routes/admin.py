@@ -1,9 +1,10 @@
 """Admin actions on a graph: publish the current version, queue growth, follow its epochs.
 
 All need ``Authorization: Bearer <admin_token>`` and are off (403) while no token is
-configured. Publishing is done by the graph service the CLI calls too, and the route
-commits what it wrote; growth is only queued here (:mod:`app.api.growth_jobs`) and
-answered with 202 and the epochs to poll.
+configured. Publishing is done by the graph service the CLI calls too, in the write
+transaction of every route that writes (:func:`~app.store.transactions.in_transaction`:
+on SQLite, background growth commits between its reads and its writes); growth is only
+queued here (:mod:`app.api.growth_jobs`) and answered with 202 and the epochs to poll.
 """
 
 from __future__ import annotations
@@ -23,6 +24,7 @@ from app.config import Settings
 from app.db import Scope
 from app.store.epochs import epochs_after, last_epoch_number
 from app.store.graphs import get_graph_row
+from app.store.transactions import in_transaction
 
 router = APIRouter(
     prefix="/api/graphs",
@@ -44,8 +46,8 @@ EPOCHS_LISTED = 100
 def publish(name: str, request: Request, session: Session = Depends(get_session)) -> AdminResult:
     from app.services.publishing import publish_graph
 
-    result = publish_graph(session, request.app.state.settings, name=name)
-    session.commit()
+    settings = request.app.state.settings
+    result = in_transaction(session, lambda: publish_graph(session, settings, name=name))
     return AdminResult(graph=name, result=_as_dict(result))
 
 

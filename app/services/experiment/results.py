@@ -243,9 +243,7 @@ def comparable_figures(result: dict[str, Any]) -> dict[str, Any]:
     return {
         bot: {
             strategy: {
-                seed: [
-                    {k: v for k, v in row.items() if k not in UNCOMPARABLE_KEYS} for row in rows
-                ]
+                seed: [{k: v for k, v in row.items() if k not in UNCOMPARABLE_KEYS} for row in rows]
                 for seed, rows in by_seed.items()
             }
             for strategy, by_seed in crowd["results"].items()
