@@ -19,7 +19,7 @@ import pytest
 from cli_helpers import SRG, ok, one_line_error, srg
 from sqlalchemy import create_engine, func, select
 
-from app.models import ExperimentCheckpoint, GrowthEpoch
+from app.models import Clip, ExperimentCheckpoint, GrowthEpoch
 from app.services.experiment.results import comparable_figures
 
 TOY_PLAN = ("--seeds", "0", "--checkpoints", "600,1500,2400", "--sessions", "10")
@@ -84,6 +84,65 @@ def kill_after_first_checkpoint(var: Path, *args: str) -> None:
     with contextlib.suppress(ProcessLookupError):  # ended by itself: the next assert says so
         os.killpg(process.pid, signal.SIGKILL)
     process.wait(30)
+
+
+def children_of(pid: int) -> list[int]:
+    """The live processes whose parent is ``pid`` (from /proc)."""
+    found = []
+    for stat in Path("/proc").glob("[0-9]*/stat"):
+        with contextlib.suppress(OSError):
+            fields = stat.read_text().rsplit(")", 1)[1].split()
+            if int(fields[1]) == pid and fields[0] != "Z":
+                found.append(int(stat.parent.name))
+    return found
+
+
+def clips_stored(var: Path) -> int:
+    engine = create_engine(f"sqlite:///{var / 'srg.sqlite3'}")
+    try:
+        with engine.connect() as connection:
+            return int(connection.scalar(select(func.count()).select_from(Clip)))
+    finally:
+        engine.dispose()
+
+
+def alive(pid: int) -> bool:
+    """Whether ``pid`` runs (a zombie nobody reaped has ended)."""
+    try:
+        state = Path(f"/proc/{pid}/stat").read_text().rsplit(")", 1)[1].split()[0]
+    except OSError:
+        return False
+    return state != "Z"
+
+
+def test_the_run_processes_die_with_a_killed_experiment(tmp_path: Path) -> None:
+    """SIGKILL of the experiment's own process alone: its pool must not write on."""
+    var = tmp_path / "var"
+    ok(var, "db", "upgrade")
+    env = {k: v for k, v in os.environ.items() if not k.startswith("SRG_")}
+    env["SRG_VAR_DIR"] = str(var)
+    process = subprocess.Popen(
+        [str(SRG), "experiment", "--seeds", "0,1", "--checkpoints", "3000,9000", "--jobs", "2"],
+        env=env,
+        stdout=subprocess.DEVNULL,
+        stderr=subprocess.DEVNULL,
+        start_new_session=True,
+    )
+    try:
+        deadline = time.monotonic() + 120
+        while clips_stored(var) < 100:  # the runs are growing their graphs
+            assert process.poll() is None and time.monotonic() < deadline
+            time.sleep(0.1)
+        runs = children_of(process.pid)
+        process.kill()
+        process.wait(10)
+        deadline = time.monotonic() + 10
+        while any(alive(pid) for pid in runs) and time.monotonic() < deadline:
+            time.sleep(0.1)
+        assert not any(alive(pid) for pid in runs)
+    finally:
+        with contextlib.suppress(ProcessLookupError):
+            os.killpg(process.pid, signal.SIGKILL)
 
 
 @pytest.mark.slow

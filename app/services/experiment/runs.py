@@ -11,7 +11,9 @@ checkpoints already stored, which is what makes ``--resume`` work (docs/experime
 
 from __future__ import annotations
 
+import os
 import resource
+import threading
 import time
 from collections.abc import Callable
 from multiprocessing import get_context
@@ -35,6 +37,8 @@ from app.store.graphs import graph_exists
 
 #: seconds between two looks at the run processes (and the frames they grew)
 PROGRESS_POLL = 1.0
+#: seconds between a run process's two looks at whether its parent still lives
+PARENT_POLL = 0.5
 
 #: grows the stored graph ``name`` to at least ``to_frames`` frames, ``batch`` blends an epoch
 Grower = Callable[[str, int, int, Progress | None], None]
@@ -99,7 +103,10 @@ def _run_in_processes(
     """The runs through checkpoint ``last`` in a pool of spawned processes; the first
     failure stops them all (what they finished is stored, so ``--resume`` goes on from
     there). Returns the frames reported to ``progress`` so far, ``reported`` included."""
-    with get_context("spawn").Pool(jobs, maxtasksperchild=1) as pool:  # exit: terminate
+    context = get_context("spawn")
+    with context.Pool(  # exit: terminate
+        jobs, maxtasksperchild=1, initializer=die_with_parent, initargs=(os.getpid(),)
+    ) as pool:
         pending = [
             pool.apply_async(run_one, (settings, name, run, grower, None, last))
             for run in range(len(plan.runs))
@@ -114,6 +121,22 @@ def _run_in_processes(
                 progress(grown - reported)
                 reported = grown
     return reported
+
+
+def die_with_parent(parent: int) -> None:
+    """In a run process: exit as soon as the experiment's process is gone.
+
+    A pool's processes outlive a SIGKILLed parent (nothing terminates them) and would go
+    on writing to the graphs a ``--resume`` is about to grow; a daemon thread watching
+    the parent's pid ends them within :data:`PARENT_POLL` seconds instead.
+    """
+
+    def watch() -> None:
+        while os.getppid() == parent:
+            time.sleep(PARENT_POLL)
+        os._exit(1)
+
+    threading.Thread(target=watch, name="die-with-parent", daemon=True).start()
 
 
 def frames_grown(name: str, plan: ExperimentPlan) -> int:
