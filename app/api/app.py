@@ -1,8 +1,9 @@
 """The FastAPI application factory: API routes under ``/api``, the web client at ``/``.
 
-Around the routes: every body bounded (:mod:`app.api.bodylimit`), CORS for third-party
-clients when ``cors_origins`` is set (off by default: the web client is same-origin),
-and a last ``/api`` route answering 404 or 405 with ``Allow`` (:func:`~app.api.errors.no_route`)
+Around the routes: every body bounded (:mod:`app.api.bodylimit`), HEAD answered as GET
+on every route (:mod:`app.api.head`), CORS for third-party clients when ``cors_origins``
+is set (off by default: the web client is same-origin), and a last ``/api`` route
+answering 404 or 405 with ``Allow`` for every method (:class:`~app.api.errors.NoRoute`)
 so no API request falls through to the static files.
 """
 
@@ -18,12 +19,14 @@ from typing import Any
 from fastapi import FastAPI
 from fastapi.middleware.cors import CORSMiddleware
 from fastapi.staticfiles import StaticFiles
+from starlette.routing import Route
 
 from app.api.bodylimit import BodyLimit
 from app.api.cache import FrozenCache
 from app.api.encoding import EncodedJson
-from app.api.errors import ANY_METHOD, error_responses, install_error_handlers, no_route
+from app.api.errors import NoRoute, error_responses, install_error_handlers
 from app.api.growth_jobs import GrowthJobs
+from app.api.head import HeadAsGet
 from app.api.ratelimit import RateLimits
 from app.api.routes import admin, animations, graphs, health, players, traces
 from app.config import Settings, get_settings
@@ -60,7 +63,12 @@ def create_app(settings: Settings | None = None) -> FastAPI:
         yield
         engine.dispose()
 
-    app = FastAPI(title="srg", summary="Self-refining games: play API", lifespan=lifespan)
+    app = FastAPI(
+        title="srg",
+        summary="Self-refining games: play API",
+        description="Every GET route answers HEAD too: GET's status and headers, no body.",
+        lifespan=lifespan,
+    )
     app.state.settings = settings
     app.state.session_factory = session_factory(engine)
     app.state.artifacts = ArtifactStore(settings.resolved_artifact_dir)
@@ -70,10 +78,13 @@ def create_app(settings: Settings | None = None) -> FastAPI:
     app.state.derived = FrozenCache[bytes](DERIVED_CACHED)
     app.state.growth_jobs = GrowthJobs()
     install_error_handlers(app)
+    # every route reads the database, and BodyLimit reads every Content-Length
+    framing = error_responses(400, 503, s400="a malformed Content-Length")
     for module in (graphs, animations, players, traces, admin, health):
-        app.include_router(module.router, responses=error_responses(503))  # every one reads
-    app.add_route("/api/{path:path}", no_route, methods=ANY_METHOD, include_in_schema=False)
+        app.include_router(module.router, responses=framing)
+    app.router.routes.append(Route("/api/{path:path}", NoRoute(), include_in_schema=False))
     app.mount("/", StaticFiles(directory=STATIC_DIR, html=True), name="client")
+    app.add_middleware(HeadAsGet)
     app.add_middleware(
         BodyLimit,
         default=settings.max_body_bytes,

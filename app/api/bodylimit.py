@@ -6,7 +6,9 @@ body without one (chunked) is counted while the route reads it, and reading past
 limit raises :class:`BodyTooLarge` (an HTTP exception, which FastAPI lets through as
 it is rather than as "error parsing the body"), answered 413 by the error handlers.
 Trace uploads have their own limit (``max_trace_bytes``); every other body has
-``max_body_bytes``.
+``max_body_bytes``. A ``Content-Length`` that is not one decimal number (``abc``, ``-1``,
+two different values; RFC 9110 8.6 lets a list of one value repeated pass) is a 400 in
+the API's error shape: no body can be read by it.
 """
 
 from __future__ import annotations
@@ -36,7 +38,11 @@ class BodyLimit:
             await self.app(scope, receive, send)
             return
         limit = self.per_path.get(scope["path"].rstrip("/"), self.default)
-        declared = _content_length(scope)
+        try:
+            declared = _content_length(scope)
+        except MalformedContentLength as exc:
+            await error_response(400, str(exc))(scope, receive, send)
+            return
         if declared is not None and declared > limit:
             too_large = BodyTooLarge(limit)
             response = error_response(413, str(too_large.detail), details=too_large.details)
@@ -56,8 +62,22 @@ class BodyLimit:
         await self.app(scope, bounded_receive, send)
 
 
+class MalformedContentLength(ValueError):
+    def __init__(self) -> None:
+        super().__init__("malformed Content-Length: it must be one decimal number of bytes")
+
+
 def _content_length(scope: Scope) -> int | None:
-    for name, value in scope["headers"]:
-        if name == b"content-length":
-            return int(value) if value.isdigit() else None
-    return None
+    """The declared length, ``None`` without one; every header and list item counted."""
+    values = {
+        part.strip()
+        for name, value in scope["headers"]
+        if name == b"content-length"
+        for part in value.split(b",")
+    }
+    if not values:
+        return None
+    (value, *others) = values
+    if others or not value.isdigit():  # bytes.isdigit: ASCII digits only
+        raise MalformedContentLength
+    return int(value)

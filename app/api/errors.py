@@ -13,8 +13,9 @@ full. Any other exception is a bug: a 500 that says no more than "internal error
 route can answer.
 
 Under ``/api`` a path no route serves is a 404, and a method no route of that path takes
-is a 405 whose ``Allow`` lists every method the path's routes take (:func:`no_route`):
-such requests never fall through to the web client's static files.
+(any method, ``PROPFIND`` too) is a 405 whose ``Allow`` lists every method the path's
+routes take (:class:`NoRoute`): such requests never fall through to the web client's
+static files.
 """
 
 from __future__ import annotations
@@ -30,7 +31,9 @@ from pydantic import ValidationError
 from sqlalchemy.exc import DBAPIError
 from starlette.exceptions import HTTPException as StarletteHTTPException
 from starlette.routing import Match, Mount, Route
+from starlette.types import Receive, Scope, Send
 
+from app.api.head import routed_method
 from app.api.schemas import ErrorBody
 from app.core.errors import SrgError
 from app.db import database_unavailable, parse_database_url, shown_database
@@ -42,7 +45,7 @@ ANY_METHOD = ["GET", "HEAD", "POST", "PUT", "PATCH", "DELETE", "OPTIONS", "TRACE
 
 #: what each status means, as the OpenAPI document says it
 ERROR_DESCRIPTIONS = {
-    400: "a body that cannot be read as JSON text (not UTF-8)",
+    400: "a malformed Content-Length, or a body that cannot be read as JSON text (not UTF-8)",
     401: "no bearer token (Authorization: Bearer <token>)",
     403: "a token that is not accepted here",
     404: "no such graph, publication or animation",
@@ -117,25 +120,35 @@ def allowed_methods(request: Request) -> list[str]:
         route
         for route in request.app.router.routes
         if not isinstance(route, Mount)
-        and not (isinstance(route, Route) and route.endpoint is no_route)
+        and not (isinstance(route, Route) and isinstance(route.endpoint, NoRoute))
     ]
     return [
         method
         for method in ANY_METHOD
         if any(
-            route.matches({**request.scope, "method": method})[0] is Match.FULL for route in routes
+            route.matches({**request.scope, "method": routed_method(method)})[0] is Match.FULL
+            for route in routes
         )
     ]
 
 
-async def no_route(request: Request) -> JSONResponse:
-    """The last ``/api`` route: 405 with the path's methods in ``Allow``, else 404."""
-    path = request.scope["path"]
-    allowed = allowed_methods(request)
-    if allowed:
-        message = f"{request.method} is not allowed on {path}"
-        return error_response(405, message, {"Allow": ", ".join(allowed)})
-    return error_response(404, f"no route {path}")
+class NoRoute:
+    """The last ``/api`` route: 405 with the path's methods in ``Allow``, else 404.
+
+    An ASGI app rather than a function: Starlette routes a function endpoint for the
+    methods it lists (GET alone by default), an app for every method there is.
+    """
+
+    async def __call__(self, scope: Scope, receive: Receive, send: Send) -> None:
+        request = Request(scope)
+        path = scope["path"]
+        allowed = allowed_methods(request)
+        if allowed:
+            message = f"{request.method} is not allowed on {path}"
+            response = error_response(405, message, {"Allow": ", ".join(allowed)})
+        else:
+            response = error_response(404, f"no route {path}")
+        await response(scope, receive, send)
 
 
 def install_error_handlers(app: FastAPI) -> None:

@@ -17,6 +17,7 @@ import threading
 
 from app.config import Settings
 from app.db import Scope
+from app.store.growth_requests import end_request, failure_reason, start_request
 
 log = logging.getLogger(__name__)
 
@@ -46,17 +47,28 @@ class GrowthJobs:
 
 
 def grow_in_background(
-    jobs: GrowthJobs, scope: Scope, settings: Settings, graph_id: int, expansions: int
+    jobs: GrowthJobs,
+    scope: Scope,
+    settings: Settings,
+    graph_id: int,
+    expansions: int,
+    request_id: int,
 ) -> None:
-    """Grow a claimed graph by ``expansions``, then release it; failures are logged only
-    (nobody waits on a background job to raise to)."""
+    """Grow a claimed graph by ``expansions``, then release it. Nobody waits on a
+    background job to raise to, so how it ended goes to its request row, which the poll
+    route shows (and to the log)."""
     from app.services import growing  # growth is loaded when something grows
 
     try:
+        with scope() as session:
+            start_request(session, request_id)
         result = growing.grow_graph(scope, settings, name=graph_id, expansions=expansions)
-    except Exception:
+    except Exception as exc:
         log.exception("background growth of graph %d failed", graph_id)
+        _record_failure(scope, request_id, exc)
     else:
+        with scope() as session:
+            end_request(session, request_id, done=result.expansions)
         log.info(
             "graph %d grew by %d expansions in %d epochs (%d frames)",
             graph_id,
@@ -68,8 +80,16 @@ def grow_in_background(
         jobs.release(graph_id)
 
 
-def send_to_workers(graph_id: int, expansions: int, *, renders: bool) -> None:
+def _record_failure(scope: Scope, request_id: int, exc: Exception) -> None:
+    try:
+        with scope() as session:
+            end_request(session, request_id, failure=failure_reason(exc))
+    except Exception:  # the database itself failed: the poll then reports a lost job
+        log.exception("could not record the failure of growth request %d", request_id)
+
+
+def send_to_workers(graph_id: int, expansions: int, request_id: int, *, renders: bool) -> None:
     """One ``srg.grow_epoch`` of ``expansions``: a worker plans the epoch and fans it out."""
     from app.tasks import growth
 
-    growth.grow_epoch.delay(graph_id, expansions, renders)
+    growth.grow_epoch.delay(graph_id, expansions, renders, request_id)

@@ -15,6 +15,8 @@ from contextlib import contextmanager
 import uvicorn
 from fastapi import FastAPI
 
+from app.api.serving import UVICORN_OPTIONS
+
 LOOPBACK = "127.0.0.1"
 
 
@@ -24,8 +26,7 @@ def serve_in_thread(app: FastAPI, *, startup_timeout: float = 15.0) -> Iterator[
     sock = socket.socket(socket.AF_INET, socket.SOCK_STREAM)
     sock.bind((LOOPBACK, 0))
     port = sock.getsockname()[1]
-    # proxy_headers off: the app alone decides whom to trust (SRG_TRUSTED_PROXIES)
-    config = uvicorn.Config(app, log_level="warning", access_log=False, proxy_headers=False)
+    config = uvicorn.Config(app, log_level="warning", access_log=False, **UVICORN_OPTIONS)
     server = uvicorn.Server(config)
     thread = threading.Thread(target=server.run, kwargs={"sockets": [sock]}, daemon=True)
     thread.start()

@@ -1,9 +1,10 @@
 """Request and response bodies of the HTTP API.
 
-Integers are strict (JSON ``true`` or ``1.0`` is not a vertex) and bounded to the
-32-bit range of the database columns, so a hostile number is a 422, never a driver
-error. Idempotency keys are limited to URL-safe characters: they are stored as text
-on SQLite and PostgreSQL alike (PostgreSQL rejects NUL characters in text).
+Integers are JSON Schema's: a number with no fractional part (``211.0`` is 211;
+``211.5``, ``true`` and ``"211"`` are not integers), bounded to the 32-bit range of the
+database columns, so a hostile number is a 422, never a driver error. Idempotency keys
+are limited to URL-safe characters: they are stored as text on SQLite and PostgreSQL
+alike (PostgreSQL rejects NUL characters in text).
 """
 
 from __future__ import annotations
@@ -11,12 +12,23 @@ from __future__ import annotations
 from datetime import datetime
 from typing import Annotated, Literal
 
-from pydantic import BaseModel, ConfigDict, Field, StrictInt
+from pydantic import BaseModel, BeforeValidator, ConfigDict, Field, StrictInt
 
 INT32_MAX = 2**31 - 1
 
-Index = Annotated[StrictInt, Field(ge=0, le=INT32_MAX)]
-Id = Annotated[StrictInt, Field(ge=1, le=INT32_MAX)]
+
+def _integral_float_as_int(value: object) -> object:
+    """211.0 as 211: JSON Schema's ``integer`` takes it, pydantic's strict int would not
+    (and its lax int takes ``true`` and ``"211"`` too, which JSON Schema does not)."""
+    if isinstance(value, float) and value.is_integer():
+        return int(value)
+    return value
+
+
+#: last in ``Annotated``, so that it runs before the bounds and the document keeps them
+AS_JSON_INTEGER = BeforeValidator(_integral_float_as_int)
+Index = Annotated[StrictInt, Field(ge=0, le=INT32_MAX), AS_JSON_INTEGER]
+Id = Annotated[StrictInt, Field(ge=1, le=INT32_MAX), AS_JSON_INTEGER]
 IdempotencyKey = Annotated[str, Field(min_length=1, max_length=128, pattern=r"^[A-Za-z0-9_.:-]+$")]
 
 
@@ -97,7 +109,7 @@ class AdminResult(BaseModel):
 class GrowRequest(BaseModel):
     model_config = ConfigDict(extra="forbid")
 
-    expansions: Annotated[StrictInt, Field(ge=1, le=10_000)] = 4
+    expansions: Annotated[StrictInt, Field(ge=1, le=10_000), AS_JSON_INTEGER] = 4
 
 
 class GrowQueued(BaseModel):
@@ -108,6 +120,8 @@ class GrowQueued(BaseModel):
     #: "workers": one Celery ``grow_epoch`` of that many expansions; "server": a background
     #: job of this server, in epochs of ``SRG_BATCH_SIZE``
     runs_on: Literal["workers", "server"]
+    #: the request's id: the poll's ``growth`` tells what became of it
+    request: int
     #: the graph's latest epoch number when the growth was queued: its epochs come after
     after_epoch: int
     #: GET it (admin token) for the epochs after ``after_epoch``
@@ -130,10 +144,23 @@ class EpochOut(BaseModel):
     finished_at: datetime | None
 
 
+class GrowthOut(BaseModel):
+    """The graph's latest accepted growth request and how it ended."""
+
+    request: int
+    expansions: int
+    runs_on: Literal["workers", "server"]
+    state: Literal["queued", "running", "finished", "failed"]
+    #: why it failed, in one line; null otherwise
+    reason: str | None
+
+
 class GraphEpochs(BaseModel):
     graph: str
     #: an epoch of the graph is running, or this server is growing the graph
     running: bool
+    #: the latest growth the admin route accepted for the graph; null if none
+    growth: GrowthOut | None
     #: oldest first, at most 100 (ask again with ``after`` the last number)
     epochs: list[EpochOut]
 

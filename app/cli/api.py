@@ -23,6 +23,7 @@ def serve(
     import uvicorn
 
     from app.api.app import create_app
+    from app.api.serving import UVICORN_OPTIONS
     from app.db import get_engine, require_current_schema, require_intact
 
     # refused here in one line, rather than served as a 503 to every request: a database
@@ -30,9 +31,7 @@ def serve(
     engine = get_engine()
     require_current_schema(engine)
     require_intact(engine)
-    # proxy_headers off: the app alone decides whose X-Forwarded-For to trust
-    # (SRG_TRUSTED_PROXIES); uvicorn would otherwise trust any from loopback
-    uvicorn.run(create_app(), host=host, port=port, proxy_headers=False)
+    uvicorn.run(create_app(), host=host, port=port, **UVICORN_OPTIONS)
 
 
 def analytics(

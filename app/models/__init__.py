@@ -2,7 +2,16 @@
 
 from app.models.base import Base
 from app.models.experiment import Experiment, ExperimentCheckpoint
-from app.models.graph import Artifact, Clip, Edge, ExpansionClip, Graph, GrowthEpoch, Vertex
+from app.models.graph import (
+    Artifact,
+    Clip,
+    Edge,
+    ExpansionClip,
+    Graph,
+    GrowthEpoch,
+    GrowthRequest,
+    Vertex,
+)
 from app.models.play import Player, Publication, PublicationEdge, Trace, TraceStep
 
 __all__ = [
@@ -15,6 +24,7 @@ __all__ = [
     "ExpansionClip",
     "Graph",
     "GrowthEpoch",
+    "GrowthRequest",
     "Player",
     "Publication",
     "PublicationEdge",

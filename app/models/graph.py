@@ -14,7 +14,6 @@ from sqlalchemy import (
     JSON,
     BigInteger,
     Boolean,
-    DateTime,
     Double,
     ForeignKey,
     ForeignKeyConstraint,
@@ -124,7 +123,7 @@ class GrowthEpoch(Base):
     strategy: Mapped[str] = mapped_column(String(32))
     status: Mapped[str] = mapped_column(String(16))
     started_at: Mapped[datetime] = created_at_column()
-    finished_at: Mapped[datetime | None] = mapped_column(DateTime(timezone=True))
+    finished_at: Mapped[datetime | None] = mapped_column()
     expansions: Mapped[int] = mapped_column(Integer, default=0)
     relinks: Mapped[int] = mapped_column(Integer, default=0)
     size_frames: Mapped[int] = mapped_column(Integer, default=0)
@@ -134,6 +133,34 @@ class GrowthEpoch(Base):
     warm_start: Mapped[str | None] = mapped_column(ForeignKey("artifacts.hash"))
     #: unix time of the last progress (clip stored, expansion integrated, re-send)
     heartbeat: Mapped[float | None] = mapped_column(Double)
+
+
+class GrowthRequest(Base):
+    """One growth the admin route accepted (202): what became of it, for its poll.
+
+    A growth runs after its request has been answered, in this server or on the
+    workers, so its end is written here, never only in a log (docs/play.md, "Admin").
+    """
+
+    __tablename__ = "growth_requests"
+
+    id: Mapped[int] = mapped_column(primary_key=True)
+    graph_id: Mapped[int] = mapped_column(ForeignKey("graphs.id", ondelete="CASCADE"), index=True)
+    expansions: Mapped[int] = mapped_column(Integer)
+    #: "server" or "workers"
+    runs_on: Mapped[str] = mapped_column(String(16))
+    #: queued, running, finished or failed
+    state: Mapped[str] = mapped_column(String(16))
+    #: why it failed, in one line
+    reason: Mapped[str | None] = mapped_column(String(500))
+    #: expansions done, once finished (a server job; the workers' epoch has its own count)
+    done: Mapped[int] = mapped_column(Integer, default=0)
+    #: the epoch the workers planned for it
+    epoch_id: Mapped[int | None] = mapped_column(
+        ForeignKey("growth_epochs.id", ondelete="SET NULL")
+    )
+    created_at: Mapped[datetime] = created_at_column()
+    finished_at: Mapped[datetime | None] = mapped_column()
 
 
 class ExpansionClip(Base):

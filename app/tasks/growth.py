@@ -31,6 +31,7 @@ from app.db import transaction
 from app.services import between_epochs, clips, epochs
 from app.store.epochs import running_epoch
 from app.store.graphs import StaleGraph, get_graph_row, growing_graph_ids, size_frames
+from app.store.growth_requests import end_request, failure_reason, start_request
 from app.tasks.celery_app import celery_app
 from app.tasks.liveness import epoch_work_alive
 
@@ -132,13 +133,36 @@ def publish(self: Any, graph_id: int) -> int:
 
 
 @celery_app.task(name="srg.grow_epoch")
-def grow_epoch(graph_id: int, count: int | None = None, renders: bool | None = None) -> int | None:
+def grow_epoch(
+    graph_id: int,
+    count: int | None = None,
+    renders: bool | None = None,
+    request: int | None = None,
+) -> int | None:
     """Plan the graph's next epoch (or re-send a stalled one) and dispatch its canvas.
 
     ``count`` blend edges are expanded (default ``SRG_BATCH_SIZE``); ``renders`` says
-    whether to render animations (default ``SRG_GROWTH_RENDERS``). Returns the epoch
-    id, or None when an epoch of the graph is already running.
+    whether to render animations (default ``SRG_GROWTH_RENDERS``); ``request`` is the
+    admin route's growth request, told which epoch serves it or why none does. Returns
+    the epoch id, or None when an epoch of the graph is already running.
     """
+    try:
+        epoch_id = _plan_and_send(graph_id, count, renders)
+    except Exception as exc:
+        if request is not None:
+            with transaction() as session:
+                end_request(session, request, failure=failure_reason(exc))
+        raise
+    if request is not None:
+        with transaction() as session:
+            if epoch_id is None:
+                end_request(session, request, failure="an epoch of the graph was running")
+            else:
+                start_request(session, request, epoch_id)
+    return epoch_id
+
+
+def _plan_and_send(graph_id: int, count: int | None, renders: bool | None) -> int | None:
     settings = get_settings()
     renders = settings.growth_renders if renders is None else renders
     lost = _quiet_epoch_lost(graph_id, settings.epoch_check_after)

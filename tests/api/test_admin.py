@@ -23,10 +23,12 @@ from app.api.app import create_app
 from app.api.local_server import serve_in_thread
 from app.config import Settings
 from app.db import make_engine, session_factory
-from app.models import Base
+from app.models import Base, Clip
 from app.models import Publication as PublicationRow
 from app.services.creation import init_graph
+from app.store.artifacts import ArtifactStore
 from app.store.epochs import start_epoch
+from app.store.growth_requests import add_request, start_request
 
 ADMIN = {"Authorization": f"Bearer {ADMIN_TOKEN}"}
 OFF = {"error": "admin routes are off: set SRG_ADMIN_TOKEN", "details": None}
@@ -80,6 +82,7 @@ def test_admin_grow_answers_202_and_its_epochs_are_polled(
         "graph": published.name,
         "expansions": 5,
         "runs_on": "server",
+        "request": queued["request"],
         "after_epoch": 0,
         "poll": f"/api/graphs/{published.name}/epochs?after=0",
     }
@@ -94,8 +97,44 @@ def test_admin_grow_answers_202_and_its_epochs_are_polled(
         (2, "finished", 1),
     ]
     assert epochs[1]["planned"] == 1 and epochs[1]["finished_at"] is not None
+    assert answer["growth"] == {
+        "request": queued["request"],
+        "expansions": 5,
+        "runs_on": "server",
+        "state": "finished",
+        "reason": None,
+    }
     later = client.get(f"/api/graphs/{published.name}/epochs?after=2", headers=ADMIN)
     assert later.json()["epochs"] == []
+
+
+def test_a_background_growth_that_fails_says_why_on_its_poll(
+    client: TestClient, published: Published, session: Session, artifacts: ArtifactStore
+) -> None:
+    """Accepted (202), then failed after the answer: the poll says failed and why, not
+    ``running: false`` beside finished epochs."""
+    for digest in session.scalars(select(Clip.bundle).where(Clip.graph_id == published.graph_id)):
+        path = artifacts.path_for(digest)
+        path.write_bytes(path.read_bytes()[::-1])
+    reply = client.post(f"/api/graphs/{published.name}/grow", json={"expansions": 3}, headers=ADMIN)
+    assert reply.status_code == 202, reply.text
+    answer = client.get(reply.json()["poll"], headers=ADMIN).json()
+    assert answer["running"] is False
+    growth = answer["growth"]
+    assert growth["request"] == reply.json()["request"] and growth["state"] == "failed"
+    assert "does not match its hash" in growth["reason"]
+
+
+def test_a_server_growth_whose_job_is_gone_is_reported_failed(
+    client: TestClient, published: Published, session: Session
+) -> None:
+    """A request left running by a server that stopped is not running for ever."""
+    request_id = add_request(session, published.graph_id, 9, "server")
+    start_request(session, request_id)
+    session.commit()
+    growth = client.get(f"/api/graphs/{published.name}/epochs", headers=ADMIN).json()["growth"]
+    assert growth["request"] == request_id and growth["state"] == "failed"
+    assert "ended without recording" in growth["reason"]
 
 
 def test_bad_admin_grow_requests_get_4xx_json(client: TestClient, published: Published) -> None:
@@ -134,7 +173,7 @@ def test_with_a_broker_admin_grow_sends_grow_epoch_to_the_workers(
         reply = workers.post(grow, json={"expansions": 7}, headers=ADMIN)
         assert reply.status_code == 202, reply.text
         assert reply.json()["runs_on"] == "workers" and reply.json()["after_epoch"] == 0
-        assert sent == [(published.graph_id, 7, False)]
+        assert sent == [(published.graph_id, 7, False, reply.json()["request"])]
         start_epoch(session, published.graph_id, "sr-crowd")  # a worker's epoch is running
         session.commit()
         busy = workers.post(grow, headers=ADMIN)

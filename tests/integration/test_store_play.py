@@ -2,6 +2,8 @@
 
 from __future__ import annotations
 
+from datetime import UTC, datetime, timedelta, timezone
+
 import numpy as np
 import pytest
 from sqlalchemy import func, select
@@ -168,3 +170,20 @@ def test_growth_epochs_are_numbered_per_graph(session: Session, saved: tuple[int
         EpochStatus.FINISHED, 4, 2, 480,
     )  # fmt: skip
     assert done.finished_at is not None and rows[1].status == EpochStatus.RUNNING
+
+
+def test_timestamps_read_back_aware_in_utc(session: Session, saved: tuple[int, Toy]) -> None:
+    """SQLite keeps no time zone: its timestamps came back naive, and the API answered
+    them without the offset RFC 3339 requires. On both databases they are UTC instants."""
+    graph_id, _ = saved
+    epoch_id = start_epoch(session, graph_id, "sr-crowd")
+    finish_epoch(session, epoch_id, expansions=1, relinks=0, size_frames=60)
+    epoch = session.get_one(GrowthEpoch, epoch_id)
+    session.refresh(epoch)  # the database's clock: CURRENT_TIMESTAMP on SQLite, now() here
+    assert epoch.started_at.tzinfo is UTC and epoch.finished_at is not None
+    assert epoch.finished_at.tzinfo is UTC
+    two_hours_east = datetime(2026, 1, 2, 3, 4, 5, tzinfo=timezone(timedelta(hours=2)))
+    epoch.finished_at = two_hours_east
+    session.flush()
+    session.refresh(epoch)
+    assert epoch.finished_at == two_hours_east and epoch.finished_at.tzinfo is UTC

@@ -12,7 +12,7 @@ from pathlib import Path
 import numpy as np
 import pytest
 from database_helpers import migrate
-from sqlalchemy import func, select
+from sqlalchemy import func, select, update
 from tasks_cluster import RedisServer
 from tasks_helpers import eager_reference, seed_graph, snapshot
 
@@ -25,12 +25,14 @@ from app.core.player_models import PlayerModelKind
 from app.core.refinement import RefinerConfig
 from app.core.toy import ToyDynamics
 from app.db import get_engine, session_factory, transaction
-from app.models import Clip, Graph, GrowthEpoch
+from app.models import Clip, Graph, GrowthEpoch, GrowthRequest
 from app.services import clips, epochs, growing, refining
 from app.services.loading import open_graph
 from app.store.animations import clip_animations, edges_without_animation
 from app.store.artifacts import ArtifactStore
+from app.store.epochs import start_epoch
 from app.store.graphs import create_graph, load_graph, save_graph
+from app.store.growth_requests import add_request, latest_request
 from app.store.occupancy_cache import RedisShapeCache
 from app.tasks import celery_app
 from app.tasks.celery_app import celery_config
@@ -82,6 +84,28 @@ def test_grow_epoch_task_grows_what_grow_graph_grows(settings: Settings, tmp_pat
         grown = snapshot(session, settings, graph_id)
     assert len(grown["vertex_control"]) == 4 + 8
     assert grown == eager_reference(tmp_path / "ref", 2)
+
+
+def test_grow_epoch_tells_its_request_which_epoch_serves_it_or_why_none_does(
+    settings: Settings,
+) -> None:
+    graph_id = seed_graph(settings)
+    with transaction() as session:
+        served, refused = (add_request(session, graph_id, 2, "workers") for _ in range(2))
+        start_epoch(session, graph_id, "baseline")  # another epoch is running, not stalled
+        session.execute(update(GrowthEpoch).values(heartbeat=time.time()))
+    assert grow_epoch.delay(graph_id, 2, False, refused).get() is None
+    with transaction() as session:
+        view = latest_request(session, graph_id)
+        assert view is not None and view.id == refused
+        assert (view.state, view.reason) == ("failed", "an epoch of the graph was running")
+        session.execute(update(GrowthEpoch).values(status="finished"))
+    epoch_id = grow_epoch.delay(graph_id, 2, False, served).get()
+    with transaction() as session:
+        row = session.get_one(GrowthRequest, served)
+        assert (row.state, row.epoch_id) == ("running", epoch_id)
+        view = latest_request(session, graph_id)  # the request after the refused one: none
+        assert view is not None and view.id == refused
 
 
 def test_integrating_twice_changes_nothing(settings: Settings) -> None:

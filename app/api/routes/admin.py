@@ -9,7 +9,7 @@ queued here (:mod:`app.api.growth_jobs`) and answered with 202 and the epochs to
 
 from __future__ import annotations
 
-from typing import Annotated
+from typing import Annotated, Literal
 from urllib.parse import quote
 
 from fastapi import APIRouter, BackgroundTasks, Depends, Query, Request
@@ -19,11 +19,20 @@ from sqlalchemy.orm import Session
 from app.api.deps import get_session, growth_scope, require_admin
 from app.api.errors import ApiError, error_responses
 from app.api.growth_jobs import GrowthJobs, grow_in_background, send_to_workers
-from app.api.schemas import INT32_MAX, AdminResult, EpochOut, GraphEpochs, GrowQueued, GrowRequest
+from app.api.schemas import (
+    INT32_MAX,
+    AdminResult,
+    EpochOut,
+    GraphEpochs,
+    GrowQueued,
+    GrowRequest,
+    GrowthOut,
+)
 from app.config import Settings
 from app.db import Scope
 from app.store.epochs import epochs_after, last_epoch_number
 from app.store.graphs import get_graph_row
+from app.store.growth_requests import RequestState, RequestView, add_request, latest_request
 from app.store.transactions import in_transaction
 
 router = APIRouter(
@@ -87,23 +96,40 @@ def grow(
     running = _running_epoch(session, graph_id)
     session.commit()  # only reads: end them before queueing
     poll = f"{router.prefix}/{quote(graph_name, safe='')}/epochs?after={after}"
-    queued = {"graph": graph_name, "expansions": expansions, "after_epoch": after, "poll": poll}
-    if not settings.eager:
-        if running is not None:
-            raise ApiError(
-                409,
-                f"epoch {running} of graph {graph_name!r} is running on the workers; "
-                "grow once it has finished",
-                details={"poll": poll},
-            )
-        send_to_workers(graph_id, expansions, renders=settings.growth_renders)
-        return GrowQueued(runs_on="workers", **queued)
-    if not jobs.claim(graph_id):
+    runs_on: Literal["workers", "server"] = "server" if settings.eager else "workers"
+    if not settings.eager and running is not None:
+        raise ApiError(
+            409,
+            f"epoch {running} of graph {graph_name!r} is running on the workers; "
+            "grow once it has finished",
+            details={"poll": poll},
+        )
+    if settings.eager and not jobs.claim(graph_id):
         raise ApiError(
             409, f"graph {graph_name!r} is already growing in this server", details={"poll": poll}
         )
-    background.add_task(grow_in_background, jobs, scope, settings, graph_id, expansions)
-    return GrowQueued(runs_on="server", **queued)
+    try:
+        request_id = in_transaction(
+            session, lambda: add_request(session, graph_id, expansions, runs_on)
+        )
+    except BaseException:
+        if settings.eager:
+            jobs.release(graph_id)
+        raise
+    if settings.eager:
+        background.add_task(
+            grow_in_background, jobs, scope, settings, graph_id, expansions, request_id
+        )
+    else:
+        send_to_workers(graph_id, expansions, request_id, renders=settings.growth_renders)
+    return GrowQueued(
+        graph=graph_name,
+        expansions=expansions,
+        runs_on=runs_on,
+        request=request_id,
+        after_epoch=after,
+        poll=poll,
+    )
 
 
 @router.get("/{name}/epochs", responses=error_responses(404, 422, s404="no such graph"))
@@ -121,6 +147,7 @@ def epochs(
     return GraphEpochs(
         graph=row.name,
         running=running,
+        growth=_growth_out(latest_request(session, row.id), jobs.running(row.id)),
         epochs=[
             EpochOut(
                 id=epoch.id,
@@ -137,6 +164,23 @@ def epochs(
             for epoch in listed
         ],
     )
+
+
+def _growth_out(view: RequestView | None, job_running: bool) -> GrowthOut | None:
+    """The request as its poll shows it. A server request left queued or running with no
+    job of this server on its graph lost its job (the server stopped, or could not
+    write the end): it is reported failed, not running for ever."""
+    if view is None:
+        return None
+    state, reason = view.state, view.reason
+    ended = state in (RequestState.FINISHED, RequestState.FAILED)
+    if view.runs_on == "server" and not ended and not job_running:
+        state = RequestState.FAILED
+        reason = "its job in this server ended without recording how (the server stopped?)"
+    return GrowthOut(
+        request=view.id, expansions=view.expansions, runs_on=view.runs_on, state=state,
+        reason=reason,
+    )  # fmt: skip
 
 
 def _running_epoch(session: Session, graph_id: int) -> int | None:

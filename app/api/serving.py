@@ -1,0 +1,41 @@
+"""How uvicorn serves the API: the options ``srg serve`` and the loopback server share.
+
+uvicorn's HTTP/1.1 parser (h11) refuses a request it cannot frame (a malformed or
+conflicting ``Content-Length``, a bad request line or header) before the app sees it,
+with a 400 in plain text: :class:`JsonRefusalH11` writes that 400 in the API's error
+shape instead, like every other error (h11 even where httptools is installed, whose
+refusals are plain text too). uvicorn's own proxy-header handling is off: the app alone
+decides whose ``X-Forwarded-For`` to trust (``SRG_TRUSTED_PROXIES``), where uvicorn would
+trust any from loopback.
+"""
+
+from __future__ import annotations
+
+from typing import Any
+
+import h11
+from uvicorn.protocols.http.h11_impl import H11Protocol
+
+from app.api.errors import error_response
+
+UNREADABLE = "invalid HTTP request: a malformed Content-Length, request line or header"
+
+
+class JsonRefusalH11(H11Protocol):
+    def send_400_response(self, msg: str) -> None:
+        """uvicorn's refusal (``msg`` is its plain "Invalid HTTP request received.")."""
+        response = error_response(400, UNREADABLE)
+        headers = [*response.raw_headers, (b"connection", b"close")]
+        for event in (
+            h11.Response(status_code=400, headers=headers, reason=b"Bad Request"),
+            h11.Data(data=response.body),
+            h11.EndOfMessage(),
+        ):
+            output = self.conn.send(event)
+            if output is not None:
+                self.transport.write(output)
+        self.transport.close()
+
+
+#: for ``uvicorn.run`` and ``uvicorn.Config``
+UVICORN_OPTIONS: dict[str, Any] = {"http": JsonRefusalH11, "proxy_headers": False}
