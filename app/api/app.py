@@ -78,10 +78,10 @@ def create_app(settings: Settings | None = None) -> FastAPI:
     app.state.derived = FrozenCache[bytes](DERIVED_CACHED)
     app.state.growth_jobs = GrowthJobs()
     install_error_handlers(app)
-    # every route reads the database, and BodyLimit reads every Content-Length
-    framing = error_responses(400, 503, s400="a malformed Content-Length")
+    # every route reads the database, and BodyLimit reads every request's Content-Length
+    any_route_answers = error_responses(400, 503, s400="a malformed Content-Length")
     for module in (graphs, animations, players, traces, admin, health):
-        app.include_router(module.router, responses=framing)
+        app.include_router(module.router, responses=any_route_answers)
     app.router.routes.append(Route("/api/{path:path}", NoRoute(), include_in_schema=False))
     app.mount("/", StaticFiles(directory=STATIC_DIR, html=True), name="client")
     app.add_middleware(HeadAsGet)

@@ -11,7 +11,9 @@ windows until it answers again: the limits then hold per process, never not at a
 
 The client address is the peer's, unless the peer is one of ``trusted_proxies``: then
 ``X-Forwarded-For`` is read from the right, and the right-most address that is not a
-trusted proxy is the client (addresses to its left are whatever the client sent).
+trusted proxy is the client (addresses to its left are whatever the client sent). A hop
+some proxies write with its port or in brackets (``203.0.113.5:4711``, ``[2001:db8::5]``,
+``[2001:db8::5]:443``) is read as the bare address, so it counts in the client's bucket.
 IPv6 clients are counted per /64, the block one subscriber usually holds.
 """
 
@@ -20,6 +22,7 @@ from __future__ import annotations
 import ipaddress
 import logging
 import math
+import re
 import time
 from collections.abc import Callable, Sequence
 from typing import Literal, TypeVar
@@ -42,6 +45,8 @@ Network = ipaddress.IPv4Network | ipaddress.IPv6Network
 #: seconds a request waits at most for the shared storage before it counts as down
 STORAGE_TIMEOUT_S = 1.0
 IPV6_CLIENT_PREFIX = 64
+#: a forwarded hop with a port, or an IPv6 one in brackets (with or without a port)
+HOP_WITH_PORT = re.compile(r"\[(?P<bracketed>[^\]]+)\](?::[0-9]+)?|(?P<ipv4>[0-9.]+):[0-9]+")
 
 
 class RateLimits:
@@ -136,7 +141,7 @@ def client_address(request: Request, trusted_proxies: Sequence[Network]) -> str:
     if not _is_trusted(peer, trusted_proxies):
         return peer
     forwarded = [
-        hop.strip()
+        bare_address(hop.strip())
         for header in request.headers.getlist("x-forwarded-for")
         for hop in header.split(",")
         if hop.strip()
@@ -145,6 +150,14 @@ def client_address(request: Request, trusted_proxies: Sequence[Network]) -> str:
         if not _is_trusted(hop, trusted_proxies):
             return hop
     return forwarded[0] if forwarded else peer
+
+
+def bare_address(hop: str) -> str:
+    """A forwarded hop without its port or brackets; any other as it is."""
+    match = HOP_WITH_PORT.fullmatch(hop)
+    if match is None:
+        return hop
+    return match["bracketed"] if match["bracketed"] is not None else match["ipv4"]
 
 
 def address_key(address: str) -> str:

@@ -47,6 +47,11 @@ def experiment(
     jobs: int | None = typer.Option(
         None, help="runs at once (default: the cores in-process; every run on workers)"
     ),
+    through: int | None = typer.Option(
+        None,
+        help="stop after this checkpoint (frames, one of the plan's) and report up to it; "
+        "--resume goes on later",
+    ),
     json_output: bool = typer.Option(False, "--json", help=JSON_HELP),
     result_path: Path | None = typer.Option(
         None, "--result", help="also write the JSON result to this file"
@@ -83,7 +88,8 @@ def experiment(
     if resume:
         if quick or any(option is not None for option in (*options, *model_options)):
             raise InvalidInput(
-                "--resume runs the stored plan: give only --name, --jobs, --json, --result, --out"
+                "--resume runs the stored plan: give only --name, --jobs, --through, --json, "
+                "--result, --out"
             )
         plan = stored_plan(name)
     else:
@@ -95,6 +101,8 @@ def experiment(
             bots,
             fixed_graph_sessions,
         )
+    last = plan.checkpoint_index(through)  # refused before the plan is stored
+    if not resume:
         plan = create_experiment(settings, name, plan)
     grower: Grower
     if settings.eager:
@@ -105,9 +113,10 @@ def experiment(
 
         grower = grow_on_workers
         jobs = jobs or len(plan.runs)
-    total = len(plan.runs) * plan.checkpoints[-1]
+    total = len(plan.runs) * plan.checkpoints[last]
     with progress_bar(total, f"{name}: frames grown") as advance:
-        result = run_experiment(settings, name, grower, jobs=jobs, progress=advance)
+        stop = None if through is None else last
+        result = run_experiment(settings, name, grower, jobs=jobs, progress=advance, through=stop)
     crowd = Strategy.SR_CROWD in plan.strategies and result["complete"]
     report = write_report(
         result,

@@ -3,7 +3,9 @@
 Schemathesis generates path parameters, queries and bodies (valid and invalid) from the
 app's own document, 25 examples a route, on SQLite and on PostgreSQL. Every answer must
 also be one the document declares for that route (status, content type and body: 4xx
-answers their ``{error, details}`` body), so the document tells the truth.
+answers their ``{error, details}`` body, formats included: a ``date-time`` is RFC 3339's,
+with its offset), so the document tells the truth. Every GET is sent again as a HEAD,
+which must answer the same status and headers without a body.
 """
 
 from __future__ import annotations
@@ -25,11 +27,18 @@ from schemathesis.checks import (
     response_schema_conformance,
     status_code_conformance,
 )
+from schemathesis.config import SchemathesisConfig
 from schemathesis.openapi import from_dict
 from sqlalchemy.orm import Session
 
 import app.api.routes.admin
 from app.api.growth_jobs import GrowthJobs
+from app.store.epochs import finish_epoch, start_epoch
+
+#: the defaults, said here rather than left to a schemathesis.toml: formats are checked
+CONFIG = SchemathesisConfig.from_dict(
+    {"checks": {"response_schema_conformance": {"validate-formats": True}}}
+)
 
 
 def _no_growth(jobs: GrowthJobs, _scope: Any, _settings: Any, graph_id: int, *_: Any) -> None:
@@ -46,6 +55,9 @@ def fuzz_client(
     monkeypatch: pytest.MonkeyPatch,
 ) -> Iterator[TestClient]:
     monkeypatch.setattr(app.api.routes.admin, "grow_in_background", _no_growth)
+    epoch_id = start_epoch(session, published.graph_id, "sr-crowd")  # timestamps to check
+    finish_epoch(session, epoch_id, expansions=1, relinks=0, size_frames=60)
+    session.commit()
     unlimited = {
         "uploads_per_minute": 1_000_000,
         "address_upload_rate": "1000000/minute",
@@ -56,7 +68,7 @@ def fuzz_client(
 
 
 def test_no_route_answers_5xx(fuzz_client: TestClient, published: Published) -> None:
-    schema = from_dict(fuzz_client.app.openapi())  # type: ignore[attr-defined]
+    schema = from_dict(fuzz_client.app.openapi(), config=CONFIG)  # type: ignore[attr-defined]
     operations = [result.ok() for result in schema.get_all_operations()]
     assert len(operations) >= 9  # every route of the document, admin ones included
     # besides generated names and digests, ones that exist: so 2xx answers are checked too
@@ -110,5 +122,9 @@ def check_operation(
             response_schema_conformance,
         ]
         case.validate_response(response, checks=checks)
+        if request["method"] == "GET":
+            head = client.request(**{**request, "method": "HEAD"})
+            assert (head.status_code, head.headers) == (response.status_code, response.headers)
+            assert head.content == b"", case.as_curl_command()
 
     check()

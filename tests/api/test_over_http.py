@@ -1,9 +1,13 @@
-"""Bots over real HTTP on loopback, and the ingest bench at a small size."""
+"""Bots over real HTTP on loopback, what uvicorn answers itself, and the ingest bench at a
+small size."""
 
 from __future__ import annotations
 
+import json
 from collections.abc import Iterator
+from http.client import HTTPConnection
 from pathlib import Path
+from urllib.parse import urlsplit
 
 import pytest
 from sqlalchemy import func, select
@@ -11,6 +15,7 @@ from sqlalchemy import func, select
 from app.api.app import create_app
 from app.api.client import ServerError, play_over_http
 from app.api.local_server import serve_in_thread
+from app.api.serving import UNREADABLE
 from app.bench.ingest import bench_ingest, build_toy_graph
 from app.config import Settings
 from app.db import make_engine, session_factory
@@ -53,6 +58,41 @@ def test_an_unknown_graph_over_http_names_the_server_error(settings: Settings) -
         pytest.raises(ServerError, match="404 no graph 'nope'"),
     ):
         play_over_http(base_url, "nope", "random", 1, 5, seed=0)
+
+
+def _connection(base_url: str) -> HTTPConnection:
+    address = urlsplit(base_url)
+    return HTTPConnection(address.hostname or "", address.port, timeout=10)
+
+
+@pytest.mark.parametrize("lengths", [["abc"], ["-1"], ["5", "7"]])
+def test_a_request_uvicorn_cannot_frame_is_a_400_in_the_error_shape(
+    settings: Settings, lengths: list[str]
+) -> None:
+    """h11 refuses a malformed Content-Length before the app sees it: it was plain text."""
+    with serve_in_thread(create_app(settings)) as base_url:
+        connection = _connection(base_url)
+        connection.putrequest("POST", "/api/players")
+        for length in lengths:
+            connection.putheader("Content-Length", length)
+        connection.endheaders(b"{}")
+        reply = connection.getresponse()
+        assert (reply.status, reply.getheader("Content-Type")) == (400, "application/json")
+        assert json.loads(reply.read()) == {"error": UNREADABLE, "details": None}
+
+
+def test_head_over_http_answers_get_s_headers_without_the_body(settings: Settings) -> None:
+    with serve_in_thread(create_app(settings)) as base_url:
+        connection = _connection(base_url)
+        connection.request("GET", "/api/graphs")
+        got = connection.getresponse()
+        body = got.read()
+        connection.request("HEAD", "/api/graphs")
+        head = connection.getresponse()
+        assert (head.status, head.read()) == (200, b"")
+        assert head.getheader("Content-Length") == got.getheader("Content-Length") == str(len(body))
+        connection.request("GET", "/api/health")  # the connection still frames requests
+        assert connection.getresponse().status == 200
 
 
 def test_the_ingest_bench_accounts_for_every_upload() -> None:

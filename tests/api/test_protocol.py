@@ -1,19 +1,21 @@
 """The API tells the truth: its document, 405 and Allow, HEAD, ETag and gzip, health, CORS,
-and every body bounded."""
+every body bounded, JSON Schema's integers and RFC 3339's timestamps."""
 
 from __future__ import annotations
 
 from collections.abc import Iterator
+from datetime import datetime, timedelta
 from pathlib import Path
 from typing import Any
 
 import pytest
-from api_helpers import ADMIN_TOKEN, Published, make_client, player_count
+from api_helpers import ADMIN_TOKEN, Published, make_client, player_count, register, walk
 from fastapi.testclient import TestClient
 from sqlalchemy.orm import Session
 
 from app.api.app import create_app
 from app.config import Settings
+from app.store.epochs import finish_epoch, start_epoch
 
 ADMIN = {"Authorization": f"Bearer {ADMIN_TOKEN}"}
 ERROR_BODY = "#/components/schemas/ErrorBody"
@@ -45,14 +47,15 @@ def test_the_document_declares_the_error_body_every_route_sends(
             schema = operation["responses"][str(status)]["content"]["application/json"]["schema"]
             assert schema == {"$ref": ERROR_BODY}, (method, path, status)
         declared[f"{method.upper()} {path}"] = errors
-    assert declared["POST /api/traces"] == {401, 403, 404, 409, 413, 422, 429, 503}
+    assert declared["POST /api/traces"] == {400, 401, 403, 404, 409, 413, 422, 429, 503}
     assert declared["POST /api/players"] == {400, 413, 422, 429, 503}
     assert declared["POST /api/graphs/{name}/grow"] == {400, 401, 403, 404, 409, 413, 422, 503}
-    assert declared["POST /api/graphs/{name}/publish"] == {401, 403, 404, 413, 503}
-    assert declared["GET /api/graphs/{name}/epochs"] == {401, 403, 404, 422, 503}
-    assert declared["GET /api/animations/{digest}/poster"] == {404, 422, 503}
-    assert all(503 in statuses for statuses in declared.values())  # every route reads
-    assert declared["GET /api/health"] == {503}
+    assert declared["POST /api/graphs/{name}/publish"] == {400, 401, 403, 404, 413, 503}
+    assert declared["GET /api/graphs/{name}/epochs"] == {400, 401, 403, 404, 422, 503}
+    assert declared["GET /api/animations/{digest}/poster"] == {400, 404, 422, 503}
+    # every route reads the database, and every request's Content-Length is read
+    assert all({400, 503} <= statuses for statuses in declared.values())
+    assert declared["GET /api/health"] == {400, 503}
     retry_after = document["paths"]["/api/traces"]["post"]["responses"]["429"]["headers"]
     assert "Retry-After" in retry_after
 
@@ -72,7 +75,6 @@ def test_the_document_declares_bearer_auth_and_the_media_types(document: dict[st
     assert secured["POST /api/players"] == secured["GET /api/graphs"] == []
     poster = document["paths"]["/api/animations/{digest}/poster"]
     assert list(poster["get"]["responses"]["200"]["content"]) == ["image/webp"]
-    assert "head" in poster and "head" in document["paths"]["/api/animations/{digest}"]
 
 
 @pytest.mark.parametrize(
@@ -80,12 +82,15 @@ def test_the_document_declares_bearer_auth_and_the_media_types(document: dict[st
     [
         ("PUT", "/api/players", "POST"),
         ("GET", "/api/players", "POST"),
-        ("POST", "/api/graphs", "GET"),
-        ("DELETE", "/api/graphs/g/publication", "GET"),
+        ("POST", "/api/graphs", "GET, HEAD"),
+        ("DELETE", "/api/graphs/g/publication", "GET, HEAD"),
         ("POST", "/api/animations/abc", "GET, HEAD"),
         ("GET", "/api/traces", "POST"),
         ("OPTIONS", "/api/traces", "POST"),
         ("PATCH", "/api/graphs/g/grow", "POST"),
+        # methods of no route at all (WebDAV's), once left to the web client's files
+        ("PROPFIND", "/api/graphs", "GET, HEAD"),
+        ("MKCOL", "/api/traces", "POST"),
     ],
 )
 def test_a_wrong_method_is_405_with_the_path_s_methods_in_allow(
@@ -98,10 +103,29 @@ def test_a_wrong_method_is_405_with_the_path_s_methods_in_allow(
 
 
 def test_an_unknown_api_path_is_404_whatever_the_method(client: TestClient) -> None:
-    for method in ("GET", "POST", "DELETE"):
+    for method in ("GET", "POST", "DELETE", "PROPFIND"):
         reply = client.request(method, "/api/nowhere")
         assert reply.status_code == 404
         assert reply.json() == {"error": "no route /api/nowhere", "details": None}
+
+
+def test_every_get_route_answers_head_as_get_without_the_body(
+    client: TestClient, published: Published, document: dict[str, Any]
+) -> None:
+    """HEAD of a JSON route was a 405: every GET route of the document answers HEAD with
+    GET's status and headers, whether the GET succeeds or not."""
+    urls = ["/api/graphs/nope/publication", f"/api/animations/{'0' * 64}/poster?frames=0"]
+    for path, methods in document["paths"].items():
+        if "get" in methods:
+            url = path.replace("{name}", published.name).replace("{digest}", published.animation)
+            urls.append(f"{url}?frames=1")  # read by the poster and the phone clip only
+    for url in urls:
+        got, head = client.get(url, headers=ADMIN), client.head(url, headers=ADMIN)
+        assert (head.status_code, head.headers) == (got.status_code, got.headers), url
+        assert head.content == b"", url
+    assert sum(client.get(url, headers=ADMIN).status_code == 200 for url in urls) >= 5
+    refused = client.head("/api/players")  # no GET there: HEAD is not allowed either
+    assert (refused.status_code, refused.headers["Allow"]) == (405, "POST")
 
 
 def test_head_on_clips_answers_the_headers_of_get(client: TestClient, published: Published) -> None:
@@ -219,3 +243,57 @@ def test_every_body_is_bounded(
         epochs = small.get(f"/api/graphs/{published.name}/epochs", headers=ADMIN).json()
     assert epochs["epochs"] == []
     assert player_count(session) == before + 1
+
+
+@pytest.mark.parametrize("lengths", [["abc"], ["-1"], ["5, 7"], ["5", "7"]])
+def test_a_malformed_content_length_is_a_400_in_the_error_shape(
+    client: TestClient, session: Session, lengths: list[str]
+) -> None:
+    """It was let through here (and answered by uvicorn in plain text: test_over_http)."""
+    before = player_count(session)
+    headers = [("Content-Type", "application/json")]
+    headers += [("Content-Length", length) for length in lengths]
+    reply = client.post("/api/players", content=b'{"kind": "bot"}', headers=headers)
+    assert (reply.status_code, reply.json()) == (
+        400,
+        {
+            "error": "malformed Content-Length: it must be one decimal number of bytes",
+            "details": None,
+        },
+    )
+    assert player_count(session) == before
+    same_twice = [("Content-Type", "application/json"), ("Content-Length", "15, 15")]
+    assert client.post("/api/players", content=b'{"kind": "bot"}', headers=same_twice).is_success
+
+
+def test_an_integral_float_is_a_json_schema_integer(
+    client: TestClient, published: Published
+) -> None:
+    """The document says integer, and JSON Schema's integer takes 211.0: so does the API."""
+    grow = f"/api/graphs/{published.name}/grow"
+    reply = client.post(grow, json={"expansions": 1.0}, headers=ADMIN)
+    assert (reply.status_code, reply.json()["expansions"]) == (202, 1)
+    steps = [
+        [float(vertex), float(control)] for vertex, control in walk(published.publication, [0])
+    ]
+    upload = {"publication_id": float(published.publication_id), "idempotency_key": "float"}
+    stored = client.post("/api/traces", json={**upload, "steps": steps}, headers=register(client))
+    assert (stored.status_code, stored.json()["n_steps"]) == (201, 1), stored.text
+    for not_integral in (1.5, True, "1"):
+        refused = client.post(grow, json={"expansions": not_integral}, headers=ADMIN)
+        assert refused.status_code == 422, not_integral
+        assert refused.json()["details"] == [
+            {"loc": ["body", "expansions"], "msg": "Input should be a valid integer"}
+        ]
+
+
+def test_every_timestamp_carries_its_utc_offset(
+    client: TestClient, published: Published, session: Session
+) -> None:
+    """RFC 3339 (the document's date-time) requires an offset; SQLite's had none."""
+    epoch_id = start_epoch(session, published.graph_id, "sr-crowd")
+    finish_epoch(session, epoch_id, expansions=1, relinks=0, size_frames=60)
+    session.commit()
+    (epoch,) = client.get(f"/api/graphs/{published.name}/epochs", headers=ADMIN).json()["epochs"]
+    for timestamp in (epoch["started_at"], epoch["finished_at"]):
+        assert datetime.fromisoformat(timestamp).utcoffset() == timedelta(0), timestamp

@@ -104,11 +104,29 @@ def _request(peer: str, forwarded: list[str]) -> Request:
         ("10.0.0.1", ["10.0.0.8, 10.0.0.7"], "10.0.0.8"),  # all trusted: the first
         ("10.0.0.1", [], "10.0.0.1"),
         ("::1", ["2001:db8::5"], "2001:db8::5"),
+        # hops some proxies write with a port or in brackets: the bare address
+        ("10.0.0.1", ["203.0.113.5:4711"], "203.0.113.5"),
+        ("10.0.0.1", ["[2001:db8::5]"], "2001:db8::5"),
+        ("10.0.0.1", ["[2001:db8::5]:443, 10.0.0.7:8080"], "2001:db8::5"),  # proxy skipped
     ],
 )
 def test_the_client_address(peer: str, forwarded: list[str], client: str) -> None:
     trusted = parse_networks("10.0.0.0/8, ::1")
     assert client_address(_request(peer, forwarded), trusted) == client
+
+
+def test_a_hop_with_a_port_or_brackets_counts_in_the_client_s_bucket(
+    session: Session, db_url: str, artifact_dir: Path
+) -> None:
+    """Each spelling of one client's address was a bucket of its own: a fresh quota."""
+    limited = {"registration_rate": "3/minute", "trusted_proxies": "10.0.0.0/8"}
+    with make_client(session, db_url, artifact_dir, peer="10.1.2.3", **limited) as proxied:
+        spellings = ["203.0.113.9", "203.0.113.9:50000", "[203.0.113.9]", "[::ffff:203.0.113.9]:1"]
+        statuses = [
+            proxied.post("/api/players", headers={"X-Forwarded-For": hop}).status_code
+            for hop in spellings
+        ]
+        assert statuses == [201, 201, 201, 429]
 
 
 def test_ipv6_clients_count_per_64_and_bad_proxies_fail_at_startup() -> None:

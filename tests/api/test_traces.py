@@ -119,7 +119,7 @@ def test_a_step_off_the_edges_is_a_422_and_writes_nothing(
         ({"idempotency_key": "k", "steps": [[0, 0]]}, "publication_id"),
         ({"publication_id": 1, "idempotency_key": "k", "steps": []}, "steps"),
         ({"publication_id": 1, "idempotency_key": "k", "steps": [[0, True]]}, "steps"),
-        ({"publication_id": 1, "idempotency_key": "k", "steps": [[0, 1.0]]}, "steps"),
+        ({"publication_id": 1, "idempotency_key": "k", "steps": [[0, 1.5]]}, "steps"),
         ({"publication_id": 1, "idempotency_key": "k", "steps": [[0, 1, 2]]}, "steps"),
         ({"publication_id": 1, "idempotency_key": "k", "steps": [[-1, 0]]}, "steps"),
         ({"publication_id": 1, "idempotency_key": "k", "steps": [[2**40, 0]]}, "steps"),

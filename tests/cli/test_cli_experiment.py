@@ -164,9 +164,10 @@ def test_a_killed_experiment_resumes_to_the_numbers_of_an_uninterrupted_one(
     resumed = run_json(killed, "--resume", "--name", expected["name"])
     assert resumed["complete"] and resumed["plan"] == expected["plan"]
     assert differences(resumed, expected) == []
-    assert resumed["crowds"]["goal-directed"]["summary"] == expected["crowds"]["goal-directed"][
-        "summary"
-    ]
+    assert (
+        resumed["crowds"]["goal-directed"]["summary"]
+        == expected["crowds"]["goal-directed"]["summary"]
+    )
     assert resumed["comparison"] == expected["comparison"]
 
 
@@ -285,6 +286,26 @@ def test_the_experiment_benchmark_times_a_fresh_run_and_refuses_resume(tmp_path:
     assert set(figures["runs"]) == {"baseline"}
     one_line_error(srg(tmp_path, "bench", "experiment", "--resume"), "fresh experiment")
     one_line_error(srg(tmp_path, "bench", "experiment", "--preset", "huge"), "no preset")
+
+
+def test_through_stops_at_a_checkpoint_with_a_complete_report_and_resume_goes_on(
+    tmp_path: Path,
+) -> None:
+    ok(tmp_path, "db", "upgrade")
+    plan = ("--strategies", "baseline,sr-crowd", "--seeds", "0,1", "--checkpoints", "600,1500")
+    bad = srg(tmp_path, "experiment", *plan, "--sessions", "6", "--through", "900")
+    one_line_error(bad, "--through must be one of the plan's checkpoints (600, 1500)")
+    assert checkpoints_stored(tmp_path) == 0
+    first = run_json(tmp_path, *plan, "--sessions", "6", "--through", "600")
+    assert first["complete"] and first["through_frames"] == 600
+    assert [row["checkpoint_frames"] for row in first["comparison"]["goal-directed"]] == [600]
+    assert checkpoints_stored(tmp_path) == 2 * 2  # both runs, their first checkpoint only
+    whole = run_json(tmp_path, "--resume", "--name", first["name"])
+    assert whole["complete"] and whole["through_frames"] is None
+    assert len(whole["comparison"]["goal-directed"]) == 2
+    at_600 = first["comparison"]["goal-directed"][0]
+    assert "meets_targets" in at_600  # the last checkpoint of what was asked
+    assert whole["comparison"]["goal-directed"][0]["error_ratio"] == at_600["error_ratio"]
 
 
 def test_a_second_experiment_of_one_name_needs_resume(tmp_path: Path) -> None:

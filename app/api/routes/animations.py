@@ -6,7 +6,7 @@ are served: clip bundles are internal data. A poster (the clip's first frame, fo
 first paint before clips are decoded) and the phone's clip (the frames at half their
 size, for a small screen) are cut from the stored clip on request rather than stored:
 they are derived data, and as cacheable as the clip they come from, so storage pays for one size
-only. All answer HEAD as GET, without the body.
+only. HEAD answers as GET without the body, as on every route (:mod:`app.api.head`).
 """
 
 from __future__ import annotations
@@ -119,14 +119,6 @@ def animation(digest: str, request: Request, session: Session = Depends(get_sess
     )
 
 
-@router.head("/{digest}", response_class=Response, responses=ANIMATION_RESPONSES)
-def animation_head(
-    digest: str, request: Request, session: Session = Depends(get_session)
-) -> Response:
-    """The strip's headers (length, type, ETag), without the strip."""
-    return animation(digest, request, session)
-
-
 def _derived(
     session: Session,
     request: Request,
@@ -170,14 +162,6 @@ def poster(
     return _derived(session, request, digest, frames, "poster", first_frame, POSTER_MEDIA_TYPE)
 
 
-@router.head("/{digest}/poster", response_class=Response, responses=POSTER_RESPONSES)
-def poster_head(
-    digest: str, frames: FramesQuery, request: Request, session: Session = Depends(get_session)
-) -> Response:
-    """The poster's headers, without the image."""
-    return poster(digest, frames, request, session)
-
-
 @router.get("/{digest}/phone", response_class=Response, responses=PHONE_RESPONSES)
 def phone(
     digest: str, frames: FramesQuery, request: Request, session: Session = Depends(get_session)
@@ -188,11 +172,3 @@ def phone(
         return phone_strip(data, frames)
 
     return _derived(session, request, digest, frames, "phone", half, STRIP_MEDIA_TYPE)
-
-
-@router.head("/{digest}/phone", response_class=Response, responses=PHONE_RESPONSES)
-def phone_head(
-    digest: str, frames: FramesQuery, request: Request, session: Session = Depends(get_session)
-) -> Response:
-    """The phone strip's headers, without the strip."""
-    return phone(digest, frames, request, session)

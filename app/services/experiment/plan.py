@@ -65,6 +65,15 @@ class ExperimentPlan:
     #: checkpoint, resumed or not, counts high-error steps against one threshold
     high_error_threshold: float | None = None
 
+    def checkpoint_index(self, frames: int | None) -> int:
+        """The index of the checkpoint at ``frames`` (the last when None)."""
+        if frames is None:
+            return len(self.checkpoints) - 1
+        if frames not in self.checkpoints:
+            known = ", ".join(str(c) for c in self.checkpoints)
+            raise InvalidInput(f"--through must be one of the plan's checkpoints ({known})")
+        return self.checkpoints.index(frames)
+
     def __post_init__(self) -> None:
         if self.dynamics not in DYNAMICS_NAMES:
             raise UnknownDynamics(f"unknown dynamics {self.dynamics!r}")

@@ -7,6 +7,7 @@ with baseline seed by seed, against targets set before any liquid run
 
 from __future__ import annotations
 
+from dataclasses import replace
 from typing import Any
 
 import numpy as np
@@ -53,8 +54,12 @@ PREDICTION_KEYS = (
 )
 
 
-def collect(settings: Settings, name: str, seconds: float | None = None) -> dict[str, Any]:
-    """Every stored checkpoint of the experiment as the result dict the report reads.
+def collect(
+    settings: Settings, name: str, seconds: float | None = None, through: int | None = None
+) -> dict[str, Any]:
+    """Every stored checkpoint of the experiment (up to index ``through``, all when None)
+    as the result dict the report reads; ``through`` reports an experiment run so far as
+    one whose last checkpoint is that one.
 
     ``crowds.<bot>`` holds what that crowd met on every run it played, in the shape of a
     one-crowd experiment (``results.<strategy>.<seed>[i]`` and its ``summary``;
@@ -63,8 +68,11 @@ def collect(settings: Settings, name: str, seconds: float | None = None) -> dict
     (:func:`compare_with_baseline`).
     """
     plan = stored_plan(name)
+    if through is not None:
+        plan = replace(plan, checkpoints=plan.checkpoints[: through + 1])
     with transaction() as session:
         rows = checkpoint_rows(session, stored_experiment_id(session, name))
+    rows = [row for row in rows if row.checkpoint < len(plan.checkpoints)]
     crowds: dict[str, dict[str, dict[str, list[dict[str, Any]]]]] = {
         bot.value: {s.value: {str(seed): [] for seed in plan.seeds} for s in plan.strategies}
         for bot in plan.bots
@@ -105,6 +113,7 @@ def collect(settings: Settings, name: str, seconds: float | None = None) -> dict
         },
         "comparison": compare_with_baseline(plan, samples) if complete else {},
         "seconds": None if seconds is None else round(seconds, 2),
+        "through_frames": None if through is None else plan.checkpoints[-1],
     }
 
 

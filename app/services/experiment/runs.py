@@ -70,8 +70,10 @@ def run_experiment(
     *,
     jobs: int = 1,
     progress: Progress | None = None,
+    through: int | None = None,
 ) -> dict[str, Any]:
-    """Run (or finish) every run of a stored experiment; return :func:`collect`'s result.
+    """Run (or finish) every run of a stored experiment, through checkpoint index
+    ``through`` (all when None); return :func:`collect`'s result up to there.
 
     ``jobs > 1`` runs that many (strategy, seed) runs at once in spawned processes
     (PyOpenCL contexts do not survive a fork); progress then comes from the database.
@@ -79,7 +81,7 @@ def run_experiment(
     plan = stored_plan(name)
     started = time.perf_counter()
     reported = 0
-    for last in range(len(plan.checkpoints)):
+    for last in range(len(plan.checkpoints) if through is None else through + 1):
         if jobs <= 1:
             for run in range(len(plan.runs)):
                 run_one(settings, name, run, grower, progress, last=last)
@@ -87,7 +89,7 @@ def run_experiment(
             reported = _run_in_processes(
                 settings, name, plan, grower, jobs, progress, last, reported
             )
-    return collect(settings, name, seconds=time.perf_counter() - started)
+    return collect(settings, name, seconds=time.perf_counter() - started, through=through)
 
 
 def _run_in_processes(
