@@ -75,11 +75,11 @@ class Settings(BaseSettings):
         description="crowd model of new sr-crowd graphs: knn (default: docs/player-models.md), "
         "eq2 (the paper's) or logit",
     )
-    epoch_check_after: float = Field(
-        60.0,
-        ge=0,
-        description="seconds without progress after which workers and broker are asked "
-        "whether a running epoch's work is still alive (re-sent at once if not)",
+    epoch_check_interval: float = Field(
+        10.0,
+        gt=0,
+        description="seconds between the workers' looks at every running epoch's missing "
+        "work; work that no live worker or queue holds on two looks running is re-sent",
     )
     epoch_resend_after: float = Field(
         1800.0,

@@ -54,6 +54,7 @@ from app.store.epochs import (
     record_clip,
     record_plan,
     running_epoch,
+    running_epoch_ids,
     start_epoch,
     stored_clips,
 )
@@ -115,26 +116,21 @@ def plan_epoch(
     *,
     count: int | None = None,
     strategy: Strategy | None = None,
-    work_lost: bool = False,
 ) -> EpochPlan | None:
     """Open the graph's next epoch, or re-send a stalled one; None if one is running.
 
-    A running epoch is returned again (``resent=True``) for its missing work to be
-    dispatched once more when it has made no progress for ``settings.epoch_check_after``
-    seconds and the caller found its work lost (``work_lost``: no worker or queue holds
-    any of it), or for ``settings.epoch_resend_after`` seconds whatever the caller
-    found. Two concurrent calls are serialised by the graph's lock, and the unique
+    A running epoch that has made no progress for ``settings.epoch_resend_after``
+    seconds is returned again (``resent=True``) for its missing work to be dispatched
+    once more, whatever holds it: the backstop behind :func:`resend_epoch`, for a task
+    that hangs. Two concurrent calls are serialised by the graph's lock, and the unique
     (graph, number) of epochs is the backstop, so epochs of one graph never overlap.
     """
     row = lock_graph(session, graph_id)
     running = running_epoch(session, graph_id)
     if running is not None:
-        quiet = time.time() - (running.heartbeat or 0.0)
-        if quiet < (settings.epoch_check_after if work_lost else settings.epoch_resend_after):
+        if time.time() - (running.heartbeat or 0.0) < settings.epoch_resend_after:
             return None
-        beat(session, running.id)
-        plan = [(int(e), int(c)) for e, c in running.plan or []]
-        return EpochPlan(running.id, graph_id, plan, running.relinks, resent=True)
+        return _resent(session, running)
     loaded = loaded_graph(session, settings, row)
     refiner = refiner_for(session, settings, loaded, strategy)
     ranked = rank_stored(session, loaded, refiner)
@@ -164,6 +160,29 @@ def plan_epoch(
     return EpochPlan(
         epoch_id, graph_id, expansions, len(outcome.relinked), ranking_fallback=ranked.fallback
     )
+
+
+def resend_epoch(session: Session, epoch_id: int) -> EpochPlan | None:
+    """The running epoch ``epoch_id`` again, its work found lost; None once it has ended.
+
+    Under the graph's lock, as :func:`plan_epoch`: an epoch that ended meanwhile is left
+    alone, and the caller, who only found lost work, never opens the graph's next one.
+    """
+    epoch, _row = lock_epoch_graph(session, epoch_id)
+    if epoch.status != EpochStatus.RUNNING:
+        return None
+    return _resent(session, epoch)
+
+
+def _resent(session: Session, epoch: GrowthEpoch) -> EpochPlan:
+    beat(session, epoch.id)  # the re-send is progress: the backstop waits again
+    plan = [(int(e), int(c)) for e, c in epoch.plan or []]
+    return EpochPlan(epoch.id, epoch.graph_id, plan, epoch.relinks, resent=True)
+
+
+def running_work(session: Session) -> list[EpochWork]:
+    """What is left of every graph's running epoch."""
+    return [epoch_work(session, epoch_id) for epoch_id in running_epoch_ids(session)]
 
 
 def epoch_work(session: Session, epoch_id: int) -> EpochWork:

@@ -100,6 +100,17 @@ def running_epoch(session: Session, graph_id: int) -> GrowthEpoch | None:
     ).first()
 
 
+def running_epoch_ids(session: Session) -> list[int]:
+    """Every graph's running epochs, oldest first."""
+    return list(
+        session.scalars(
+            select(GrowthEpoch.id)
+            .where(GrowthEpoch.status == EpochStatus.RUNNING)
+            .order_by(GrowthEpoch.id)
+        )
+    )
+
+
 def epoch_count(session: Session, graph_id: int) -> int:
     return int(session.scalar(select(func.count()).where(GrowthEpoch.graph_id == graph_id)) or 0)
 

@@ -11,8 +11,8 @@ flat (:func:`epoch_canvas`)::
 The integrating steps form a chain so that they run in the plan's order, the order the
 eager path integrates in (blend targets depend on it). Nothing relies on the chord to
 be safe: ``integrate`` re-checks completeness itself and is idempotent, and work lost
-on the way (a killed worker, a restarted Redis) is found by the next ``grow_epoch``
-(:mod:`app.tasks.liveness`) and re-sent.
+on the way (a killed worker, a restarted Redis) is found by the workers' watchdog
+(:mod:`app.tasks.watchdog`) and re-sent through :func:`epoch_canvas` too.
 """
 
 from __future__ import annotations
@@ -33,7 +33,6 @@ from app.store.epochs import running_epoch
 from app.store.graphs import StaleGraph, get_graph_row, growing_graph_ids, size_frames
 from app.store.growth_requests import end_request, failure_reason, start_request
 from app.tasks.celery_app import celery_app
-from app.tasks.liveness import epoch_work_alive
 
 log = get_task_logger(__name__)
 
@@ -139,7 +138,7 @@ def grow_epoch(
     renders: bool | None = None,
     request: int | None = None,
 ) -> int | None:
-    """Plan the graph's next epoch (or re-send a stalled one) and dispatch its canvas.
+    """Plan the graph's next epoch (or re-send a long-stalled one) and dispatch its canvas.
 
     ``count`` blend edges are expanded (default ``SRG_BATCH_SIZE``); ``renders`` says
     whether to render animations (default ``SRG_GROWTH_RENDERS``); ``request`` is the
@@ -165,10 +164,9 @@ def grow_epoch(
 def _plan_and_send(graph_id: int, count: int | None, renders: bool | None) -> int | None:
     settings = get_settings()
     renders = settings.growth_renders if renders is None else renders
-    lost = _quiet_epoch_lost(graph_id, settings.epoch_check_after)
     try:
         with transaction() as session:
-            plan = epochs.plan_epoch(session, settings, graph_id, count=count, work_lost=lost)
+            plan = epochs.plan_epoch(session, settings, graph_id, count=count)
     except IntegrityError:  # another tick opened the same epoch number first
         return None
     if plan is None:
@@ -187,23 +185,6 @@ def _plan_and_send(graph_id: int, count: int | None, renders: bool | None) -> in
             work = epochs.epoch_work(session, plan.epoch_id)
         epoch_canvas(work, renders=renders).apply_async()
     return plan.epoch_id
-
-
-def _quiet_epoch_lost(graph_id: int, check_after: float) -> bool:
-    """Whether the graph's running epoch has been quiet a while and nothing holds its work.
-
-    Asked outside the planning transaction: the broadcast takes a second or more, and
-    the graph's row lock is not held meanwhile (plan_epoch checks the quiet time again).
-    """
-    with transaction() as session:
-        running = running_epoch(session, graph_id)
-        if running is None or time.time() - (running.heartbeat or 0.0) < check_after:
-            return False
-        epoch_id = running.id
-    alive = epoch_work_alive(celery_app, epoch_id)
-    if not alive:
-        log.warning("graph %d epoch %d: no worker or queue holds its work", graph_id, epoch_id)
-    return not alive
 
 
 @celery_app.task(name="srg.schedule_growth")
@@ -248,8 +229,9 @@ def grow_on_workers(
     """Grow the stored graph ``name`` to ``to_frames`` frames through ``grow_epoch``.
 
     The same workflow beat drives, one epoch at a time and without renders: this only
-    sends epochs and waits for them. An epoch that stalls (a lost worker or message) is
-    handed to ``grow_epoch`` again, which re-sends it once it finds the work lost.
+    sends epochs and waits for them. Work of an epoch that is lost on the way (a killed
+    worker, a restarted Redis) is re-sent by the workers themselves
+    (:mod:`app.tasks.watchdog`).
     """
     settings = get_settings()
     with transaction() as session:
@@ -260,7 +242,7 @@ def grow_on_workers(
         epoch_id = grow_epoch.delay(graph_id, min(left, batch), False).get(
             timeout=settings.task_time_limit
         )
-        _wait_for_epochs(graph_id, settings.epoch_check_after)
+        _wait_for_epochs(graph_id)
         grown = _size_frames(graph_id)
         if progress is not None:
             progress(grown - size)
@@ -274,19 +256,10 @@ def _size_frames(graph_id: int) -> int:
         return size_frames(session, graph_id)
 
 
-def _wait_for_epochs(graph_id: int, check_after: float) -> None:
-    """Until no epoch of the graph runs; a quiet one is handed to ``grow_epoch`` again."""
-    last_change = time.monotonic()
-    seen: tuple[int, float | None] | None = None
+def _wait_for_epochs(graph_id: int) -> None:
+    """Until no epoch of the graph runs."""
     while True:
         with transaction() as session:
-            running = running_epoch(session, graph_id)
-            state = None if running is None else (running.id, running.heartbeat)
-        if state is None:
-            return
-        if state != seen:
-            seen, last_change = state, time.monotonic()
-        elif time.monotonic() - last_change > check_after:
-            grow_epoch.delay(graph_id, None, False)
-            last_change = time.monotonic()
+            if running_epoch(session, graph_id) is None:
+                return
         time.sleep(EPOCH_POLL)
