@@ -79,7 +79,7 @@ class Settings(BaseSettings):
         10.0,
         gt=0,
         description="seconds between the workers' looks at every running epoch's missing "
-        "work; work that no live worker or queue holds on two looks running is re-sent",
+        "work; work that no live worker or queue holds on two looks in a row is re-sent",
     )
     epoch_resend_after: float = Field(
         1800.0,

@@ -231,7 +231,8 @@ def grow_on_workers(
     The same workflow beat drives, one epoch at a time and without renders: this only
     sends epochs and waits for them. Work of an epoch that is lost on the way (a killed
     worker, a restarted Redis) is re-sent by the workers themselves
-    (:mod:`app.tasks.watchdog`).
+    (:mod:`app.tasks.watchdog`); an epoch quiet for ``SRG_EPOCH_RESEND_AFTER`` is handed
+    to ``grow_epoch`` again.
     """
     settings = get_settings()
     with transaction() as session:
@@ -242,7 +243,7 @@ def grow_on_workers(
         epoch_id = grow_epoch.delay(graph_id, min(left, batch), False).get(
             timeout=settings.task_time_limit
         )
-        _wait_for_epochs(graph_id)
+        _wait_for_epochs(graph_id, settings.epoch_resend_after)
         grown = _size_frames(graph_id)
         if progress is not None:
             progress(grown - size)
@@ -256,10 +257,20 @@ def _size_frames(graph_id: int) -> int:
         return size_frames(session, graph_id)
 
 
-def _wait_for_epochs(graph_id: int) -> None:
-    """Until no epoch of the graph runs."""
+def _wait_for_epochs(graph_id: int, resend_after: float) -> None:
+    """Until no epoch of the graph runs; one quiet for ``resend_after`` seconds is handed
+    to ``grow_epoch`` again, the backstop that beat would otherwise reach."""
+    last_change = time.monotonic()
+    seen: tuple[int, float | None] | None = None
     while True:
         with transaction() as session:
-            if running_epoch(session, graph_id) is None:
-                return
+            running = running_epoch(session, graph_id)
+            state = None if running is None else (running.id, running.heartbeat)
+        if state is None:
+            return
+        if state != seen:
+            seen, last_change = state, time.monotonic()
+        elif time.monotonic() - last_change > resend_after:
+            grow_epoch.delay(graph_id, None, False)
+            last_change = time.monotonic()
         time.sleep(EPOCH_POLL)

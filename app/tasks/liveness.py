@@ -53,7 +53,7 @@ def held_work(app: Celery) -> HeldWork | None:
     if not app.conf.broker_url.startswith(("redis://", "rediss://")):
         return None
     try:
-        requests = [*_held_by_workers(app), *_queued(app)]
+        requests = [*_queued(app), *_held_by_workers(app)]
     except Exception as exc:  # a broker that is restarting: unknown, so keep waiting
         log.warning("cannot tell which epoch work is held: %s", exc)
         return None
@@ -80,8 +80,10 @@ def unheld_work(work: EpochWork, held: HeldWork) -> list[str]:
 
 
 def _held_by_workers(app: Celery) -> Iterator[Mapping[str, Any]]:
+    """Asked in the order a task moves (queue, then scheduled or reserved, then active),
+    so that one moving on between two questions is seen by the later one."""
     inspect = app.control.inspect(timeout=REPLY_TIMEOUT)
-    for replies in (inspect.active(), inspect.reserved(), inspect.scheduled()):
+    for replies in (inspect.scheduled(), inspect.reserved(), inspect.active()):
         for requests in (replies or {}).values():
             # scheduled() wraps each request with its ETA
             yield from (r.get("request", r) for r in requests)

@@ -9,8 +9,8 @@ thread of its main process started on ``worker_ready`` (not a periodic task, whi
 dead worker could take with it), and the cluster looks every ``SRG_EPOCH_CHECK_INTERVAL``
 seconds: the worker whose turn it is (a short Redis key, so that they do not all
 broadcast) asks, for every running epoch, which of its missing work no live worker or
-queue holds (:mod:`app.tasks.liveness`). What is unheld on two looks running (a step
-hands over to the next between two looks, and one look can miss it) is lost, and the
+queue holds (:mod:`app.tasks.liveness`). What is unheld on two looks in a row (a step
+hands over to the next between two questions, and one look can miss it) is lost, and the
 epoch is re-sent as ``grow_epoch`` sends one: its missing clips and pending integrations
 (:func:`app.services.epochs.resend_epoch`, :func:`app.tasks.growth.epoch_canvas`). Every
 step is idempotent, so the message that comes back an hour later is a no-op. A lost
@@ -71,12 +71,12 @@ def _watch(settings: Settings, hostname: str) -> None:
     interval = settings.epoch_check_interval
     while not _stopping.wait(interval):
         try:
-            look(factory, settings, hostname)
+            _look(factory, settings, hostname)
         except Exception:  # the database or Redis is away: the next look tries again
             log.exception("the epoch watchdog could not look; it looks again in %gs", interval)
 
 
-def look(factory: sessionmaker[Session], settings: Settings, hostname: str) -> None:
+def _look(factory: sessionmaker[Session], settings: Settings, hostname: str) -> None:
     """One look at every running epoch, if it is this worker's turn (see the module doc)."""
     interval_ms = max(1, int(settings.epoch_check_interval * 1000))
     with celery_app.connection_for_write() as connection:
@@ -118,11 +118,11 @@ def _resend(
         if plan is None:
             return False
         work = epochs.epoch_work(session, epoch_id)
+    epoch_canvas(work, renders=settings.growth_renders).apply_async()
     log.warning(
         "graph %d epoch %d: no worker or queue holds its work (%s): re-sent",
         plan.graph_id,
         epoch_id,
         ", ".join(lost),
     )
-    epoch_canvas(work, renders=settings.growth_renders).apply_async()
     return True

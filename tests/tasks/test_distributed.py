@@ -75,20 +75,29 @@ def _running_epochs(cluster: Cluster, graph_id: int) -> int:
 
 
 def _wait_until_simulating(cluster: Cluster, worker: str) -> None:
-    def simulating() -> bool:
-        return "srg.simulate" in (cluster.logs / f"{worker}.log").read_text(errors="replace")
+    def simulating() -> bool:  # "Task srg.simulate[id] received" (the banner lists the name)
+        log = (cluster.logs / f"{worker}.log").read_text(errors="replace")
+        return "Task srg.simulate[" in log
 
     wait_for(simulating, 30, "a simulate task to start")
     time.sleep(0.3)
 
 
+def _wait_until_ready(cluster: Cluster, *workers: str) -> None:
+    def ready() -> bool:
+        logs = [(cluster.logs / f"{w}.log").read_text(errors="replace") for w in workers]
+        return all(" ready." in log for log in logs)
+
+    wait_for(ready, 60, "the workers to be ready")
+
+
 # SRG_EPOCH_RESEND_AFTER stays at its default (30 minutes) in these tests: what re-sends
-# the lost work within seconds is the check of workers and queue (app.tasks.liveness)
+# the lost work within seconds is the workers' watchdog (app.tasks.watchdog)
 def test_worker_killed_mid_simulate_loses_no_expansion(
     cluster_env: Callable[..., Cluster], tmp_path: Path
 ) -> None:
     # test_simulate_delay is the test-only setting that keeps `simulate` busy long enough
-    cluster = cluster_env(batch_size=2, test_simulate_delay=0.5, epoch_check_after=3)
+    cluster = cluster_env(batch_size=2, test_simulate_delay=0.5, epoch_check_interval=2)
     graph_id = seed_graph(cluster.settings)
     doomed = cluster.start_worker("doomed")
     app = client(cluster)
@@ -102,10 +111,31 @@ def test_worker_killed_mid_simulate_loses_no_expansion(
     assert _final(cluster, graph_id) == eager_reference(tmp_path, epochs, batch=2)
 
 
+def test_a_lost_worker_costs_under_a_minute_without_beat(
+    cluster_env: Callable[..., Cluster], tmp_path: Path
+) -> None:
+    # default settings: what bounds the loss is the workers' own look at their epochs
+    cluster = cluster_env(batch_size=2, test_simulate_delay=2.0)
+    graph_id = seed_graph(cluster.settings)
+    doomed = cluster.start_worker("doomed")
+    cluster.start_worker("survivor")
+    _wait_until_ready(cluster, "doomed", "survivor")
+    app = client(cluster)
+    app.send_task("srg.grow_epoch", args=[graph_id])  # once: no beat, no second tick
+    _wait_until_simulating(cluster, "doomed")
+    cluster.kill(doomed)  # the whole worker, pool included, while other clips wait
+    killed = time.monotonic()
+    wait_for(lambda: finished_epochs(cluster, graph_id) == 1, 60, "the epoch, re-sent")
+    print(f"kill -> epoch finished: {time.monotonic() - killed:.1f} s")
+    assert "no worker or queue holds its work" in (cluster.logs / "survivor.log").read_text()
+    assert _running_epochs(cluster, graph_id) == 0
+    assert _final(cluster, graph_id) == eager_reference(tmp_path, 1, batch=2)
+
+
 def test_redis_restarted_mid_epoch_loses_no_expansion(
     cluster_env: Callable[..., Cluster], redis_server: RedisServer, tmp_path: Path
 ) -> None:
-    cluster = cluster_env(batch_size=2, test_simulate_delay=0.5, epoch_check_after=3)
+    cluster = cluster_env(batch_size=2, test_simulate_delay=0.5, epoch_check_interval=2)
     graph_id = seed_graph(cluster.settings)
     cluster.start_worker("w1")
     app = client(cluster)
@@ -122,8 +152,8 @@ def test_redis_restarted_mid_epoch_loses_no_expansion(
 def test_a_slow_epoch_whose_work_is_queued_or_running_is_not_resent(
     cluster_env: Callable[..., Cluster], tmp_path: Path
 ) -> None:
-    # each clip takes 2 s, one at a time: the epoch is quiet for longer than the check
-    cluster = cluster_env(batch_size=1, test_simulate_delay=2.0, epoch_check_after=1)
+    # each clip takes 2 s, one at a time: the watchdog looks a dozen times meanwhile
+    cluster = cluster_env(batch_size=1, test_simulate_delay=2.0, epoch_check_interval=1)
     graph_id = seed_graph(cluster.settings)
     cluster.start_worker("w1")
     app = client(cluster)
