@@ -11,12 +11,14 @@ trust any from loopback.
 
 from __future__ import annotations
 
+import socket
 from typing import Any
 
 import h11
 from uvicorn.protocols.http.h11_impl import H11Protocol
 
 from app.api.errors import error_response
+from app.core.errors import Unavailable
 
 UNREADABLE = "invalid HTTP request: a malformed Content-Length, request line or header"
 
@@ -39,3 +41,15 @@ class JsonRefusalH11(H11Protocol):
 
 #: for ``uvicorn.run`` and ``uvicorn.Config``
 UVICORN_OPTIONS: dict[str, Any] = {"http": JsonRefusalH11, "proxy_headers": False}
+
+
+def require_listenable(host: str, port: int) -> None:
+    """Bind ``host:port`` once and let go, so that a used port or a host that names no
+    interface is one line before the server starts: uvicorn logs it and exits 3."""
+    try:
+        family, kind, proto, _, address = socket.getaddrinfo(host, port, type=socket.SOCK_STREAM)[0]
+        with socket.socket(family, kind, proto) as probe:
+            probe.setsockopt(socket.SOL_SOCKET, socket.SO_REUSEADDR, 1)  # as uvicorn binds
+            probe.bind(address)
+    except OSError as exc:
+        raise Unavailable(f"cannot listen on {host}:{port}: {exc.strerror or exc}") from None

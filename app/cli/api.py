@@ -23,7 +23,7 @@ def serve(
     import uvicorn
 
     from app.api.app import create_app
-    from app.api.serving import UVICORN_OPTIONS
+    from app.api.serving import UVICORN_OPTIONS, require_listenable
     from app.db import get_engine, require_current_schema, require_intact
 
     # refused here in one line, rather than served as a 503 to every request: a database
@@ -31,6 +31,7 @@ def serve(
     engine = get_engine()
     require_current_schema(engine)
     require_intact(engine)
+    require_listenable(host, port)
     uvicorn.run(create_app(), host=host, port=port, **UVICORN_OPTIONS)
 
 
@@ -57,6 +58,8 @@ def analytics(
     from app.store.analytics import graph_analytics
     from app.store.graphs import get_graph_row
 
+    if top < 1:
+        raise InvalidInput(f"--top must be at least 1, got {top}")
     if player_model is not None:  # before any work; '' names no model either
         parse_player_model(player_model)
     settings = get_settings()

@@ -102,6 +102,10 @@ def experiment(
             fixed_graph_sessions,
         )
     last = plan.checkpoint_index(through)  # refused before the plan is stored
+    if not settings.eager:
+        from app.tasks.celery_app import celery_app, require_broker
+
+        require_broker(celery_app)
     if not resume:
         plan = create_experiment(settings, name, plan)
     grower: Grower

@@ -6,6 +6,7 @@ Every command is a thin shell (parse, call a service, print) in the module of it
 
 from __future__ import annotations
 
+import sys
 from collections.abc import Callable
 
 import typer
@@ -46,6 +47,9 @@ for name, command in COMMANDS.items():
 
 
 def main() -> None:
-    """The console script: run a command; a user's error ends it in one line, exit 2."""
+    """The console script: run a command; a user's error, usage included, ends it in one
+    line, exit 2 (click's own handling, ``standalone_mode``, would print usage boxes)."""
+    command = typer.main.get_command(app)
     with user_errors_in_one_line():
-        app()
+        code = command.main(prog_name="srg", standalone_mode=False)
+    sys.exit(code if isinstance(code, int) else 0)

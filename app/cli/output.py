@@ -84,11 +84,26 @@ def user_errors_in_one_line() -> Iterator[None]:
     except SystemExit:
         raise
     except Exception as exc:
+        if _is_click(exc, "UsageError"):  # typer would draw a box of five lines around it
+            ctx = getattr(exc, "ctx", None)
+            hint = f" (see {ctx.command_path} --help)" if ctx is not None else ""
+            message = getattr(exc, "format_message", exc.__str__)()
+            typer.echo(f"srg: error: {message}{hint}".splitlines()[0], err=True)
+            sys.exit(2)
+        if _is_click(exc, "Abort"):
+            typer.echo("srg: aborted", err=True)
+            sys.exit(1)
         message = user_error_message(exc)
         if message is None:
             raise
         typer.echo(f"srg: error: {message}".splitlines()[0], err=True)
         sys.exit(2)
+
+
+def _is_click(exc: Exception, name: str) -> bool:
+    """Whether ``exc`` is click's ``name`` exception: by class name along its MRO, because
+    typer ships its own copy of click (``typer._click``), not the ``click`` package."""
+    return any(cls.__name__ == name for cls in type(exc).__mro__)
 
 
 def user_error_message(exc: Exception) -> str | None:
@@ -115,6 +130,8 @@ def user_error_message(exc: Exception) -> str | None:
         return None
     if isinstance(exc, httpx.TransportError):
         return f"cannot reach the server: {exc}"
+    if isinstance(exc, OSError) and exc.strerror:  # the machine's: a path, a disk, a port
+        return f"{exc.filename}: {exc.strerror}" if exc.filename else exc.strerror
     return None
 
 

@@ -83,6 +83,7 @@ def grow_epoch(name: str = typer.Argument(..., help="graph name or id")) -> None
     from app.store.graphs import get_graph_row
     from app.tasks.growth import grow_epoch as task
 
+    _require_broker()
     with transaction() as session:
         graph_id = get_graph_row(session, name).id
     typer.echo(task.delay(graph_id).id)
@@ -90,6 +91,8 @@ def grow_epoch(name: str = typer.Argument(..., help="graph name or id")) -> None
 
 def _require_broker() -> None:
     from app.config import get_settings
+    from app.tasks.celery_app import celery_app, require_broker
 
     if get_settings().eager:
         raise Unavailable("no broker: set SRG_BROKER_URL=redis://... (see docs/runtime.md)")
+    require_broker(celery_app)

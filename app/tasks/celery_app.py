@@ -21,6 +21,7 @@ from celery import Celery, Task
 from celery.exceptions import Reject
 
 from app.config import Settings, get_settings
+from app.core.errors import Unavailable
 
 log = logging.getLogger(__name__)
 DELIVERY_KEY = "srg:deliveries:"
@@ -106,6 +107,33 @@ def _redis(url: str) -> Any:
 
         _clients[url] = redis.Redis.from_url(url, socket_timeout=2.0)
     return _clients[url]
+
+
+#: seconds to wait for the broker when checking it
+BROKER_CHECK_TIMEOUT = 3.0
+
+
+class BrokerUnavailable(Unavailable):
+    """The configured broker cannot be reached (or its URL names no transport)."""
+
+
+def require_broker(app: Celery) -> None:
+    """Connect to the broker once, before a command writes anything it would then strand.
+
+    Without this an unreachable or ``bogus://`` broker surfaces at the first ``delay``:
+    after the command stored its rows, as kombu's traceback.
+    """
+    try:
+        with app.connection_for_write() as connection:
+            shown = connection.as_uri()  # the password masked
+            connection.ensure_connection(
+                max_retries=1, interval_start=0, interval_step=0.5, timeout=BROKER_CHECK_TIMEOUT
+            )
+    except Exception as exc:
+        where = locals().get("shown", "")
+        raise BrokerUnavailable(
+            f"cannot reach the broker {where or '(SRG_BROKER_URL)'}: {exc}".splitlines()[0]
+        ) from None
 
 
 def make_celery(settings: Settings) -> Celery:

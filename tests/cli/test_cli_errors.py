@@ -8,6 +8,8 @@ PostgreSQL, whose bounded columns used to fail where SQLite stored anything).
 from __future__ import annotations
 
 import json
+import socket
+import sqlite3
 from collections.abc import Iterator
 from pathlib import Path
 
@@ -376,3 +378,47 @@ def test_a_bug_keeps_its_traceback(tmp_path: Path, monkeypatch: pytest.MonkeyPat
     monkeypatch.setattr(app.cli.graph, "transaction", broken)
     with pytest.raises(ValueError, match="a bug"):
         srg(tmp_path, "status")
+
+
+# ---- usage, the machine's errors, a broker, a port: one line each -----------------------
+@pytest.mark.parametrize(
+    ("args", "says"),
+    [
+        (["grow"], "Missing argument 'name'. (see srg grow --help)"),
+        (["grow", "g", "--bogus"], "No such option: --bogus (see srg grow --help)"),
+        (["nosuch"], "No such command 'nosuch'. (see srg --help)"),
+        (["grow", "g", "--expansions", "abc"], "Invalid value for '--expansions'"),
+        (["analytics", "g", "--top", "-1"], "--top must be at least 1, got -1"),
+    ],
+)
+def test_usage_errors_are_one_line(tmp_path: Path, args: list[str], says: str) -> None:
+    one_line_error(srg(tmp_path, *args), says)
+
+
+def test_an_unusable_var_dir_is_one_line(tmp_path: Path) -> None:
+    blocker = tmp_path / "file"
+    blocker.write_text("not a directory")
+    done = srg(blocker / "var", "init", "g")
+    one_line_error(done, "Not a directory")
+
+
+@pytest.mark.parametrize("broker", ["redis://127.0.0.1:1/0", "bogus://nowhere"])
+def test_an_unreachable_broker_is_one_line_before_anything_is_written(
+    tmp_path: Path, broker: str
+) -> None:
+    ok(tmp_path, "db", "upgrade")
+    done = srg(
+        tmp_path, "experiment", "--seeds", "0", "--checkpoints", "300", SRG_BROKER_URL=broker
+    )
+    one_line_error(done, "cannot reach the broker")
+    with sqlite3.connect(tmp_path / "srg.sqlite3") as db:
+        assert db.execute("SELECT count(*) FROM experiments").fetchone() == (0,)
+
+
+def test_serve_on_a_port_in_use_or_a_host_of_no_interface_is_one_line(tmp_path: Path) -> None:
+    with socket.socket() as taken:
+        taken.bind(("127.0.0.1", 0))
+        taken.listen()
+        port = str(taken.getsockname()[1])
+        one_line_error(srg(tmp_path, "serve", "--port", port), "Address already in use")
+    one_line_error(srg(tmp_path, "serve", "--host", "999.1.1.1"), "cannot listen on 999.1.1.1")
