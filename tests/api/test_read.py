@@ -226,3 +226,10 @@ def test_odd_graph_names_and_ids_are_404_not_500(
         reply = client.request(method, url, **extra)
         assert reply.status_code == 404, (method, url, reply.text)
         assert reply.json()["error"].startswith("no graph"), reply.text
+
+
+def test_an_id_of_thousands_of_digits_is_a_404_not_a_500(
+    client: TestClient, published: Published
+) -> None:
+    reply = client.get(f"/api/graphs/{'9' * 5000}/publication")
+    assert reply.status_code == 404 and "(5000 characters)" in reply.json()["error"]
