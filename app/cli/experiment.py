@@ -103,9 +103,9 @@ def experiment(
         )
     last = plan.checkpoint_index(through)  # refused before the plan is stored
     if not settings.eager:
-        from app.tasks.celery_app import celery_app, require_broker
+        from app.tasks.celery_app import require_broker
 
-        require_broker(celery_app)
+        require_broker(settings)
     if not resume:
         plan = create_experiment(settings, name, plan)
     grower: Grower

@@ -79,20 +79,23 @@ def set_growing(
 
 def grow_epoch(name: str = typer.Argument(..., help="graph name or id")) -> None:
     """Send one grow_epoch task now (what beat sends); prints its task id."""
+    from app.config import get_settings
     from app.db import transaction
     from app.store.graphs import get_graph_row
+    from app.tasks.celery_app import require_broker
     from app.tasks.growth import grow_epoch as task
 
     _require_broker()
+    require_broker(get_settings())
     with transaction() as session:
         graph_id = get_graph_row(session, name).id
     typer.echo(task.delay(graph_id).id)
 
 
 def _require_broker() -> None:
+    """A broker is configured. Only the commands that send work also connect to it first:
+    a worker, beat or Flower started before Redis is up waits for it, as Celery does."""
     from app.config import get_settings
-    from app.tasks.celery_app import celery_app, require_broker
 
     if get_settings().eager:
         raise Unavailable("no broker: set SRG_BROKER_URL=redis://... (see docs/runtime.md)")
-    require_broker(celery_app)

@@ -117,23 +117,26 @@ class BrokerUnavailable(Unavailable):
     """The configured broker cannot be reached (or its URL names no transport)."""
 
 
-def require_broker(app: Celery) -> None:
-    """Connect to the broker once, before a command writes anything it would then strand.
+def require_broker(settings: Settings) -> None:
+    """Connect to the configured broker once, before a command writes anything it would
+    then strand.
 
     Without this an unreachable or ``bogus://`` broker surfaces at the first ``delay``:
-    after the command stored its rows, as kombu's traceback.
+    after the command stored its rows, as kombu's traceback. The settings' URL is the one
+    checked, not this process's app's, which was configured when first imported.
     """
+    from kombu import Connection
+
+    shown = "(SRG_BROKER_URL)"
     try:
-        with app.connection_for_write() as connection:
+        with Connection(settings.broker_url, connect_timeout=BROKER_CHECK_TIMEOUT) as connection:
             shown = connection.as_uri()  # the password masked
             connection.ensure_connection(
                 max_retries=1, interval_start=0, interval_step=0.5, timeout=BROKER_CHECK_TIMEOUT
             )
     except Exception as exc:
-        where = locals().get("shown", "")
-        raise BrokerUnavailable(
-            f"cannot reach the broker {where or '(SRG_BROKER_URL)'}: {exc}".splitlines()[0]
-        ) from None
+        message = f"cannot reach the broker {shown}: {exc}".splitlines()[0]
+        raise BrokerUnavailable(message) from None
 
 
 def make_celery(settings: Settings) -> Celery:
