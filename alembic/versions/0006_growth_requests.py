@@ -1,4 +1,5 @@
-"""Growth requests: what became of each growth the admin route accepted.
+"""Growth requests: what became of each growth the admin route accepted; and whether an
+epoch renders, so that a re-send of its lost work renders as the epoch did.
 
 Revision ID: 0006
 Revises: 0005
@@ -44,8 +45,14 @@ def upgrade() -> None:
     op.create_index(
         op.f('ix_growth_requests_graph_id'), 'growth_requests', ['graph_id'], unique=False
     )
+    with op.batch_alter_table('growth_epochs') as batch:
+        batch.add_column(
+            sa.Column('renders', sa.Boolean(), nullable=False, server_default=sa.true())
+        )
 
 
 def downgrade() -> None:
+    with op.batch_alter_table('growth_epochs') as batch:
+        batch.drop_column('renders')
     op.drop_index(op.f('ix_growth_requests_graph_id'), table_name='growth_requests')
     op.drop_table('growth_requests')

@@ -24,6 +24,7 @@ from sqlalchemy import (
     UniqueConstraint,
 )
 from sqlalchemy.orm import Mapped, mapped_column
+from sqlalchemy.sql.expression import true
 
 from app.models.base import HASH_LENGTH, Base, created_at_column
 
@@ -133,6 +134,8 @@ class GrowthEpoch(Base):
     warm_start: Mapped[str | None] = mapped_column(ForeignKey("artifacts.hash"))
     #: unix time of the last progress (clip stored, expansion integrated, re-send)
     heartbeat: Mapped[float | None] = mapped_column(Double)
+    #: whether its clips are rendered: a re-send of lost work renders as the epoch did
+    renders: Mapped[bool] = mapped_column(Boolean, default=True, server_default=true())
 
 
 class GrowthRequest(Base):

@@ -96,6 +96,8 @@ class EpochWork:
     epoch_id: int
     missing_clips: list[tuple[int, int]]  # (position, control)
     pending: list[int]  # positions, in order
+    #: as the epoch was planned: what is sent again renders the same way
+    renders: bool = True
 
 
 @dataclass(frozen=True)
@@ -116,8 +118,10 @@ def plan_epoch(
     *,
     count: int | None = None,
     strategy: Strategy | None = None,
+    renders: bool = True,
 ) -> EpochPlan | None:
-    """Open the graph's next epoch, or re-send a stalled one; None if one is running.
+    """Open the graph's next epoch (rendering its clips if ``renders``), or re-send a
+    stalled one; None if one is running.
 
     A running epoch that has made no progress for ``settings.epoch_resend_after``
     seconds is returned again (``resent=True``) for its missing work to be dispatched
@@ -139,7 +143,7 @@ def plan_epoch(
     )
     if outcome.relinked:
         save_graph(session, graph_id, loaded.graph, loaded.bank, loaded.artifacts)
-    epoch_id = start_epoch(session, graph_id, refiner.strategy.value)
+    epoch_id = start_epoch(session, graph_id, refiner.strategy.value, renders=renders)
     expansions = [(e, loaded.graph.edge_clip[e]) for e in outcome.expanded]
     warm_start = None
     if ranked.rank is not None:
@@ -193,7 +197,7 @@ def epoch_work(session: Session, epoch_id: int) -> EpochWork:
     stored = stored_clips(session, epoch_id)
     pending = [p for p in range(len(plan)) if not _integrated(session, row, plan[p])]
     missing = [(p, c) for p in pending for c in range(row.n_controls) if (p, c) not in stored]
-    return EpochWork(epoch_id, missing, pending)
+    return EpochWork(epoch_id, missing, pending, epoch.renders)
 
 
 def _integrated(session: Session, row: Graph, planned: list[int]) -> bool:

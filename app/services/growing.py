@@ -87,7 +87,14 @@ def grow_graph(
     budget = GrowthBudget.of(size, frames=frames, expansions=expansions, to_frames=to_frames)
     while (left := budget.left(size, result.expansions, per_expansion)) > 0:
         with scope() as session:
-            plan = plan_epoch(session, settings, graph_id, count=min(left, batch), strategy=chosen)
+            plan = plan_epoch(
+                session,
+                settings,
+                graph_id,
+                count=min(left, batch),
+                strategy=chosen,
+                renders=renders,
+            )
         if plan is None:
             raise GrowthBusy(f"graph {result.graph!r} has an epoch running on the workers")
         done = run_epoch(scope, settings, plan.epoch_id, renders=renders, on_expansion=advance)

@@ -23,7 +23,7 @@ class EpochStatus(StrEnum):
     FAILED = "failed"
 
 
-def start_epoch(session: Session, graph_id: int, strategy: str) -> int:
+def start_epoch(session: Session, graph_id: int, strategy: str, *, renders: bool = True) -> int:
     """Open the graph's next epoch; return its id."""
     last = session.scalar(
         select(func.max(GrowthEpoch.number)).where(GrowthEpoch.graph_id == graph_id)
@@ -33,6 +33,7 @@ def start_epoch(session: Session, graph_id: int, strategy: str) -> int:
         number=(last or 0) + 1,
         strategy=strategy,
         status=EpochStatus.RUNNING,
+        renders=renders,
         expansions=0,
         relinks=0,
         size_frames=0,

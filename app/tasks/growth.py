@@ -166,7 +166,7 @@ def _plan_and_send(graph_id: int, count: int | None, renders: bool | None) -> in
     renders = settings.growth_renders if renders is None else renders
     try:
         with transaction() as session:
-            plan = epochs.plan_epoch(session, settings, graph_id, count=count)
+            plan = epochs.plan_epoch(session, settings, graph_id, count=count, renders=renders)
     except IntegrityError:  # another tick opened the same epoch number first
         return None
     if plan is None:
@@ -183,7 +183,7 @@ def _plan_and_send(graph_id: int, count: int | None, renders: bool | None) -> in
     if plan.expansions:
         with transaction() as session:
             work = epochs.epoch_work(session, plan.epoch_id)
-        epoch_canvas(work, renders=renders).apply_async()
+        epoch_canvas(work).apply_async()
     return plan.epoch_id
 
 
@@ -209,8 +209,10 @@ def clip_pipeline(epoch_id: int, position: int, control: int, *, renders: bool) 
     return chain(*steps)
 
 
-def epoch_canvas(work: epochs.EpochWork, *, renders: bool) -> Signature:
-    """The flat canvas of what is left of an epoch (see the module docstring)."""
+def epoch_canvas(work: epochs.EpochWork) -> Signature:
+    """The flat canvas of what is left of an epoch (see the module docstring), rendering
+    as the epoch was planned to."""
+    renders = work.renders
     integrations = [integrate.si(work.epoch_id, p, renders) for p in work.pending]
     tail = [blend.si(work.epoch_id)] if renders else []
     body = chain(*integrations, *tail)

@@ -95,7 +95,7 @@ def _look(factory: sessionmaker[Session], settings: Settings, hostname: str) -> 
         for work in works:
             key = str(work.epoch_id)
             lost = [part for part in unheld[key] if part in before.get(key, [])]
-            if lost and _resend(factory, settings, work.epoch_id, lost):
+            if lost and _resend(factory, work.epoch_id, lost):
                 del unheld[key]  # what it re-sent is held now: two fresh looks to doubt it
         client.set(UNHELD_KEY, json.dumps(unheld), px=UNHELD_FOR * interval_ms)
 
@@ -105,20 +105,15 @@ def _running_work(factory: sessionmaker[Session]) -> list[epochs.EpochWork]:
         return epochs.running_work(session)
 
 
-def _resend(
-    factory: sessionmaker[Session], settings: Settings, epoch_id: int, lost: list[str]
-) -> bool:
-    """Send what is left of a running epoch again; whether it still ran.
-
-    The epoch does not record whether it renders, so the re-sent work renders as
-    ``SRG_GROWTH_RENDERS`` says (as a beat tick's re-send does).
-    """
+def _resend(factory: sessionmaker[Session], epoch_id: int, lost: list[str]) -> bool:
+    """Send what is left of a running epoch again (rendering as the epoch was planned
+    to); whether it still ran."""
     with transaction(factory) as session:
         plan = epochs.resend_epoch(session, epoch_id)
         if plan is None:
             return False
         work = epochs.epoch_work(session, epoch_id)
-    epoch_canvas(work, renders=settings.growth_renders).apply_async()
+    epoch_canvas(work).apply_async()
     log.warning(
         "graph %d epoch %d: no worker or queue holds its work (%s): re-sent",
         plan.graph_id,

@@ -108,6 +108,16 @@ def test_grow_epoch_tells_its_request_which_epoch_serves_it_or_why_none_does(
         assert view is not None and view.id == refused
 
 
+def test_an_epoch_remembers_whether_it_renders_for_a_resend(settings: Settings) -> None:
+    graph_id = seed_graph(settings)
+    quiet = grow_epoch.delay(graph_id, 2, False).get()
+    loud = grow_epoch.delay(graph_id, 2, True).get()
+    with transaction() as session:
+        assert session.get_one(GrowthEpoch, quiet).renders is False
+        assert session.get_one(GrowthEpoch, loud).renders is True
+        assert epochs.epoch_work(session, quiet).renders is False
+
+
 def test_integrating_twice_changes_nothing(settings: Settings) -> None:
     graph_id = seed_graph(settings)
     epoch_id = grow_epoch.delay(graph_id).get()
