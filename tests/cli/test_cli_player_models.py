@@ -67,7 +67,7 @@ def test_init_stores_the_player_model_chosen_else_the_setting(tmp_path: Path) ->
     [
         ("softmax", {}, "unknown player model 'softmax'"),
         ("", {}, "unknown player model ''"),
-        (None, {"SRG_PLAYER_MODEL": "softmax"}, "unknown player model 'softmax'"),
+        (None, {"SRG_PLAYER_MODEL": "softmax"}, "SRG_PLAYER_MODEL: Input should be"),
     ],
 )
 def test_init_refuses_an_unknown_player_model_in_one_line_and_writes_nothing(
