@@ -230,6 +230,15 @@ def stored_bytes(name: str = typer.Argument(..., help="a stored graph")) -> None
     emit(bench_bytes(get_settings(), name), as_json=True)
 
 
+@app.command("look")
+def look(name: str = typer.Argument(..., help="a stored graph with rendered clips")) -> None:
+    """Near-black pixels per frame of a graph's rendered clips: percentiles, the worst."""
+    from app.bench.look import bench_look
+    from app.config import get_settings
+
+    emit(bench_look(get_settings(), name), as_json=True)
+
+
 @app.command("dedup")
 def dedup(
     name: str = typer.Argument(..., help="a stored graph with rendered clips"),
