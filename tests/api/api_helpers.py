@@ -94,3 +94,18 @@ def row_counts(session: Session) -> tuple[int, int, int]:
 
 def player_count(session: Session) -> int:
     return int(session.scalar(select(func.count()).select_from(Player)) or 0)
+
+
+def toy_graph_database(settings: Settings) -> Settings:
+    """Make the tables of ``settings``' SQLite file and the toy graph ``g`` in it."""
+    from app.db import make_engine, session_factory
+    from app.models import Base
+    from app.services.creation import init_graph
+
+    engine = make_engine(settings.resolved_database_url)
+    Base.metadata.create_all(engine)
+    with session_factory(engine)() as session:
+        init_graph(session, settings, name="g", strategy="sr-heuristic")
+        session.commit()
+    engine.dispose()
+    return settings

@@ -12,7 +12,7 @@ from typing import Any
 
 import httpx
 import pytest
-from api_helpers import ADMIN_TOKEN, Published, make_client
+from api_helpers import ADMIN_TOKEN, Published, make_client, toy_graph_database
 from fastapi.testclient import TestClient
 from sqlalchemy import func, select
 from sqlalchemy.orm import Session
@@ -22,10 +22,8 @@ import app.tasks.growth
 from app.api.app import create_app
 from app.api.local_server import serve_in_thread
 from app.config import Settings
-from app.db import make_engine, session_factory
-from app.models import Base, Clip
+from app.models import Clip
 from app.models import Publication as PublicationRow
-from app.services.creation import init_graph
 from app.store.artifacts import ArtifactStore
 from app.store.epochs import start_epoch
 from app.store.growth_requests import add_request, start_request
@@ -192,13 +190,7 @@ def served(tmp_path: Path) -> Iterator[Settings]:
         admin_token=ADMIN_TOKEN,
         growth_renders=False,
     )
-    engine = make_engine(settings.resolved_database_url)
-    Base.metadata.create_all(engine)
-    with session_factory(engine)() as session:
-        init_graph(session, settings, name="g", strategy="sr-heuristic")
-        session.commit()
-    engine.dispose()
-    yield settings
+    yield toy_graph_database(settings)
 
 
 def test_over_http_the_grow_request_returns_before_the_growth_runs(

@@ -9,15 +9,12 @@ from pathlib import Path
 
 import httpx
 import pytest
-from api_helpers import ADMIN_TOKEN
+from api_helpers import ADMIN_TOKEN, toy_graph_database
 from fastapi.testclient import TestClient
 
 from app.api.app import create_app
 from app.api.local_server import serve_in_thread
 from app.config import Settings
-from app.db import make_engine, session_factory
-from app.models import Base
-from app.services.creation import init_graph
 
 ADMIN = {"Authorization": f"Bearer {ADMIN_TOKEN}"}
 
@@ -32,13 +29,7 @@ def growing(tmp_path: Path) -> Iterator[Settings]:
         growth_renders=False,
         batch_size=3,
     )
-    engine = make_engine(settings.resolved_database_url)
-    Base.metadata.create_all(engine)
-    with session_factory(engine)() as session:
-        init_graph(session, settings, name="g", strategy="sr-heuristic")
-        session.commit()
-    engine.dispose()
-    yield settings
+    yield toy_graph_database(settings)
 
 
 def test_publish_succeeds_while_the_server_grows_the_graph(growing: Settings) -> None:
