@@ -26,7 +26,7 @@ from sqlalchemy.orm import Session
 
 from app.config import Settings
 from app.core.dynamics import Dynamics
-from app.db import get_engine, session_factory, transaction
+from app.db import session_factory, transaction
 from app.models import Graph
 from app.services.clips import ClipJob, finish_clip, planned_clip, simulate_job
 from app.services.loading import artifact_store, graph_dynamics
@@ -34,7 +34,6 @@ from app.store.array_codec import ARRAYS_MEDIA_TYPE, encode_arrays
 from app.store.artifacts import ArtifactCorrupt, ArtifactNotFound, ArtifactStore
 from app.store.fsck import (
     artifact_rows,
-    bundle_of,
     clip_start,
     clip_with_bundle,
     count_artifacts,
@@ -42,6 +41,7 @@ from app.store.fsck import (
     expansion_clip_with,
     sqlite_integrity,
 )
+from app.store.graphs import clip_bundle_digest
 
 
 @dataclass
@@ -104,7 +104,7 @@ def fsck(
 
 
 def _database_check(session: Session) -> list[str]:
-    if get_engine().dialect.name != "sqlite":
+    if session.get_bind().dialect.name != "sqlite":
         return ["ok"]  # PostgreSQL checksums its own pages; nothing cheap to ask here
     return sqlite_integrity(session)
 
@@ -155,9 +155,11 @@ def _recompute(
     controls = [control]
     state: np.ndarray | None = None
     while before is not None and state is None:
+        digest = clip_bundle_digest(session, graph_id, before)
         try:
-            bundle = store.get_arrays(bundle_of(session, graph_id, before), ("end_state",))
-            state = bundle["end_state"]
+            if digest is None:
+                raise ArtifactNotFound(f"graph {graph_id} has no clip {before}")
+            state = store.get_arrays(digest, ("end_state",))["end_state"]
         except (KeyError, ArtifactNotFound, ArtifactCorrupt):
             before, played = clip_start(session, graph_id, before)
             controls.append(played)

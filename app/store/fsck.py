@@ -64,12 +64,6 @@ def clip_start(session: Session, graph_id: int, clip: int) -> tuple[int | None, 
     return (None if before is None else int(before)), int(control)
 
 
-def bundle_of(session: Session, graph_id: int, clip: int) -> str:
-    return session.scalars(
-        select(Clip.bundle).where(Clip.graph_id == graph_id, Clip.idx == clip)
-    ).one()
-
-
 def expansion_clip_with(session: Session, digest: str) -> tuple[int, int, int] | None:
     """(epoch, position, control) of one recorded expansion clip stored as ``digest``."""
     row = session.execute(
