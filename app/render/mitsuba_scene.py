@@ -33,7 +33,8 @@ from app.core.scene import Box, Scene
 from app.core.silhouette import tank_camera
 from app.core.surface import SurfaceGrid
 from app.render.denoise import median_denoise
-from app.render.meshing import surface_mesh
+from app.render.meshing import LiquidMesh, render_mesh
+from app.render.smoothing import SMOOTHING_STEPS
 
 DEFAULT_VARIANT = "scalar_rgb"
 LLVM_VARIANT = "llvm_ad_rgb"
@@ -57,17 +58,19 @@ SKY_RADIANCE = 0.3
 
 @dataclass(frozen=True)
 class RenderSettings:
-    """Image size, samples per pixel, path depth and the denoiser's window.
+    """Image size, samples per pixel, path depth, the denoiser and the mesh's smoothing.
 
     The defaults are the game's, chosen by the measurements in docs/render.md (the
-    cheapest setting without visible noise at 480 x 360); tests pass smaller sizes.
+    cheapest setting without visible noise at 480 x 360, deep enough that light leaves
+    a folded sheet of water); tests pass smaller sizes.
     """
 
     width: int = 480
     height: int = 360
     spp: int = 4
-    max_depth: int = 4
-    median: int = 3
+    max_depth: int = 12
+    median: bool = True
+    smoothing_steps: int = SMOOTHING_STEPS
 
 
 def llvm_variant_usable() -> bool:
@@ -200,15 +203,20 @@ def _static_objects(scene: Scene, settings: RenderSettings) -> dict[str, Any]:
     }
 
 
-def _liquid_mesh(vertices: np.ndarray, faces: np.ndarray, water: Any) -> Any:
+def _liquid_mesh(mesh: LiquidMesh, water: Any) -> Any:
     props = mi.Properties()
     props["bsdf"] = water
-    mesh = mi.Mesh("liquid", len(vertices), len(faces), props=props)
-    params = mi.traverse(mesh)
-    params["vertex_positions"] = dr.scalar.ArrayXf(vertices.ravel())
-    params["faces"] = dr.scalar.ArrayXu(faces.ravel())
+    shaded = mesh.normals is not None
+    shape = mi.Mesh(
+        "liquid", len(mesh.vertices), len(mesh.faces), props=props, has_vertex_normals=shaded
+    )
+    params = mi.traverse(shape)
+    params["vertex_positions"] = dr.scalar.ArrayXf(mesh.vertices.ravel())
+    params["faces"] = dr.scalar.ArrayXu(mesh.faces.ravel())
+    if mesh.normals is not None:
+        params["vertex_normals"] = dr.scalar.ArrayXf(mesh.normals.ravel())
     params.update()
-    return mesh
+    return shape
 
 
 class LiquidRenderer:
@@ -230,15 +238,16 @@ class LiquidRenderer:
 
     def frame(self, phi: np.ndarray) -> np.ndarray:
         """(H, W, 3) uint8 sRGB image of one float (X, Y, Z) SDF frame."""
-        vertices, faces = surface_mesh(self.grid, phi)
+        mesh = render_mesh(self.grid, phi, self.settings.smoothing_steps)
         shapes = dict(self.static)
-        if len(faces):
-            shapes["liquid"] = _liquid_mesh(vertices, faces, self.water)
+        if len(mesh.faces):
+            shapes["liquid"] = _liquid_mesh(mesh, self.water)
         image = mi.render(mi.load_dict({"type": "scene", **shapes}))
         bitmap = mi.Bitmap(image).convert(
             mi.Bitmap.PixelFormat.RGB, mi.Struct.Type.UInt8, srgb_gamma=True
         )
-        return median_denoise(np.array(bitmap, dtype=np.uint8), self.settings.median)
+        image = np.array(bitmap, dtype=np.uint8)
+        return median_denoise(image) if self.settings.median else image
 
     def frames(self, sdf_frames: np.ndarray) -> np.ndarray:
         """(k, H, W, 3) uint8 images of (k, X, Y, Z) float SDF frames.
