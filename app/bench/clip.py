@@ -1,7 +1,9 @@
 """``srg bench clip``: seconds per clip of each stage of a liquid edge, and its bytes.
 
 The clips run from a briefly settled tank under a tilt (a splash: the surface is at its
-most complex), then the opposite tilt, so meshing and rendering see a typical hard case.
+most complex), then the opposite tilt, so meshing and rendering see a typical hard case;
+the rendered clip's near-black pixels are reported as ``srg bench look`` reports a graph's
+(per-frame share, percentiles; and the count inside the water's silhouette).
 Bytes are those of what an edge keeps, per frame and by kind: its clip bundle in the
 artifacts' format (``app.store.array_codec``: the end state on the particle lattice, kept
 for the vertex it reaches, and the int8 SDF frames; the occupancy and descriptor are
@@ -29,10 +31,13 @@ import numpy as np
 
 from app.core.dynamics import ClipFeatures, SimClip
 from app.core.particle_lattice import snap_state
+from app.core.silhouette import silhouette_projector, silhouettes, tank_camera
+from app.core.surface import dequantise_sdf
 from app.kernels.sph import SphSimulator
 from app.liquid.adapter import LiquidCalibration, LiquidDynamics, MissingCalibration
 from app.liquid.devices import LiquidDevices
 from app.render.animation import encode_poster, encode_strip
+from app.render.look import dark_fractions, dark_inside, fraction_percentiles
 from app.store.array_codec import decode_arrays, encode_arrays, member_sizes
 
 #: constants for timing a preset that has no calibration yet: no stage's cost depends on them
@@ -154,6 +159,11 @@ def bench_clip(
     dyn.renderer.frame(np.full(dyn.grid.shape, dyn.grid.far_value, np.float32))  # load scene
     images, t_render = _timed(lambda: dyn.render(clip.frames))
     strip, t_encode = _timed(lambda: encode_strip(images))
+    settings = dyn.render_settings
+    camera = tank_camera(dyn.scene.tank, settings.width, settings.height)
+    water = silhouettes(
+        silhouette_projector(camera, dyn.grid), dequantise_sdf(dyn.grid, clip.frames)
+    )
     bundle = {"frames": clip.frames, "end_state": end}
     writer = _writer_seconds(dyn, features, other_features, bundle)
 
@@ -189,6 +199,8 @@ def bench_clip(
             "encode": t_encode,
         },
         "render_seconds_per_frame": t_render / k,
+        "dark_fraction": fraction_percentiles(dark_fractions(images)),
+        "dark_pixels_inside_water": int(dark_inside(images, water).sum()),
         "writer_seconds_per_new_clip": writer,
         "bytes_per_frame": {key: round(v) for key, v in per_frame.items()},
         "served_bytes_per_frame": {"poster": round(len(encode_poster(images)) / k)},

@@ -1,9 +1,12 @@
 """``srg bench look NAME``: how dark a stored graph's rendered clips are.
 
 Every clip strip of the graph is decoded and each frame's share of near-black pixels
-(:func:`app.render.look.dark_fractions`) measured; the report gives its percentiles over
-all frames, the share of frames above half a percent, and the worst clip and frame, to
-look at (docs/render.md).
+(:mod:`app.render.look`) measured; the report gives its percentiles over all frames,
+the share of frames above half a percent, and the worst clip and frame, to look at
+(docs/render.md). On the liquid it also counts the near-black pixels inside the water's
+silhouette, computed from the SDF frames of the clip the strip was rendered from (the
+first clip holding it: a strip may stand for nearly identical later clips,
+docs/dedup.md), with the renderer's own camera.
 """
 
 from __future__ import annotations
@@ -14,15 +17,30 @@ import numpy as np
 
 from app.config import Settings
 from app.core.errors import NotFound
+from app.core.silhouette import silhouette_projector, silhouettes, tank_camera
+from app.core.surface import dequantise_sdf
 from app.db import session_factory
+from app.liquid.adapter import LiquidDynamics
 from app.render.animation import decode_strip
-from app.render.look import DARK_LEVEL, dark_fractions
-from app.services.loading import artifact_store
+from app.render.look import DARK_LEVEL, dark_fractions, dark_inside, fraction_percentiles
+from app.services.loading import artifact_store, graph_dynamics
 from app.store.animations import clip_animations
-from app.store.graphs import get_graph_row
+from app.store.array_codec import decode_arrays
+from app.store.artifacts import ArtifactStore
+from app.store.graphs import clip_bundle_digest, get_graph_row
 
 #: a frame with more near-black pixels than this share counts as showing shards
 SHARD_FRAME = 0.005
+
+
+def _inside_silhouette(
+    dyn: LiquidDynamics, store: ArtifactStore, bundle: str, frames: np.ndarray
+) -> np.ndarray:
+    """Near-black pixels per frame inside the water of the clip stored as ``bundle``."""
+    sdf = dequantise_sdf(dyn.grid, decode_arrays(store.get_bytes(bundle), ("frames",))["frames"])
+    height, width = frames.shape[1:3]
+    projector = silhouette_projector(tank_camera(dyn.scene.tank, width, height), dyn.grid)
+    return dark_inside(frames, silhouettes(projector, sdf))
 
 
 def bench_look(settings: Settings, name: str) -> dict[str, Any]:
@@ -30,26 +48,38 @@ def bench_look(settings: Settings, name: str) -> dict[str, Any]:
         row = get_graph_row(session, name)
         strips = clip_animations(session, row.id)
         frames_per_clip = row.frames_per_clip
+        source = {digest: clip for clip, digest in sorted(strips.items(), reverse=True)}
+        bundles = {clip: clip_bundle_digest(session, row.id, clip) for clip in source.values()}
+        dyn = graph_dynamics(row, settings)
     if not strips:
         raise NotFound(f"graph {name!r} has no rendered clips: run srg publish {name}")
     store = artifact_store(settings)
-    per_clip = {
-        clip: dark_fractions(decode_strip(store.get_bytes(digest), frames_per_clip))
-        for clip, digest in sorted(strips.items())
-    }
+    images = {digest: decode_strip(store.get_bytes(digest), frames_per_clip) for digest in source}
+    per_clip = {clip: dark_fractions(images[digest]) for clip, digest in sorted(strips.items())}
     every = np.concatenate(list(per_clip.values()))
     worst_clip = max(per_clip, key=lambda clip: float(per_clip[clip].max()))
-    return {
+    report: dict[str, Any] = {
         "graph": name,
         "clips": len(per_clip),
         "frames": int(every.size),
         "dark_level": DARK_LEVEL,
-        "dark_fraction": {
-            "median": float(np.median(every)),
-            "p90": float(np.percentile(every, 90)),
-            "p99": float(np.percentile(every, 99)),
-            "max": float(every.max()),
-        },
+        "dark_fraction": fraction_percentiles(every),
         "frames_above_half_percent": float(np.mean(every > SHARD_FRAME)),
         "worst": {"clip": worst_clip, "frame": int(per_clip[worst_clip].argmax())},
+        "dark_inside_water": None,
     }
+    if isinstance(dyn, LiquidDynamics):
+        inside = np.concatenate(
+            [
+                _inside_silhouette(dyn, store, bundle, images[strips[clip]])
+                for clip, bundle in bundles.items()
+                if bundle is not None
+            ]
+        )
+        report["dark_inside_water"] = {
+            "strips": len(bundles),
+            "pixels": int(inside.sum()),
+            "frames_with_any": int(np.count_nonzero(inside)),
+            "max_per_frame": int(inside.max()),
+        }
+    return report

@@ -221,3 +221,15 @@ def test_bench_sph_tiny_reports_positive_throughput(cli: typer.Typer) -> None:
     for key in ("converged", "fixed_3_iterations"):
         assert report[key]["particle_steps_per_s"] > 0
         assert report[key]["substeps"] > 0
+
+
+def test_bench_clip_tiny_reports_the_rendered_clips_dark_pixels(cli: typer.Typer) -> None:
+    args = ["bench", "clip", "--preset", "tiny", "--settle", "0.2", "--frames", "3"]
+    result = CliRunner().invoke(cli, args)
+    assert result.exit_code == 0, result.output
+    report = json.loads(result.output)
+    dark = report["dark_fraction"]
+    assert set(dark) == {"median", "p90", "p99", "max"}
+    assert 0.0 <= dark["median"] <= dark["p90"] <= dark["p99"] <= dark["max"] <= 0.003
+    assert report["dark_pixels_inside_water"] >= 0
+    assert report["image"] == [480, 360] and report["render_seconds_per_frame"] > 0
