@@ -117,9 +117,9 @@ class BrokerUnavailable(Unavailable):
     """The configured broker cannot be reached (or its URL names no transport)."""
 
 
-def require_broker(settings: Settings) -> None:
+def require_broker(settings: Settings, timeout: float = BROKER_CHECK_TIMEOUT) -> None:
     """Connect to the configured broker once, before a command writes anything it would
-    then strand.
+    then strand (or, with a shorter ``timeout``, for ``GET /api/health``).
 
     Without this an unreachable or ``bogus://`` broker surfaces at the first ``delay``:
     after the command stored its rows, as kombu's traceback. The settings' URL is the one
@@ -129,10 +129,10 @@ def require_broker(settings: Settings) -> None:
 
     shown = "(SRG_BROKER_URL)"
     try:
-        with Connection(settings.broker_url, connect_timeout=BROKER_CHECK_TIMEOUT) as connection:
+        with Connection(settings.broker_url, connect_timeout=timeout) as connection:
             shown = connection.as_uri()  # the password masked
             connection.ensure_connection(
-                max_retries=1, interval_start=0, interval_step=0.5, timeout=BROKER_CHECK_TIMEOUT
+                max_retries=1, interval_start=0, interval_step=0.5, timeout=timeout
             )
     except Exception as exc:
         message = f"cannot reach the broker {shown}: {exc}".splitlines()[0]
