@@ -242,8 +242,8 @@ class LiquidRenderer:
         shapes = dict(self.static)
         if len(mesh.faces):
             shapes["liquid"] = _liquid_mesh(mesh, self.water)
-        image = mi.render(mi.load_dict({"type": "scene", **shapes}))
-        bitmap = mi.Bitmap(image).convert(
+        rendered = mi.render(mi.load_dict({"type": "scene", **shapes}))
+        bitmap = mi.Bitmap(rendered).convert(
             mi.Bitmap.PixelFormat.RGB, mi.Struct.Type.UInt8, srgb_gamma=True
         )
         image = np.array(bitmap, dtype=np.uint8)
