@@ -10,7 +10,7 @@ from __future__ import annotations
 from functools import lru_cache
 from pathlib import Path
 
-from pydantic import AliasChoices, Field
+from pydantic import AliasChoices, Field, field_validator
 from pydantic_settings import BaseSettings, SettingsConfigDict
 
 from app.core.player_models import PlayerModelKind
@@ -113,6 +113,12 @@ class Settings(BaseSettings):
         "throwaway databases (its database name is replaced by theirs)",
     )
 
+    flower_basic_auth: str = Field(
+        "",
+        description="`srg flower`'s HTTP basic auth, user:password[,user:password...]; '': "
+        "none (Flower's own /api then answers only with FLOWER_UNAUTHENTICATED_API set)",
+    )
+
     # API
     admin_token: str = Field(
         "", description="bearer token of the admin routes; '' (no default secret): routes off"
@@ -146,6 +152,19 @@ class Settings(BaseSettings):
     cors_origins: str = Field(
         "", description="comma-separated origins allowed by CORS ('*': any); '': CORS off"
     )
+
+    @field_validator("flower_basic_auth")
+    @classmethod
+    def _user_password_pairs(cls, value: str) -> str:
+        """Flower compares ``user:password`` with what a browser sends and splits the list
+        at commas, so an entry without a user or a password would never match: refused
+        here, before Flower starts. The message never repeats the value (a password)."""
+        pairs = [pair.strip() for pair in value.split(",")] if value.strip() else []
+        for pair in pairs:
+            user, _, password = pair.partition(":")
+            if not user or not password:
+                raise ValueError("each entry must be user:password (a comma between entries)")
+        return ",".join(pairs)
 
     @property
     def admin_routes_on(self) -> bool:

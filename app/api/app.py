@@ -4,7 +4,8 @@ Around the routes: every body bounded (:mod:`app.api.bodylimit`), HEAD answered 
 on every route (:mod:`app.api.head`), CORS for third-party clients when ``cors_origins``
 is set (off by default: the web client is same-origin), and a last ``/api`` route
 answering 404 or 405 with ``Allow`` for every method (:class:`~app.api.errors.NoRoute`)
-so no API request falls through to the static files.
+so no API request falls through to the static files. The API's document is browsable at
+``/docs`` (Swagger UI) and ``/redoc``, their scripts served from this server.
 """
 
 from __future__ import annotations
@@ -14,11 +15,12 @@ from collections.abc import AsyncIterator
 from contextlib import asynccontextmanager
 from importlib.resources import files
 from pathlib import Path
-from typing import Any
+from typing import TYPE_CHECKING, Any
 
 from fastapi import FastAPI
 from fastapi.middleware.cors import CORSMiddleware
 from fastapi.staticfiles import StaticFiles
+from fastapi_offline import FastAPIOffline
 from starlette.routing import Route
 
 from app.api.bodylimit import BodyLimit
@@ -33,6 +35,9 @@ from app.config import Settings, get_settings
 from app.core.publication import Publication
 from app.db import make_engine, session_factory
 from app.store.artifacts import ArtifactStore
+
+if TYPE_CHECKING:
+    from app.tasks.broker_health import BrokerProbe
 
 log = logging.getLogger(__name__)
 STATIC_DIR = Path(str(files("app.api") / "static"))
@@ -63,10 +68,14 @@ def create_app(settings: Settings | None = None) -> FastAPI:
         yield
         engine.dispose()
 
-    app = FastAPI(
+    # /docs and /redoc from files of the fastapi-offline package, not a CDN: they work
+    # on a machine without internet
+    app = FastAPIOffline(
         title="srg",
         summary="Self-refining games: play API",
         description="Every GET route answers HEAD too: GET's status and headers, no body.",
+        # no validator badge: it would send the document's address to swagger.io
+        swagger_ui_parameters={"validatorUrl": None},
         lifespan=lifespan,
     )
     app.state.settings = settings
@@ -77,6 +86,7 @@ def create_app(settings: Settings | None = None) -> FastAPI:
     app.state.publication_json = FrozenCache[EncodedJson](PUBLICATION_JSON_CACHED)
     app.state.derived = FrozenCache[bytes](DERIVED_CACHED)
     app.state.growth_jobs = GrowthJobs()
+    app.state.broker_probe = _broker_probe(settings)
     install_error_handlers(app)
     # every route reads the database, and BodyLimit reads every request's Content-Length
     any_route_answers = error_responses(400, 503, s400="a malformed Content-Length")
@@ -102,6 +112,16 @@ def create_app(settings: Settings | None = None) -> FastAPI:
         )
     app.openapi = lambda: _declared_errors_only(app)  # type: ignore[method-assign]
     return app
+
+
+def _broker_probe(settings: Settings) -> BrokerProbe | None:
+    """What ``/api/health`` asks of the broker; None without one, and then Celery is
+    never imported (a server of the embedded default, or an API-only install)."""
+    if settings.eager:
+        return None
+    from app.tasks.broker_health import BrokerProbe
+
+    return BrokerProbe(settings)
 
 
 def _declared_errors_only(app: FastAPI) -> dict[str, Any]:

@@ -191,3 +191,9 @@ class Health(BaseModel):
     #: "shared": rate limit windows in Redis, shared by every server process (and it
     #: answers); "per-process": in this process's memory
     rate_limits: Literal["shared", "per-process"]
+    #: the Celery broker (SRG_BROKER_URL): "ok" when it takes a connection within a
+    #: second; "not configured": none set, tasks run in this process
+    broker: Literal["ok", "unreachable", "not configured"]
+    #: Celery workers that answered a ping within half a second; null when the broker
+    #: was not asked (none configured, or unreachable)
+    workers: int | None

@@ -57,11 +57,19 @@ def flower(
     port: int = typer.Option(5555),
     address: str = typer.Option("127.0.0.1"),
 ) -> None:
-    """Run Flower, the Celery monitor (web UI and /api on PORT)."""
+    """Run Flower, the Celery monitor (web UI and /api on PORT), behind HTTP basic auth
+    when SRG_FLOWER_BASIC_AUTH is set."""
+    from app.config import get_settings
     from app.tasks import celery_app
 
     _require_broker()
-    celery_app.start(["flower", f"--port={port}", f"--address={address}"])
+    argv = ["flower", f"--port={port}", f"--address={address}"]
+    # from the settings, never an option: a password on a command line is in every
+    # user's `ps`; Flower is started in this process, so it is in no command line
+    credentials = get_settings().flower_basic_auth
+    if credentials:
+        argv.append(f"--basic-auth={credentials}")
+    celery_app.start(argv)
 
 
 def set_growing(

@@ -3,6 +3,7 @@ every body bounded, JSON Schema's integers and RFC 3339's timestamps."""
 
 from __future__ import annotations
 
+import time
 from collections.abc import Iterator
 from datetime import datetime, timedelta
 from pathlib import Path
@@ -162,13 +163,30 @@ def test_the_publication_has_an_etag_and_is_gzipped(
 
 
 def test_health_says_the_database_answers(client: TestClient, db_url: str) -> None:
+    """No broker configured (the embedded default): healthy, the broker not asked."""
     reply = client.get("/api/health")
     assert reply.status_code == 200
     assert reply.json() == {
         "status": "ok",
         "database": db_url.split(":")[0].split("+")[0],
         "rate_limits": "per-process",
+        "broker": "not configured",
+        "workers": None,
     }
+
+
+def test_health_is_200_and_says_so_when_the_broker_is_unreachable(
+    session: Session, db_url: str, artifact_dir: Path
+) -> None:
+    """Players need no broker: a load balancer must not pull the server for it."""
+    down = {"broker_url": "redis://127.0.0.1:1/0"}
+    with make_client(session, db_url, artifact_dir, **down) as client:
+        started = time.monotonic()
+        reply = client.get("/api/health")
+        elapsed = time.monotonic() - started
+    assert reply.status_code == 200
+    assert (reply.json()["broker"], reply.json()["workers"]) == ("unreachable", None)
+    assert elapsed < 3
 
 
 def test_health_is_503_when_the_database_does_not_answer(tmp_path: Path) -> None:
