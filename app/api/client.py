@@ -1,6 +1,6 @@
 """Bots that play over HTTP, through exactly the path a browser takes.
 
-Register a player, download the latest publication, rebuild a core
+Register a bot player, download the latest publication, rebuild a core
 :class:`~app.core.publication.Publication` from its JSON, play seeded bot sessions on it
 and upload each trace under a fresh idempotency key (a network retry of the same upload
 reuses its key, so the server stores it once).
@@ -24,6 +24,7 @@ from tenacity import (
 from app.core.bots import BotKind, play_sessions
 from app.core.errors import SrgError
 from app.core.graph import EdgeKind
+from app.core.players import PlayerKind
 from app.core.publication import Publication
 
 #: attempts per upload on transport errors and 429 (idempotent, so retrying is safe)
@@ -58,10 +59,12 @@ def play_over_http(
     mean_steps: int,
     seed: int,
 ) -> dict[str, Any]:
-    """Play ``sessions`` bot sessions on the graph's latest publication; return counts."""
+    """Play ``sessions`` bot sessions on the graph's latest publication as a bot player;
+    return counts and the seed."""
     kind = BotKind(kind)
     with httpx.Client(base_url=base_url, timeout=TIMEOUT_S) as http:
-        token = _checked(http.post("/api/players", json={"kind": "bot"}))["token"]
+        registered = http.post("/api/players", json={"kind": PlayerKind.BOT.value})
+        token = _checked(registered)["token"]
         http.headers["Authorization"] = f"Bearer {token}"
         data = _checked(http.get(f"/api/graphs/{graph}/publication"))
         publication = publication_from_json(data)
@@ -83,6 +86,7 @@ def play_over_http(
         "graph": graph,
         "publication_id": data["publication_id"],
         "kind": str(kind),
+        "seed": seed,
         "sessions": len(traces),
         "steps": int(sum(len(t) for t in traces)),
         "created": created,

@@ -14,6 +14,8 @@ from typing import Annotated, Literal
 
 from pydantic import BaseModel, BeforeValidator, ConfigDict, Field, StrictInt
 
+from app.core.players import PlayerKind
+
 INT32_MAX = 2**31 - 1
 
 
@@ -52,13 +54,14 @@ class TraceStored(BaseModel):
 class PlayerRequest(BaseModel):
     model_config = ConfigDict(extra="forbid")
 
-    kind: Literal["human", "bot"] = "human"
+    #: who plays: the web client registers a person, bots say "bot" (analytics tell them apart)
+    kind: PlayerKind = PlayerKind.PERSON
 
 
 class PlayerCreated(BaseModel):
     player_id: int
     name: str
-    kind: str
+    kind: PlayerKind
     #: the bearer token for trace uploads; only its hash is stored, so keep it
     token: str
 

@@ -118,13 +118,20 @@ def play(
     ),
     sessions: int = typer.Option(20, help="sessions to play"),
     mean_steps: int = typer.Option(90, help="mean session length in steps"),
-    seed: int = typer.Option(0),
+    seed: int | None = typer.Option(
+        None, help="the bots' seed (default: a fresh one, printed, so a run can be repeated)"
+    ),
     url: str | None = typer.Option(None, help="play over HTTP against `srg serve` at this URL"),
     json_output: bool = typer.Option(False, "--json", help=JSON_HELP),
 ) -> None:
-    """Bots play the latest publication; their traces are stored like players' uploads."""
+    """Bots play the latest publication; their traces are stored like players' uploads,
+    under a bot player."""
     from app.config import get_settings
+    from app.services.play import fresh_seed, play_graph
 
+    if seed is not None and seed < 0:
+        raise InvalidInput(f"--seed must be at least 0, got {seed}")
+    seed = fresh_seed() if seed is None else seed
     if url is not None:
         from app.api.client import play_over_http
 
@@ -133,8 +140,6 @@ def play(
             json_output,
         )
         return
-    from app.services.play import play_graph
-
     require_intact()
     with transaction() as session:
         result = play_graph(

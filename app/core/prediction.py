@@ -23,6 +23,7 @@ from app.core.metrics import (
 )
 from app.core.player_models import Trace, observed_control_counts, trace_edges
 from app.core.publication import Publication
+from app.core.session_figures import SessionFigure
 from app.core.staterank import expected_error
 
 
@@ -72,24 +73,18 @@ def prediction_figures(
     }
 
 
-def observed_error_relative_se(
-    played: Sequence[Trace], err: np.ndarray, n_controls: int, *, resamples: int = 400
-) -> float:
-    """Standard error of the observed mean error per step, relative to it (NaN when 0).
+def observed_error_relative_se(played: Sequence[Trace], err: np.ndarray, n_controls: int) -> float:
+    """Standard error of the observed mean error per step, relative to it (NaN when it
+    cannot be told: fewer than two sessions, or no error met).
 
-    Sessions are resampled with replacement (a seeded bootstrap): steps of one session
-    are not independent draws, sessions are. A prediction cannot be judged closer to the
-    observation than this: with 30 sessions on a refined graph, where a few blend steps
-    carry all the error, it is tens of per cent.
+    Sessions are resampled, not steps (:class:`~app.core.session_figures.SessionFigure`).
+    A prediction cannot be judged closer to the observation than this: with 30 sessions on
+    a refined graph, where a few blend steps carry all the error, it is tens of per cent.
     """
     n_vertices = err.size // n_controls
-    sums = np.array([float(err[trace_edges([t], n_vertices, n_controls)].sum()) for t in played])
-    steps = np.array([len(t) for t in played], dtype=np.float64)
-    if sums.sum() <= 0.0:
-        return float("nan")
-    picks = np.random.default_rng(0).integers(0, len(played), size=(resamples, len(played)))
-    means = sums[picks].sum(axis=1) / steps[picks].sum(axis=1)
-    return float(means.std() / (sums.sum() / steps.sum()))
+    sums = [float(err[trace_edges([t], n_vertices, n_controls)].sum()) for t in played]
+    relative_se = SessionFigure.over_sessions(sums, [len(t) for t in played]).relative_se
+    return float("nan") if relative_se is None else relative_se
 
 
 def split_half_correlation(

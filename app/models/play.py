@@ -15,7 +15,11 @@ from sqlalchemy import (
 )
 from sqlalchemy.orm import Mapped, mapped_column
 
+from app.core.players import PlayerKind
 from app.models.base import HASH_LENGTH, Base, created_at_column
+
+#: the kinds a player may be, as the database enforces them (migration 0007)
+PLAYER_KIND_CHECK = "kind IN ({})".format(", ".join(f"'{kind.value}'" for kind in PlayerKind))
 
 
 class Publication(Base):
@@ -52,10 +56,12 @@ class PublicationEdge(Base):
 
 class Player(Base):
     __tablename__ = "players"
-    __table_args__ = (CheckConstraint("kind IN ('human', 'bot')", name="kind"),)
+    __table_args__ = (CheckConstraint(PLAYER_KIND_CHECK, name="kind"),)
 
     id: Mapped[int] = mapped_column(primary_key=True)
     name: Mapped[str] = mapped_column(String(100), unique=True)
+    #: a :class:`~app.core.players.PlayerKind`, said at registration; no default, so that
+    #: a writer that forgot to say who played fails rather than counts as either
     kind: Mapped[str] = mapped_column(String(8))
     #: sha256 of the bearer token; the token itself is never stored
     token_hash: Mapped[str] = mapped_column(String(HASH_LENGTH), unique=True)

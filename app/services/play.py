@@ -1,11 +1,17 @@
 """Bots playing a graph's latest publication in-process (``srg play``).
 
 Their traces are stored as uploads, exactly as the browser client's are, so growth
-learns from them the same way (docs/play.md).
+learns from them the same way (docs/play.md), under a player of kind ``bot`` so that
+analytics tell them from people's.
+
+A bot's sessions are fixed by its seed. A run with no seed chosen draws a fresh one
+(:func:`fresh_seed`) and reports it, so two runs store two crowds' play rather than the
+same sessions twice, and a run can still be repeated exactly.
 """
 
 from __future__ import annotations
 
+import secrets
 import uuid
 from dataclasses import dataclass
 
@@ -26,11 +32,18 @@ from app.store.traces import bot_player, record_trace
 class PlayResult:
     graph: str
     publication_id: int
+    #: the bots' seed: ``srg play --seed`` with it plays these very sessions again
+    seed: int
     traces: int
     steps: int
     observed_mean_error: float
     high_error_fraction: float
     mean_score_per_step: float
+
+
+def fresh_seed() -> int:
+    """A seed no earlier run chose (one in four billion to repeat), short enough to retype."""
+    return secrets.randbelow(2**32)
 
 
 def play_graph(
@@ -41,7 +54,7 @@ def play_graph(
     bot: str = "goal-directed",
     sessions: int = 20,
     mean_steps: int = 90,
-    seed: int = 0,
+    seed: int,
 ) -> PlayResult:
     """Bots play the latest publication in-process; their traces are stored as uploads."""
     kind = parse_bot(bot)
@@ -61,6 +74,7 @@ def play_graph(
     return PlayResult(
         graph=row.name,
         publication_id=publication_id,
+        seed=seed,
         traces=len(traces),
         steps=len(steps),
         observed_mean_error=observed_mean_error(traces, publication.edge_err, row.n_controls),

@@ -16,6 +16,7 @@ from sqlalchemy.orm import Session
 from app.config import Settings
 from app.core.bots import BotKind, play_sessions
 from app.core.player_models import PlayerModelKind, parse_player_model
+from app.core.players import PlayerSelection
 from app.core.prediction import prediction_figures, split_half_correlation
 from app.core.publication import Publication
 from app.core.refinement import Refiner
@@ -85,12 +86,17 @@ def fixed_graph_prediction(
 
 
 def latest_play_prediction(
-    session: Session, settings: Settings, name: str | int, model: str | None = None
+    session: Session,
+    settings: Settings,
+    name: str | int,
+    model: str | None = None,
+    players: PlayerSelection = PlayerSelection.ALL,
 ) -> dict[str, Any] | None:
     """How well the graph's crowd model, learned from every publication's play but the
-    latest one's, predicts the latest one's; None before two publications were played."""
+    latest one's, predicts the latest one's; None before ``players`` played two
+    publications. Only their sessions teach the model and are predicted."""
     loaded = open_graph(session, settings, name)
-    played = graph_play(session, loaded.row.id)
+    played = graph_play(session, loaded.row.id, players)
     if len(played) < 2:
         return None
     chosen = parse_player_model(model or loaded.row.player_model)

@@ -12,6 +12,7 @@ from sqlalchemy.orm import Session
 from app.config import Settings
 from app.core.dynamics import Dynamics
 from app.core.player_models import PlayerModelKind, parse_player_model
+from app.core.players import PlayerSelection
 from app.core.publication import Publication
 from app.core.refinement import Refiner, RefinerConfig
 from app.core.strategies import EdgeWeights, Strategy, edge_weights, parse_strategy
@@ -36,15 +37,21 @@ def refiner_config(
     )
 
 
-def graph_play(session: Session, graph_id: int) -> list[tuple[Publication, list[np.ndarray]]]:
-    """Every publication of the graph that was played, with its traces, oldest first.
+def graph_play(
+    session: Session, graph_id: int, players: PlayerSelection = PlayerSelection.ALL
+) -> list[tuple[Publication, list[np.ndarray]]]:
+    """Every publication of the graph that ``players`` played, with their traces, oldest
+    first.
 
     Vertex ids are stable across publications (vertices are only appended), so traces of
     any of them read on the graph as it is now; the publication says what players saw.
     """
     return [
-        (load_publication(session, publication_id), load_traces(session, [publication_id]))
-        for publication_id in played_publications(session, graph_id)
+        (
+            load_publication(session, publication_id),
+            load_traces(session, [publication_id], players),
+        )
+        for publication_id in played_publications(session, graph_id, players)
     ]
 
 

@@ -13,18 +13,18 @@ import secrets
 from collections.abc import Sequence
 
 import numpy as np
-from sqlalchemy import distinct, func, select
+from sqlalchemy import ColumnElement, distinct, func, select, true
 from sqlalchemy.exc import IntegrityError
 from sqlalchemy.orm import Session
 
 from app.core.errors import Conflict, InvalidInput
+from app.core.players import PlayerKind, PlayerSelection
 from app.core.publication import Publication
 from app.models import Player, Trace, TraceStep
 from app.models import Publication as PublicationRow
 from app.store._sql import bulk_insert, insert_ignoring_duplicates
 from app.store.publications import load_publication
 
-PLAYER_KINDS = ("human", "bot")
 MAX_KEY_LENGTH = 128
 
 
@@ -40,14 +40,13 @@ def _token_hash(token: str) -> str:
     return hashlib.sha256(token.encode()).hexdigest()
 
 
-def get_or_create_player(session: Session, name: str, kind: str) -> tuple[int, str]:
-    """The player named ``name`` (created if new) and a fresh bearer token for it.
+def get_or_create_player(session: Session, name: str, kind: PlayerKind) -> tuple[int, str]:
+    """The player named ``name`` (created if new, of ``kind``) and a fresh bearer token.
 
     Only the token's hash is stored, so an existing player gets a new token and its
     earlier tokens stop working.
     """
-    if kind not in PLAYER_KINDS:
-        raise InvalidInput(f"player kind must be one of {PLAYER_KINDS}, got {kind!r}")
+    kind = PlayerKind(kind)  # a plain string is refused here, not by the CHECK constraint
     token = secrets.token_urlsafe(32)
     player = session.scalars(select(Player).where(Player.name == name)).one_or_none()
     if player is None:
@@ -69,7 +68,13 @@ def bot_player(session: Session, name: str) -> int:
     insert_ignoring_duplicates(
         session,
         Player,
-        [{"name": name, "kind": "bot", "token_hash": _token_hash(secrets.token_urlsafe(32))}],
+        [
+            {
+                "name": name,
+                "kind": PlayerKind.BOT.value,
+                "token_hash": _token_hash(secrets.token_urlsafe(32)),
+            }
+        ],
     )
     return session.scalars(select(Player.id).where(Player.name == name)).one()
 
@@ -169,12 +174,17 @@ def stored_play(session: Session, publication_id: int) -> tuple[int, int]:
     return int(traces or 0), int(steps or 0)
 
 
-def load_traces(session: Session, publication_ids: Sequence[int]) -> list[np.ndarray]:
-    """Every trace played on these publications, oldest first, as (n, 2) int64 arrays."""
+def load_traces(
+    session: Session,
+    publication_ids: Sequence[int],
+    players: PlayerSelection = PlayerSelection.ALL,
+) -> list[np.ndarray]:
+    """Every trace ``players`` played on these publications, oldest first, as (n, 2) int64
+    arrays."""
     rows = session.execute(
         select(TraceStep.trace_id, TraceStep.vertex, TraceStep.control)
         .join(Trace, Trace.id == TraceStep.trace_id)
-        .where(Trace.publication_id.in_(list(publication_ids)))
+        .where(Trace.publication_id.in_(list(publication_ids)), _played_by(players))
         .order_by(TraceStep.trace_id, TraceStep.step)
     ).all()
     table = np.array(rows, dtype=np.int64).reshape(len(rows), 3)
@@ -214,13 +224,24 @@ def _replay(
     return trace.id
 
 
-def played_publications(session: Session, graph_id: int) -> list[int]:
-    """Ids of the graph's publications that have at least one trace, oldest first."""
+def played_publications(
+    session: Session, graph_id: int, players: PlayerSelection = PlayerSelection.ALL
+) -> list[int]:
+    """Ids of the graph's publications with at least one trace of ``players``, oldest first."""
+    played = select(Trace.id).where(Trace.publication_id == PublicationRow.id, _played_by(players))
     return list(
         session.scalars(
             select(PublicationRow.id)
             .where(PublicationRow.graph_id == graph_id)
-            .where(select(Trace.id).where(Trace.publication_id == PublicationRow.id).exists())
+            .where(played.exists())
             .order_by(PublicationRow.id)
         )
     )
+
+
+def _played_by(players: PlayerSelection) -> ColumnElement[bool]:
+    """The condition on a trace that one of ``players`` played it (true for all)."""
+    if players is PlayerSelection.ALL:
+        return true()
+    kinds = [kind.value for kind in players.kinds]
+    return Trace.player_id.in_(select(Player.id).where(Player.kind.in_(kinds)))

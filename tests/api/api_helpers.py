@@ -68,7 +68,7 @@ def make_client(
     return TestClient(app, client=(peer, 50000))
 
 
-def register(client: TestClient, kind: str = "human") -> dict[str, str]:
+def register(client: TestClient, kind: str = "person") -> dict[str, str]:
     """Authorization headers of a freshly registered player."""
     reply = client.post("/api/players", json={"kind": kind})
     assert reply.status_code == 201, reply.text

@@ -246,7 +246,7 @@ def test_every_body_is_bounded(
     before = player_count(session)
     too_large = {"error": "body larger than 64 bytes", "details": {"max_bytes": 64}}
     with make_client(session, db_url, artifact_dir, max_body_bytes=64) as small:
-        padded = {"kind": "human", "padding": "x" * 100}
+        padded = {"kind": "person", "padding": "x" * 100}
         routes_with_bodies = [("/api/players", {}), (f"/api/graphs/{published.name}/grow", ADMIN)]
         for url, headers in routes_with_bodies:
             reply = small.post(url, json=padded, headers=headers)

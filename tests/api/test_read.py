@@ -10,22 +10,35 @@ import pytest
 from api_helpers import ADMIN_TOKEN, Published
 from fastapi.testclient import TestClient
 from PIL import Image
+from sqlalchemy import func, select
 from sqlalchemy.orm import Session
 
+from app.bench.ingest import build_toy_graph
 from app.core.toy import ToyDynamics
+from app.models import Player
 from app.render.animation import STRIP_MEDIA_TYPE, decode_strip
 from app.store.artifacts import ArtifactStore
 from app.store.graphs import load_graph
+from app.store.publications import publish
 
 ADMIN = {"Authorization": f"Bearer {ADMIN_TOKEN}"}
 
 
-def test_graphs_list_the_latest_publication(client: TestClient, published: Published) -> None:
+def test_graphs_list_the_latest_publication(
+    client: TestClient, published: Published, session: Session, artifacts: ArtifactStore
+) -> None:
+    """With whether it has animations: one made for bots has none, one never made neither."""
+    for_bots = build_toy_graph(session, artifacts, name="for-bots")
+    publish(session, for_bots.graph_id, for_bots.graph)
+    build_toy_graph(session, artifacts, name="unpublished")
+    session.commit()
     reply = client.get("/api/graphs")
     assert reply.status_code == 200
-    (graph,) = reply.json()
+    graph, bots, unpublished = reply.json()
     assert graph["name"] == published.name
-    assert graph["latest_publication"] == published.publication_id
+    assert graph["latest_publication"] == published.publication_id and graph["animated"]
+    assert bots["latest_publication"] is not None and not bots["animated"]
+    assert unpublished["latest_publication"] is None and not unpublished["animated"]
 
 
 def test_the_publication_carries_every_edge(client: TestClient, published: Published) -> None:
@@ -116,8 +129,23 @@ def test_players_get_distinct_tokens(client: TestClient) -> None:
     first, second = (client.post("/api/players", json={"kind": "bot"}).json() for _ in range(2))
     assert first["kind"] == "bot" and first["token"] != second["token"]
     assert first["name"] != second["name"]
-    assert client.post("/api/players").json()["kind"] == "human"
-    assert client.post("/api/players", json={"kind": "robot"}).status_code == 422
+    assert client.post("/api/players").json()["kind"] == "person"
+
+
+def test_a_player_is_a_person_unless_it_says_bot(client: TestClient, session: Session) -> None:
+    said = {"person": {"kind": "person"}, "bot": {"kind": "bot"}, "default": None}
+    kinds = {name: client.post("/api/players", json=body).json() for name, body in said.items()}
+    stored = {name: kind for name, kind in session.execute(select(Player.name, Player.kind))}
+    assert {name: stored[reply["name"]] for name, reply in kinds.items()} == {
+        "person": "person",
+        "bot": "bot",
+        "default": "person",
+    }
+    for kind in ("robot", "human", "", 1):  # "human" was the person's kind before
+        reply = client.post("/api/players", json={"kind": kind})
+        assert reply.status_code == 422 and set(reply.json()) == {"error", "details"}, kind
+        assert reply.json()["details"][0]["loc"][-1] == "kind"
+    assert session.scalar(select(func.count()).select_from(Player)) == 3  # none refused
 
 
 def test_admin_actions_need_the_admin_token(client: TestClient, published: Published) -> None:

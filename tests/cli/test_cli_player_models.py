@@ -34,7 +34,7 @@ def var(tmp_path_factory: pytest.TempPathFactory) -> Path:
         ok(var, "init", name, "--player-model", "eq2")
         ok(var, "grow", name, "--expansions", "6")
         ok(var, "publish", name)
-        ok(var, "play", name, "--sessions", "8")
+        ok(var, "play", name, "--sessions", "8", "--seed", "0")
     ok(var, "grow", "twice", "--expansions", "6")
     ok(var, "publish", "twice")
     ok(var, "play", "twice", "--sessions", "8", "--seed", "1", "--bot", "heuristic")
@@ -102,7 +102,7 @@ def test_analytics_evaluates_another_model_when_asked(var: Path) -> None:
     assert logit["predicted_expected_error"] != eq2["predicted_expected_error"]
     text = ok(var, "analytics", "twice", "--player-model", "logit")
     assert "prediction of the latest publication's play" in text
-    assert "predicted_expected_error" in text and "model fit:" in text
+    assert "predicted expected error" in text and "model fit:" in text
     knn = analytics(var, "twice", "--player-model", "knn")["prediction"]
     assert knn["player_model"] == "knn" and knn["model_fit"]["neighbours"] >= 1
     assert knn["model_fit"]["eq2_cv_score"] < 0.0  # a log-likelihood per step

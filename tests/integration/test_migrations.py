@@ -4,11 +4,13 @@ from __future__ import annotations
 
 from collections.abc import Callable
 
+import pytest
 from alembic.autogenerate import compare_metadata
 from alembic.config import Config
 from alembic.migration import MigrationContext
 from alembic.script import ScriptDirectory
-from sqlalchemy import inspect
+from sqlalchemy import inspect, text
+from sqlalchemy.exc import IntegrityError
 
 from alembic import command
 from app.db import make_engine
@@ -33,5 +35,36 @@ def test_upgrade_downgrade_upgrade_matches_models(
             command.upgrade(config, "head")
             context = MigrationContext.configure(connection, opts={"compare_type": True})
             assert compare_metadata(context, Base.metadata) == []
+    finally:
+        engine.dispose()
+
+
+def test_0007_renames_human_players_to_people_and_back(
+    empty_db_url: str, make_alembic_config: Callable[[object | None], Config]
+) -> None:
+    """Every player said its kind at registration, so existing rows need no guess."""
+    insert = text("INSERT INTO players (name, kind, token_hash) VALUES (:name, :kind, :hash)")
+    kinds = text("SELECT name, kind FROM players ORDER BY name")
+    engine = make_engine(empty_db_url)
+    try:
+        with engine.begin() as connection:
+            config = make_alembic_config(connection)
+            command.upgrade(config, "0006")
+            for name, kind in (("a-browser", "human"), ("bot-random", "bot")):
+                connection.execute(insert, {"name": name, "kind": kind, "hash": name})
+            command.upgrade(config, "0007")
+            assert connection.execute(kinds).all() == [
+                ("a-browser", "person"),
+                ("bot-random", "bot"),
+            ]
+            with pytest.raises(IntegrityError), connection.begin_nested():
+                connection.execute(insert, {"name": "old-client", "kind": "human", "hash": "x"})
+            with pytest.raises(IntegrityError), connection.begin_nested():  # no default kind
+                connection.execute(text("INSERT INTO players (name, token_hash) VALUES ('n', 'n')"))
+            command.downgrade(config, "0006")
+            assert connection.execute(kinds).all() == [
+                ("a-browser", "human"),
+                ("bot-random", "bot"),
+            ]
     finally:
         engine.dispose()

@@ -12,6 +12,7 @@ from sqlalchemy.orm import Session
 from app.core.clipbank import MemoryClipBank
 from app.core.graph import StateGraph
 from app.core.growth import expand_blend_edge
+from app.core.players import PlayerKind, PlayerSelection
 from app.core.publication import freeze
 from app.core.toy import ToyDynamics
 from app.models import GrowthEpoch, Player, PublicationEdge, Trace, TraceStep
@@ -31,6 +32,7 @@ from app.store.traces import (
     bot_player,
     get_or_create_player,
     load_traces,
+    played_publications,
     player_for_token,
     record_trace,
 )
@@ -96,9 +98,9 @@ def test_publication_is_a_frozen_copy(
 
 
 def test_player_tokens_are_hashed_and_rotated(session: Session) -> None:
-    player, token = get_or_create_player(session, "ada", "human")
+    player, token = get_or_create_player(session, "ada", PlayerKind.PERSON)
     assert player_for_token(session, token) == player
-    same, new_token = get_or_create_player(session, "ada", "human")
+    same, new_token = get_or_create_player(session, "ada", PlayerKind.PERSON)
     assert same == player and new_token != token
     assert player_for_token(session, token) is None
     assert player_for_token(session, new_token) == player
@@ -133,6 +135,26 @@ def test_traces_round_trip_and_replays_write_nothing(
     loaded = load_traces(session, [publication])
     assert [t.tolist() for t in loaded] == [first.tolist(), second.tolist()]
     assert load_traces(session, [publication + 1000]) == []
+
+
+def test_traces_are_read_for_the_players_chosen(session: Session, saved: tuple[int, Toy]) -> None:
+    graph_id, (_, graph, _) = saved
+    by_person, by_bot = walk(graph, [1, 2]), walk(graph, [0, 0, 1])
+    first = publish(session, graph_id, graph)
+    person, _ = get_or_create_player(session, "ada", PlayerKind.PERSON)
+    record_trace(session, first, person, "k", by_person)
+    second = publish(session, graph_id, graph)  # a second publication, bots only
+    record_trace(session, second, bot_player(session, "bot-x"), "k", by_bot)
+
+    def steps(players: PlayerSelection) -> list[list[list[int]]]:
+        return [t.tolist() for t in load_traces(session, [first, second], players)]
+
+    assert steps(PlayerSelection.ALL) == [by_person.tolist(), by_bot.tolist()]
+    assert steps(PlayerSelection.PEOPLE) == [by_person.tolist()]
+    assert steps(PlayerSelection.BOTS) == [by_bot.tolist()]
+    assert played_publications(session, graph_id) == [first, second]
+    assert played_publications(session, graph_id, PlayerSelection.PEOPLE) == [first]
+    assert played_publications(session, graph_id, PlayerSelection.BOTS) == [second]
 
 
 @pytest.mark.parametrize(

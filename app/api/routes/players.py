@@ -3,7 +3,8 @@
 The server picks the name: registering under a chosen name would let anyone take over
 an existing player by re-issuing its token. Registrations are rate-limited per client
 address (``registration_rate``), so fresh players cannot multiply the upload limit nor
-grow the players table without bound.
+grow the players table without bound. A player is a person unless the body says ``bot``
+(the web client says ``person``, every bot ``bot``), so analytics can tell them apart.
 """
 
 from __future__ import annotations
@@ -17,6 +18,7 @@ from app.api.deps import get_session
 from app.api.errors import error_responses
 from app.api.ratelimit import limited_registration
 from app.api.schemas import PlayerCreated, PlayerRequest
+from app.core.players import PlayerKind
 from app.store.traces import get_or_create_player
 from app.store.transactions import in_transaction
 
@@ -32,7 +34,7 @@ router = APIRouter(prefix="/api/players", tags=["players"])
 def register_player(
     body: PlayerRequest | None = None, session: Session = Depends(get_session)
 ) -> PlayerCreated:
-    kind = body.kind if body else "human"
+    kind = body.kind if body else PlayerKind.PERSON
     name = f"{kind}-{secrets.token_hex(8)}"
     player_id, token = in_transaction(session, lambda: get_or_create_player(session, name, kind))
     return PlayerCreated(player_id=player_id, name=name, kind=kind, token=token)

@@ -74,7 +74,7 @@ async function registerPlayer() {
   const player = await api("/api/players", {
     method: "POST",
     headers: { "Content-Type": "application/json" },
-    body: JSON.stringify({ kind: "human" }),
+    body: JSON.stringify({ kind: "person" }), // bots register as "bot"; analytics tell them apart
   });
   localStorage.setItem("srg.token", player.token);
   return player.token;
