@@ -190,17 +190,30 @@ def create_embedded_schema(engine: Engine) -> bool:
     return True
 
 
+def migrations_dir() -> Path:
+    """Where Alembic's migrations are: ``migrations/`` inside this package when it was
+    installed from a wheel, else ``alembic/`` at the top of its source checkout.
+
+    The repository keeps them at its top, where the ``alembic`` command of a checkout finds
+    them through ``alembic.ini``; a wheel carries the same files as ``app/migrations``
+    (``package-dir`` in pyproject.toml), which an editable install does not make.
+    """
+    installed = Path(__file__).resolve().parent / "migrations"
+    return installed if installed.is_dir() else ROOT / "alembic"
+
+
 def alembic_config(connection: Any = None) -> Any:
-    """Alembic's Config of this checkout, optionally bound to an open ``connection``."""
+    """Alembic's Config of srg's migrations, optionally bound to an open ``connection``.
+
+    Built here, not read from ``alembic.ini``, so that an installed srg (no checkout, no
+    ini) migrates too; the database URL comes from Settings in ``env.py`` either way.
+    """
     from alembic.config import Config
 
-    ini = ROOT / "alembic.ini"
-    if not ini.exists():
-        raise Unavailable(f"alembic.ini not found at {ini}: run srg from a source checkout")
-    config = Config(str(ini))
+    config = Config()
+    config.set_main_option("script_location", str(migrations_dir()))
     if connection is not None:
         config.attributes["connection"] = connection
-        config.attributes["configure_logger"] = False
     return config
 
 

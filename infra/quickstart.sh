@@ -4,7 +4,7 @@
 # Extra arguments go to `srg demo` (e.g. --checkpoints 300,1000,3000 or --fluid high).
 set -euo pipefail
 cd "$(dirname "$0")/.."
-source infra/venv.sh
+SRG_EXTRAS=all source infra/venv.sh
 # Mitsuba's LLVM variant renders about 3x faster than scalar_rgb but needs libLLVM >= 17
 # (Debian's default 14/15 crash in it); without it rendering falls back to scalar_rgb.
 if ! ls /usr/lib/*/libLLVM.so.19* >/dev/null 2>&1 && command -v apt-get >/dev/null; then

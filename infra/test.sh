@@ -3,7 +3,7 @@
 # Extra arguments go to pytest (e.g. infra/test.sh -k store -x).
 set -euo pipefail
 cd "$(dirname "$0")/.."
-SRG_EXTRAS=test source infra/venv.sh
+SRG_EXTRAS=all,test source infra/venv.sh
 bash infra/services.sh
 echo "test: ruff"
 ruff check app tests

@@ -16,16 +16,12 @@ from sqlalchemy import text
 from sqlalchemy.engine import make_url
 from tenacity import Retrying, retry_if_exception_type, stop_after_delay, wait_fixed
 
-from app.db import make_engine
-
-ROOT = Path(__file__).resolve().parents[2]
+from app.db import alembic_config, make_engine
 
 
 @contextmanager
 def scratch_database(server_url: str) -> Iterator[str]:
     """A fresh, migrated database on the PostgreSQL server of ``server_url``, then dropped."""
-    from alembic.config import Config
-
     from alembic import command
 
     url = make_url(server_url)
@@ -38,10 +34,7 @@ def scratch_database(server_url: str) -> Iterator[str]:
     created = url.set(database=name).render_as_string(hide_password=False)
     engine = make_engine(created)
     with engine.begin() as connection:
-        config = Config(str(ROOT / "alembic.ini"))
-        config.attributes["connection"] = connection
-        config.attributes["configure_logger"] = False
-        command.upgrade(config, "head")
+        command.upgrade(alembic_config(connection), "head")
     engine.dispose()
     try:
         yield created

@@ -14,7 +14,13 @@ class RevisionError(InvalidInput):
 
 
 def migrate(direction: str, revision: str) -> None:
-    """``alembic upgrade|downgrade revision`` on the configured database, errors in one line."""
+    """``alembic upgrade|downgrade revision`` on the configured database, errors in one line.
+
+    Alembic says each revision it runs on stderr, as the ``alembic`` command does with the
+    logging of ``alembic.ini`` (which an installed srg has not).
+    """
+    import logging
+
     from alembic.util import CommandError
 
     from alembic import command
@@ -22,6 +28,8 @@ def migrate(direction: str, revision: str) -> None:
     from app.db import alembic_config, parse_database_url
 
     parse_database_url(get_settings().resolved_database_url)  # one line, before Alembic
+    logging.basicConfig(format="%(levelname)-5.5s [%(name)s] %(message)s")
+    logging.getLogger("alembic").setLevel(logging.INFO)
     try:
         getattr(command, direction)(alembic_config(), revision)
     except CommandError as exc:

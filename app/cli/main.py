@@ -8,6 +8,7 @@ from __future__ import annotations
 
 import sys
 from collections.abc import Callable
+from importlib.metadata import version
 
 import typer
 
@@ -20,6 +21,24 @@ app = typer.Typer(
     pretty_exceptions_enable=False,
     add_completion=False,
 )
+
+
+def _print_version(asked: bool) -> None:
+    """``srg --version``: the installed distribution's version, as pip shows it."""
+    if asked:
+        typer.echo(f"srg {version('srg')}")
+        raise typer.Exit()
+
+
+@app.callback()
+def root(
+    _version: bool = typer.Option(
+        False, "--version", callback=_print_version, is_eager=True, help="print the version"
+    ),
+) -> None:
+    """Self-refining games: grow, publish and play precomputed state graphs."""
+
+
 app.add_typer(db.app, name="db")
 app.add_typer(bench.app, name="bench")
 COMMANDS: dict[str, Callable[..., None]] = {

@@ -7,8 +7,9 @@ always print JSON and take no ``--json``.
 
 Errors: an :class:`~app.core.errors.SrgError` (the user can act on it) and the library
 errors mapped below (a setting pydantic refused, a database that cannot be used, a server
-that cannot be reached) end the command with one ``srg: error: ...`` line on stderr and
-exit status 2. Any other exception is a bug and keeps its traceback.
+that cannot be reached, a module of an extra not installed: :mod:`app.cli.extras`) end the
+command with one ``srg: error: ...`` line on stderr and exit status 2. Any other exception
+is a bug and keeps its traceback.
 """
 
 from __future__ import annotations
@@ -25,6 +26,7 @@ import typer
 from rich.console import Console
 from rich.progress import BarColumn, MofNCompleteColumn, Progress, TextColumn, TimeElapsedColumn
 
+from app.cli.extras import missing_extra_message
 from app.core.errors import SrgError
 
 if TYPE_CHECKING:
@@ -108,7 +110,6 @@ def _is_click(exc: Exception, name: str) -> bool:
 
 def user_error_message(exc: Exception) -> str | None:
     """What ``exc`` tells the user, when it is theirs to act on; ``None`` for a bug."""
-    import httpx
     from pydantic import ValidationError
     from sqlalchemy.exc import DBAPIError, OperationalError
 
@@ -116,6 +117,9 @@ def user_error_message(exc: Exception) -> str | None:
 
     if isinstance(exc, SrgError):
         return str(exc.args[0] if exc.args else exc)
+    missing = missing_extra_message(exc)
+    if missing is not None:
+        return missing
     if isinstance(exc, ValidationError) and exc.title == Settings.__name__:
         return "; ".join(
             f"SRG_{'_'.join(str(part) for part in error['loc']).upper()}: {error['msg']}"
@@ -128,7 +132,9 @@ def user_error_message(exc: Exception) -> str | None:
         if isinstance(exc, OperationalError):
             return f"cannot use the database: {exc.orig}"
         return None
-    if isinstance(exc, httpx.TransportError):
+    # httpx not loaded: the error is none of its own (and without the 'api' extra it is absent)
+    httpx = sys.modules.get("httpx")
+    if httpx is not None and isinstance(exc, httpx.TransportError):
         return f"cannot reach the server: {exc}"
     if isinstance(exc, OSError) and exc.strerror:  # the machine's: a path, a disk, a port
         return f"{exc.filename}: {exc.strerror}" if exc.filename else exc.strerror
