@@ -34,13 +34,20 @@ SHARD_FRAME = 0.005
 
 
 def _inside_silhouette(
-    dyn: LiquidDynamics, store: ArtifactStore, bundle: str, frames: np.ndarray
+    dyn: LiquidDynamics,
+    store: ArtifactStore,
+    bundles: dict[int, str],
+    images: dict[int, np.ndarray],
 ) -> np.ndarray:
-    """Near-black pixels per frame inside the water of the clip stored as ``bundle``."""
-    sdf = dequantise_sdf(dyn.grid, decode_arrays(store.get_bytes(bundle), ("frames",))["frames"])
-    height, width = frames.shape[1:3]
+    """Near-black pixels per frame inside the water, over the clips stored as ``bundles``."""
+    height, width = next(iter(images.values())).shape[1:3]
     projector = silhouette_projector(tank_camera(dyn.scene.tank, width, height), dyn.grid)
-    return dark_inside(frames, silhouettes(projector, sdf))
+    counts = []
+    for clip, bundle in bundles.items():
+        frames = decode_arrays(store.get_bytes(bundle), ("frames",))["frames"]
+        water = silhouettes(projector, dequantise_sdf(dyn.grid, frames))
+        counts.append(dark_inside(images[clip], water))
+    return np.concatenate(counts)
 
 
 def bench_look(settings: Settings, name: str) -> dict[str, Any]:
@@ -69,12 +76,9 @@ def bench_look(settings: Settings, name: str) -> dict[str, Any]:
         "dark_inside_water": None,
     }
     if isinstance(dyn, LiquidDynamics):
-        inside = np.concatenate(
-            [
-                _inside_silhouette(dyn, store, bundle, images[strips[clip]])
-                for clip, bundle in bundles.items()
-                if bundle is not None
-            ]
+        stored = {clip: bundle for clip, bundle in bundles.items() if bundle is not None}
+        inside = _inside_silhouette(
+            dyn, store, stored, {clip: images[strips[clip]] for clip in stored}
         )
         report["dark_inside_water"] = {
             "strips": len(bundles),
