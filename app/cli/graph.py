@@ -95,6 +95,12 @@ def grow(
 
 def publish(
     name: str = typer.Argument(..., help="graph name or id"),
+    render: bool = typer.Option(
+        True,
+        "--render/--no-render",
+        help="render missing animations (--no-render: a version for bots and scripts, "
+        "which play edges, not pictures)",
+    ),
     json_output: bool = typer.Option(False, "--json", help=JSON_HELP),
 ) -> None:
     """Relink every blend, render what is missing, freeze a publication for players."""
@@ -106,8 +112,10 @@ def publish(
     require_intact()
     with transaction() as session:
         missing = count_missing_animations(session, get_graph_row(session, name).id)
-        with progress_bar(missing, "animations") as advance:
-            result = publish_graph(session, get_settings(), name=name, progress=advance)
+        with progress_bar(missing if render else 0, "animations") as advance:
+            result = publish_graph(
+                session, get_settings(), name=name, render=render, progress=advance
+            )
     emit(result, json_output)
 
 

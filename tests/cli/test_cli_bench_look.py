@@ -41,6 +41,8 @@ def test_bench_look_reports_the_dark_frames_of_a_graphs_strips(tmp_path: Path) -
     ok(var, "db", "upgrade")
     ok(var, "init", "t", "--dynamics", "toy")
     one_line_error(srg(var, "bench", "look", "t"), "has no rendered clips")
+    assert json.loads(ok(var, "publish", "t", "--no-render", "--json"))["rendered"] == 0
+    one_line_error(srg(var, "bench", "look", "t"), "has no rendered clips")  # still none
     ok(var, "publish", "t")
     with sqlite3.connect(var / "srg.sqlite3") as db:
         k = db.execute("SELECT frames_per_clip FROM graphs").fetchone()[0]
