@@ -70,6 +70,12 @@ class Settings(BaseSettings):
         3, ge=0, description="retries of a task that waits, and redeliveries of a lost one, at most"
     )
     beat_interval: float = Field(30.0, gt=0.0, description="seconds between beat's growth ticks")
+    publish_every: int = Field(
+        600,
+        ge=0,
+        description="simulated frames a growing graph grows between the publications beat "
+        "makes of it (one at once when it has none); 0: beat never publishes",
+    )
     player_model: PlayerModelKind = Field(
         PlayerModelKind.KNN,
         description="crowd model of new sr-crowd graphs: knn (default: docs/player-models.md), "

@@ -2,9 +2,12 @@
 
 Each takes the graph's lock and refuses while an epoch runs (:class:`EpochRunning`),
 so it never writes into the middle of an epoch's integrations; the tasks retry later.
+Beat publishes a growing graph by itself (:func:`beat_tick`, :func:`publish_if_due`).
 """
 
 from __future__ import annotations
+
+from dataclasses import dataclass
 
 from sqlalchemy.orm import Session
 
@@ -15,8 +18,9 @@ from app.services.loading import keep_graph, loaded_graph
 from app.services.publishing import publish_graph, relink_blends
 from app.services.refining import rank_stored, refiner_for
 from app.store.epochs import running_epoch
-from app.store.graphs import get_graph_row, mark_growing
-from app.store.locks import lock_graph
+from app.store.graphs import get_graph_row, growing_graph_ids, mark_growing, size_frames
+from app.store.locks import lock_graph, lock_graph_if_free
+from app.store.publications import latest_publication
 
 
 class EpochRunning(Conflict):
@@ -56,6 +60,59 @@ def relink_graph(session: Session, settings: Settings, graph_id: int) -> int:
 def publish_between_epochs(session: Session, settings: Settings, graph_id: int) -> int:
     """``publish_graph`` under the graph's lock, never in the middle of an epoch."""
     _between_epochs(session, graph_id)
+    return publish_graph(session, settings, name=graph_id).publication_id
+
+
+def publication_due(session: Session, settings: Settings, graph_id: int) -> bool:
+    """Whether beat publishes the graph now: no epoch runs, and it has no publication yet
+    or has grown ``SRG_PUBLISH_EVERY`` simulated frames since its latest (0: never).
+
+    Counted in frames, not minutes, because a publication is worth its cost (a copy of
+    every edge, the animations still missing) only when there is something new to play:
+    a graph whose growth stopped or stalls is not published again and again, and a
+    faster cluster publishes as often as its graph changes by that much.
+    """
+    every = settings.publish_every
+    if every == 0 or running_epoch(session, graph_id) is not None:
+        return False
+    latest = latest_publication(session, graph_id)
+    return latest is None or size_frames(session, graph_id) - latest.size_frames >= every
+
+
+@dataclass(frozen=True)
+class BeatTick:
+    """What one tick of beat sends: an epoch for each growing graph, or its publication."""
+
+    grow: list[int]
+    publish: list[int]
+
+
+def beat_tick(session: Session, settings: Settings) -> BeatTick:
+    """The growing graphs, split into those to grow and those due for publication.
+
+    A due graph is published instead of grown, so its next epoch waits for the
+    publication (the lock would hold it anyway): players are never more than
+    ``SRG_PUBLISH_EVERY`` frames (and an epoch) behind the graph, and a publication
+    that keeps failing holds growth back rather than letting the two drift apart.
+    """
+    grow: list[int] = []
+    publish: list[int] = []
+    for graph_id in growing_graph_ids(session):
+        (publish if publication_due(session, settings, graph_id) else grow).append(graph_id)
+    return BeatTick(grow=grow, publish=publish)
+
+
+def publish_if_due(session: Session, settings: Settings, graph_id: int) -> int | None:
+    """``publish_graph`` if the graph is still due under its lock; the publication's id.
+
+    None when it is not (an epoch started, a tick before published it), or while another
+    writer holds the graph: a tick sent during a long publication returns at once, and
+    the next tick asks again.
+    """
+    if lock_graph_if_free(session, graph_id) is None:
+        return None
+    if not publication_due(session, settings, graph_id):
+        return None
     return publish_graph(session, settings, name=graph_id).publication_id
 
 

@@ -23,14 +23,29 @@ def lock_graph(session: Session, graph_id: int) -> Graph:
     begun IMMEDIATE (the database's write lock), which must happen before any statement
     of the transaction, so call this first.
     """
-    begin_immediate(session)
-    stmt = select(Graph).where(Graph.id == graph_id).execution_options(populate_existing=True)
-    if session.get_bind().dialect.name != "sqlite":
-        stmt = stmt.with_for_update()
-    row = session.scalars(stmt).one_or_none()
+    row = _locked_row(session, graph_id, skip_locked=False)
     if row is None:
         raise GraphNotFound(f"no graph {graph_id!r}")
     return row
+
+
+def lock_graph_if_free(session: Session, graph_id: int) -> Graph | None:
+    """The graph row locked as :func:`lock_graph` locks it, or None at once where another
+    transaction holds it (PostgreSQL's ``SKIP LOCKED``; SQLite waits for its write lock).
+
+    For work that a later attempt does as well, so that a worker does not sit blocked
+    behind a long writer (a publication rendering its animations) only to find the work
+    done.
+    """
+    return _locked_row(session, graph_id, skip_locked=True)
+
+
+def _locked_row(session: Session, graph_id: int, *, skip_locked: bool) -> Graph | None:
+    begin_immediate(session)
+    stmt = select(Graph).where(Graph.id == graph_id).execution_options(populate_existing=True)
+    if session.get_bind().dialect.name != "sqlite":
+        stmt = stmt.with_for_update(skip_locked=skip_locked)
+    return session.scalars(stmt).one_or_none()
 
 
 def lock_epoch_graph(session: Session, epoch_id: int) -> tuple[GrowthEpoch, Graph]:

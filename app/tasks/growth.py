@@ -19,6 +19,7 @@ from __future__ import annotations
 
 import time
 from collections.abc import Callable
+from dataclasses import asdict
 from typing import Any
 
 from celery import chain, chord, group
@@ -30,7 +31,7 @@ from app.config import get_settings
 from app.db import transaction
 from app.services import between_epochs, clips, epochs
 from app.store.epochs import running_epoch
-from app.store.graphs import StaleGraph, get_graph_row, growing_graph_ids, size_frames
+from app.store.graphs import StaleGraph, get_graph_row, size_frames
 from app.store.growth_requests import end_request, failure_reason, start_request
 from app.tasks.celery_app import celery_app
 
@@ -187,14 +188,25 @@ def _plan_and_send(graph_id: int, count: int | None, renders: bool | None) -> in
     return plan.epoch_id
 
 
-@celery_app.task(name="srg.schedule_growth")
-def schedule_growth() -> list[int]:
-    """Beat's tick: one ``grow_epoch`` per graph with ``growing = true``."""
+@celery_app.task(name="srg.publish_if_due")
+def publish_if_due(graph_id: int) -> int | None:
+    """Beat's publication of a growing graph due one; its id, or None (not due after all,
+    or another writer holds the graph: the next tick asks again)."""
     with transaction() as session:
-        ids = growing_graph_ids(session)
-    for graph_id in ids:
+        return between_epochs.publish_if_due(session, get_settings(), graph_id)
+
+
+@celery_app.task(name="srg.schedule_growth")
+def schedule_growth() -> dict[str, list[int]]:
+    """Beat's tick: for each graph with ``growing = true`` its publication when one is due
+    (``SRG_PUBLISH_EVERY``), else a ``grow_epoch``; the ids of each."""
+    with transaction() as session:
+        tick = between_epochs.beat_tick(session, get_settings())
+    for graph_id in tick.publish:
+        publish_if_due.delay(graph_id)
+    for graph_id in tick.grow:
         grow_epoch.delay(graph_id)
-    return ids
+    return asdict(tick)
 
 
 def clip_pipelines(epoch_id: int, clips: list[tuple[int, int]], *, renders: bool) -> Signature:

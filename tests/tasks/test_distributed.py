@@ -8,7 +8,7 @@ from pathlib import Path
 
 import pytest
 from celery import Celery
-from sqlalchemy import select
+from sqlalchemy import func, select
 from tasks_cluster import Cluster, RedisServer, wait_for
 from tasks_helpers import (
     assert_no_duplicates,
@@ -21,7 +21,7 @@ from tasks_helpers import (
 )
 
 from app.core.toy import ToyDynamics
-from app.models import GrowthEpoch
+from app.models import GrowthEpoch, Publication, PublicationEdge
 from app.store.epochs import EpochStatus
 
 pytestmark = [pytest.mark.slow, pytest.mark.postgres, pytest.mark.redis]
@@ -211,7 +211,7 @@ def test_integrating_task_delivered_twice(
 def test_two_beat_ticks_at_once_open_one_epoch(
     cluster_env: Callable[..., Cluster], tmp_path: Path
 ) -> None:
-    cluster = cluster_env(batch_size=4)
+    cluster = cluster_env(batch_size=4, publish_every=0)  # ticks that only grow
     graph_id = seed_graph(cluster.settings)
     cluster.start_worker("w1", concurrency=2)
     cluster.start_worker("w2", concurrency=1)
@@ -232,3 +232,45 @@ def test_two_beat_ticks_at_once_open_one_epoch(
         )
     assert numbers == [1]
     assert _final(cluster, graph_id) == eager_reference(tmp_path, 1)
+
+
+def test_beat_publishes_on_the_workers_what_they_grew(cluster_env: Callable[..., Cluster]) -> None:
+    """Ticks on real workers: the graph published at once, grown, then published again
+    once it has grown SRG_PUBLISH_EVERY frames, every edge with its animation."""
+    cluster = cluster_env(batch_size=4, publish_every=120)
+    graph_id = seed_graph(cluster.settings)
+    cluster.start_worker("w1", concurrency=2)
+    app = client(cluster)
+    with cluster.session() as session:
+        from app.services.between_epochs import set_growing
+
+        set_growing(session, graph_id, True)
+        session.commit()
+
+    def tick(expected: dict[str, list[int]]) -> None:
+        assert app.send_task("srg.schedule_growth").get(timeout=30) == expected
+
+    def published() -> list[tuple[int, int, int]]:
+        """(number, frames, edges without animation) of each publication."""
+        with cluster.session() as session:
+            rows = session.execute(
+                select(
+                    Publication.number,
+                    Publication.size_frames,
+                    func.count().filter(PublicationEdge.animation.is_(None)),
+                )
+                .join(PublicationEdge)
+                .where(Publication.graph_id == graph_id)
+                .group_by(Publication.id)
+                .order_by(Publication.number)
+            )
+            return [tuple(row) for row in rows]  # type: ignore[misc]
+
+    tick({"grow": [], "publish": [graph_id]})
+    wait_for(lambda: len(published()) == 1, 60, "the first publication")
+    tick({"grow": [graph_id], "publish": []})
+    wait_for(lambda: finished_epochs(cluster, graph_id) == 1, 60, "the epoch")
+    tick({"grow": [], "publish": [graph_id]})
+    wait_for(lambda: len(published()) == 2, 60, "the second publication")
+    assert published() == [(1, 120, 0), (2, 240, 0)]
+    tick({"grow": [graph_id], "publish": []})

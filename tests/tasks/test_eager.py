@@ -24,19 +24,20 @@ from app.core.growth import expand_blend_edge, initial_tree
 from app.core.player_models import PlayerModelKind
 from app.core.refinement import RefinerConfig
 from app.core.toy import ToyDynamics
-from app.db import get_engine, session_factory, transaction
-from app.models import Clip, Graph, GrowthEpoch, GrowthRequest
-from app.services import clips, epochs, growing, refining
+from app.db import get_engine, make_engine, session_factory, transaction
+from app.models import Clip, Graph, GrowthEpoch, GrowthRequest, Publication, PublicationEdge
+from app.services import between_epochs, clips, epochs, growing, refining
 from app.services.loading import open_graph
 from app.store.animations import clip_animations, edges_without_animation
 from app.store.artifacts import ArtifactStore
 from app.store.epochs import start_epoch
 from app.store.graphs import create_graph, load_graph, save_graph
 from app.store.growth_requests import add_request, latest_request
+from app.store.locks import lock_graph
 from app.store.occupancy_cache import RedisShapeCache
 from app.tasks import celery_app
 from app.tasks.celery_app import celery_config
-from app.tasks.growth import grow_epoch, integrate
+from app.tasks.growth import grow_epoch, integrate, publish_if_due, schedule_growth
 from app.tasks.maintenance import collect_artifacts
 
 
@@ -286,3 +287,85 @@ def test_an_epoch_renders_the_strips_its_expansions_show(settings: Settings) -> 
     new_vertices = {graph.edge_dst[int(edge)] for edge, _ in plan}
     new_blends = {v * 3 + c for v in new_vertices for c in range(3)}
     assert new_blends and not new_blends & set(unrendered_blends)
+
+
+def _publications(graph_id: int) -> list[tuple[int, int]]:
+    """The graph's publications as (number, size in frames), oldest first."""
+    with session_factory()() as session:
+        return [
+            (row.number, row.size_frames)
+            for row in session.scalars(
+                select(Publication)
+                .where(Publication.graph_id == graph_id)
+                .order_by(Publication.number)
+            )
+        ]
+
+
+def test_beat_publishes_a_growing_graph_when_due_and_grows_it_otherwise(
+    settings: Settings, monkeypatch: pytest.MonkeyPatch
+) -> None:
+    """At once when it has no publication, then after SRG_PUBLISH_EVERY frames grown,
+    each time instead of that tick's epoch; renders what the publication misses."""
+    monkeypatch.setenv("SRG_PUBLISH_EVERY", "240")  # two epochs of 4 toy expansions
+    get_settings.cache_clear()
+    graph_id = seed_graph(settings)
+    idle = seed_graph(settings, "not-growing")
+    with transaction() as session:
+        between_epochs.set_growing(session, graph_id, True)
+    ticks = [schedule_growth.delay().get() for _ in range(5)]
+    assert ticks == [
+        {"grow": [], "publish": [graph_id]},
+        {"grow": [graph_id], "publish": []},
+        {"grow": [graph_id], "publish": []},
+        {"grow": [], "publish": [graph_id]},
+        {"grow": [graph_id], "publish": []},
+    ]
+    assert _publications(graph_id) == [(1, 120), (2, 360)]
+    assert _publications(idle) == []
+    with session_factory()() as session:
+        latest = session.scalars(select(Publication.id).order_by(Publication.id.desc())).first()
+        assert latest is not None
+        unanimated = session.scalar(
+            select(func.count())
+            .select_from(PublicationEdge)
+            .where(PublicationEdge.publication_id == latest, PublicationEdge.animation.is_(None))
+        )
+    assert unanimated == 0  # growth rendered nothing here (SRG_GROWTH_RENDERS=false)
+
+
+def test_beat_never_publishes_with_publish_every_0_nor_while_an_epoch_runs(
+    settings: Settings, monkeypatch: pytest.MonkeyPatch
+) -> None:
+    graph_id = seed_graph(settings)
+    with transaction() as session:
+        between_epochs.set_growing(session, graph_id, True)
+        start_epoch(session, graph_id, "baseline")  # running: the tick leaves it to grow_epoch
+        session.execute(update(GrowthEpoch).values(heartbeat=time.time()))
+    assert schedule_growth.delay().get() == {"grow": [graph_id], "publish": []}
+    assert publish_if_due.delay(graph_id).get() is None
+    with transaction() as session:
+        session.execute(update(GrowthEpoch).values(status="finished"))
+    monkeypatch.setenv("SRG_PUBLISH_EVERY", "0")
+    get_settings.cache_clear()
+    assert schedule_growth.delay().get()["publish"] == []
+    assert _publications(graph_id) == []
+
+
+@pytest.mark.postgres
+def test_a_publication_due_skips_a_graph_another_writer_holds(
+    postgres_url: str, tmp_path: Path
+) -> None:
+    """A tick sent while a publication still renders returns at once instead of waiting
+    for the lock, and publishes nothing."""
+    settings = Settings(database_url=postgres_url, var_dir=tmp_path, growth_renders=False)
+    graph_id = seed_graph(settings)
+    factory = session_factory(make_engine(postgres_url))
+    with factory() as holder, factory() as session:
+        lock_graph(holder, graph_id)
+        started = time.monotonic()
+        assert between_epochs.publish_if_due(session, settings, graph_id) is None
+        assert time.monotonic() - started < 5
+        session.rollback()
+        holder.rollback()
+        assert between_epochs.publish_if_due(session, settings, graph_id) is not None
