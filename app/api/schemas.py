@@ -72,6 +72,9 @@ class GraphSummary(BaseModel):
     n_controls: int
     frames_per_clip: int
     latest_publication: int | None
+    #: the latest publication has animations to show; false for one made for bots
+    #: without them (`srg demo`'s baseline), which the web client does not offer
+    animated: bool
 
 
 class EdgeOut(BaseModel):

@@ -23,13 +23,15 @@ from app.store.graphs import get_graph_row, require_saved
 
 
 class GraphListing(NamedTuple):
-    """A graph as the catalogue lists it, with its latest publication (None before one)."""
+    """A graph as the catalogue lists it, with its latest publication (None before one)
+    and whether that publication has animations (those made for bots have none)."""
 
     name: str
     dynamics: str
     n_controls: int
     frames_per_clip: int
     latest_publication: int | None
+    animated: bool
 
 
 class PublishedEdge(NamedTuple):
@@ -152,11 +154,20 @@ def latest_publication_id(session: Session, graph: str | int) -> int:
 
 
 def graph_listings(session: Session) -> list[GraphListing]:
-    """Every graph, in creation order, with the id of its latest publication."""
+    """Every graph, in creation order, with the id of its latest publication and whether
+    any of its edges has an animation (the scan stops at the first that has one)."""
     latest = (
         select(PublicationRow.graph_id, func.max(PublicationRow.id).label("publication_id"))
         .group_by(PublicationRow.graph_id)
         .subquery()
+    )
+    animated = (
+        select(PublicationEdge.publication_id)
+        .where(
+            PublicationEdge.publication_id == latest.c.publication_id,
+            PublicationEdge.animation.is_not(None),
+        )
+        .exists()
     )
     rows = session.execute(
         select(
@@ -165,6 +176,7 @@ def graph_listings(session: Session) -> list[GraphListing]:
             Graph.n_controls,
             Graph.frames_per_clip,
             latest.c.publication_id,
+            animated,
         )
         .outerjoin(latest, latest.c.graph_id == Graph.id)
         .order_by(Graph.id)

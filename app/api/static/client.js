@@ -3,17 +3,26 @@
 // Timing: one game clock. A clip of k frames starts exactly k frame periods after the
 // previous one (clipStart += k * period, never "now"), so clips join without a gap and
 // without drift; each requestAnimationFrame draws the frame the clock is on, from the
-// clip's frames, all already decoded to ImageBitmaps. The next
-// edge is chosen at the clip boundary from the control held at that moment. While an
-// edge plays, the strips of every edge leaving its destination (and theirs) are
-// fetched and decoded, so the choice at the boundary finds its strip ready. An edge
-// without an animation, or whose strip is still loading, is drawn as a placeholder at
-// the same rate: the clock never waits.
+// clip's frames, all already decoded to ImageBitmaps. The next edge is chosen at the
+// clip boundary from the control held at that moment.
+//
+// Never a flash: a clip that is not decoded when it is due is waited for, holding the
+// last frame shown (a small sign in the corner says so), and the clock restarts when it
+// is in; the edge is chosen again each animation frame meanwhile, so a control changed
+// during the wait counts. What makes waits rare: while an edge plays, the clips of the
+// next two steps are fetched, the next step's first, and the next step's decoded (the
+// edge due at the boundary is one of them). Decoded frames are big (480 x 360 x 4 bytes
+// each), so only the last DECODED_CLIPS clips keep theirs; fetched bytes are small.
 //
 // Clips: by the media type served, a VP9 clip in an IVF file (parsed here, decoded by
 // WebCodecs' VideoDecoder, every frame to an ImageBitmap before the clip is due) or, for
 // publications made before, a WebP image strip (k frames side by side, one ImageBitmap).
-// A browser that cannot decode them plays placeholders and says so.
+// A browser that cannot decode them says so.
+//
+// Publications: the one played is the graph's latest when the page loads, and again at
+// each "New game" (a revalidation, 304 while it is still the latest): growth publishes
+// new ones while people play, and a game never changes publication half-way. Graphs
+// published without animations (for bots) are not offered.
 //
 // Size: a phone's screen (PHONE_SCREEN) plays the phone's clips (every
 // frame at half size, cut by the server from the stored clip), others the stored ones.
@@ -31,10 +40,12 @@ const CONTROLS = { LEVEL: 0, LEFT: 1, RIGHT: 2 };
 const TILT_DEGREES = 12;
 const MAX_TRACE_STEPS = 1800; // 10 minutes at 3 clips a second; keeps a body ~20 KB
 const KEEPALIVE_MAX_BYTES = 60000; // browsers cap keepalive bodies at 64 KiB
-const STRIP_CACHE_SIZE = 256;
+const FETCHED_CLIPS = 256; // encoded clips kept (~15 KB each at 480 x 360)
+const DECODED_CLIPS = 16; // clips kept decoded (~7 MB each at 480 x 360): a few steps' worth
+const RETRY_MS = 1000; // a clip that failed to arrive is asked for again after this
 const PENDING_MAX = 20;
 const FRAME_LOG_MAX = 200000;
-const START_WAIT_MS = 3000; // wait this long at most for the first strips before playing
+const START_WAIT_MS = 3000; // wait this long at most for the next step's clips before playing
 // a phone held either way: narrow in portrait, low in landscape
 const PHONE_SCREEN = "(max-width: 600px), (max-height: 500px)";
 const SIZE = matchMedia(PHONE_SCREEN).matches ? "phone" : "desktop";
@@ -45,15 +56,16 @@ const stats = {
   frames: [], // rAF timestamps (ms) at which a new frame was drawn
   ticks: [], // every rAF timestamp while playing: tells browser stalls from client gaps
   clips: 0,
-  placeholders: 0, // clips drawn as placeholders because the edge has no animation
-  late: 0, // clips whose strip was not decoded in time (also drawn as placeholders)
+  unanimated: 0, // clips of edges without an animation (the last frame held meanwhile)
+  late: 0, // clips not decoded when due: the last frame was held until they were
+  waitedMs: 0, // time spent holding a frame for late clips
   uploads: [], // {status, trace_id, n_steps} per answered upload
   score: 0,
   steps: 0,
   publicationId: null,
-  size: SIZE, // which strips this screen plays
-  stripWidth: null, // pixel width of a frame of the strips played
-  undecodable: 0, // strips fetched that the browser could not decode
+  size: SIZE, // which clips this screen plays
+  stripWidth: null, // pixel width of a frame of the clips played
+  undecodable: 0, // clips fetched that the browser could not decode
   tilt: null, // the last tilt read: degrees towards the screen's right
 };
 window.srgStats = stats;
@@ -123,16 +135,19 @@ async function flushPending() {
 }
 
 // ---- clips ------------------------------------------------------------------------
-const strips = new Map(); // url -> {image: Clip | null}, Clip: {width, height, frame(f), close()}
+// url -> {bytes: Promise<Blob>, decoding: Promise | null, clip: Clip | null}, in least
+// recently used order; Clip: {width, height, frame(f) -> [source, x], close()}
+const clips = new Map();
+const decoded = new Set(); // urls whose clip holds decoded frames, least recently used first
 
-function stripUrl(edge) {
+function clipUrl(edge) {
   if (!edge.animation) return null;
   return SIZE === "phone" ? `${edge.animation}/phone?frames=${game.k}` : edge.animation;
 }
 
 function undecodable(blob) {
   stats.undecodable += 1;
-  $("status").textContent = `this browser cannot decode the animations (${blob.type}): showing placeholders`;
+  $("status").textContent = `this browser cannot decode the animations (${blob.type})`;
 }
 
 // The frames of an IVF file: a 32-byte header (its length at byte 6), then per frame a
@@ -175,36 +190,80 @@ async function decodeImageStrip(blob) {
   return { width, height: image.height, frame: (f) => [image, f * width], close: () => image.close() };
 }
 
-function decodeClip(blob) {
+function decodeBlob(blob) {
   const decode = blob.type.startsWith("image/") ? decodeImageStrip : decodeVideo;
   return decode(blob).catch((error) => { undecodable(blob); throw error; });
 }
 
-function requestStrip(url) {
-  if (!url) return Promise.resolve();
-  if (strips.has(url)) return strips.get(url).ready;
-  const entry = { image: null };
-  strips.set(url, entry);
-  entry.ready = fetch(url)
-    .then((r) => (r.ok ? r.blob() : Promise.reject(new Error(r.statusText))))
-    .then(decodeClip)
-    .then((clip) => { entry.image = clip; })
-    .catch(() => strips.delete(url)); // try again next time it is needed
-  if (strips.size > STRIP_CACHE_SIZE) {
-    const [oldest, old] = strips.entries().next().value;
-    strips.delete(oldest);
-    old.image?.close();
+// The clip's entry, fetching it the first time. A failed fetch is forgotten after
+// RETRY_MS, so a clip is asked for again at most that often.
+function clipEntry(url) {
+  let entry = clips.get(url);
+  if (entry) {
+    clips.delete(url); // to the most recently used end
+  } else {
+    entry = { decoding: null, clip: null };
+    entry.bytes = fetch(url).then((r) => (r.ok ? r.blob() : Promise.reject(new Error(r.statusText))));
+    entry.bytes.catch(() => setTimeout(() => forget(url, entry), RETRY_MS));
   }
-  return entry.ready;
+  clips.set(url, entry);
+  if (clips.size > FETCHED_CLIPS) {
+    const [oldest, old] = clips.entries().next().value;
+    forget(oldest, old);
+  }
+  return entry;
 }
 
-function preloadFrom(vertex, depth = 2) {
-  const loads = [];
-  for (const edge of game.pub.vertices[vertex]) {
-    loads.push(requestStrip(stripUrl(edge)));
-    if (depth > 1) loads.push(...preloadFrom(edge.dst, depth - 1));
+function forget(url, entry) {
+  if (clips.get(url) !== entry) return;
+  clips.delete(url);
+  decoded.delete(url);
+  dropFrames(entry);
+}
+
+function dropFrames(entry) {
+  if (entry.clip && entry.clip !== game.image) entry.clip.close(); // never the one playing
+  entry.clip = null;
+  entry.decoding = null;
+}
+
+// The clip ready to play, or null while it is on its way (asking for it if need be).
+function readyClip(url) {
+  const entry = clipEntry(url);
+  if (entry.clip) keepDecoded(url);
+  entry.decoding ??= entry.bytes.then(decodeBlob).then(
+    (clip) => { entry.clip = clip; keepDecoded(url); },
+    () => {}, // lost on the way (forgotten, then fetched again) or undecodable (said once)
+  );
+  return entry.clip;
+}
+
+// Decoded frames for the DECODED_CLIPS clips used last; the one playing keeps its own.
+function keepDecoded(url) {
+  decoded.delete(url);
+  decoded.add(url);
+  for (const oldest of decoded) {
+    if (decoded.size <= DECODED_CLIPS) break;
+    const entry = clips.get(oldest);
+    if (entry && entry.clip === game.image) continue; // playing
+    decoded.delete(oldest);
+    if (entry) dropFrames(entry);
   }
-  return loads;
+}
+
+// The clips of the next two steps from ``vertex``: the next step's decoded, the one
+// after fetched; the next step's first, so that they are the first to arrive.
+function prefetchFrom(vertex) {
+  const next = game.pub.vertices[vertex];
+  const nextUrls = next.map(clipUrl).filter(Boolean);
+  nextUrls.forEach(readyClip);
+  for (const edge of next) {
+    for (const after of game.pub.vertices[edge.dst]) {
+      const url = clipUrl(after);
+      if (url) clipEntry(url);
+    }
+  }
+  return nextUrls;
 }
 
 // ---- input ------------------------------------------------------------------------
@@ -263,10 +322,11 @@ if (needsTiltPermission && "ontouchstart" in window) {
 
 // ---- playback ---------------------------------------------------------------------
 const game = {
-  pub: null, period: 1000 / 30, k: 10,
+  name: null, pub: null, period: 1000 / 30, k: 10,
   vertex: 0, // where the next edge starts
   edge: null, image: null,
   clipStart: null, lastFrame: -1, running: false,
+  waitingSince: null, // when the clip now due was found not ready (null: none is late)
   trace: null,
 };
 
@@ -281,23 +341,24 @@ function endTrace() {
   send(body);
 }
 
+// Start the edge of the control held now, if its clip is ready; false while it is not.
 function startEdge() {
   const control = currentControl();
   const edge = game.pub.vertices[game.vertex][control];
+  const url = clipUrl(edge);
+  const image = url ? readyClip(url) : null;
+  if (url && !image) return false;
   game.trace.steps.push([game.vertex, control]);
   game.edge = edge;
-  const url = stripUrl(edge);
-  game.image = url ? strips.get(url)?.image ?? null : null;
-  if (!url) stats.placeholders += 1;
-  else if (!game.image) { stats.late += 1; requestStrip(url); }
-  if (game.image) stats.stripWidth = game.image.width;
-  if (game.image && canvas.width !== stats.stripWidth) {
-    canvas.width = stats.stripWidth;
-    canvas.height = game.image.height;
+  game.image = image;
+  if (!url) stats.unanimated += 1; // the last frame stays while its clip's time passes
+  if (image) stats.stripWidth = image.width;
+  if (image && canvas.width !== image.width) {
+    canvas.width = image.width; // clears the canvas: the frame is drawn in this same tick
+    canvas.height = image.height;
   }
-  loading(url !== null && !game.image);
   game.vertex = edge.dst;
-  preloadFrom(edge.dst);
+  prefetchFrom(edge.dst);
   stats.clips += 1;
   stats.steps += 1;
   stats.score += edge.score;
@@ -306,48 +367,58 @@ function startEdge() {
     el.classList.toggle("on", Number(el.dataset.control) === control);
   }
   if (game.trace.steps.length >= MAX_TRACE_STEPS) endTrace(); // play on, in a new trace
+  return true;
+}
+
+// At a clip boundary: the next clip, on time (the clock goes on from the boundary), after
+// a wait or a throttled tab (the clock restarts now), or still not ready: then the last
+// frame stays on the canvas and this is asked again at the next animation frame.
+function nextClip(now) {
+  const clip = game.k * game.period;
+  if (!startEdge()) {
+    if (game.waitingSince === null) {
+      game.waitingSince = now;
+      if (stats.clips > 0) stats.late += 1;
+    }
+    showWait(stats.clips > 0 ? "late" : "loading");
+    return false;
+  }
+  const onTime = game.waitingSince === null && game.clipStart !== null && now - game.clipStart < 2 * clip;
+  if (game.waitingSince !== null && stats.clips > 1) stats.waitedMs += now - game.waitingSince;
+  game.waitingSince = null;
+  game.clipStart = onTime ? game.clipStart + clip : now;
+  game.lastFrame = -1;
+  showWait(null);
+  return true;
 }
 
 function draw(frame) {
-  const { k } = game;
-  if (game.image) {
-    const { width, height } = game.image;
-    const [source, x] = game.image.frame(frame);
-    ctx.drawImage(source, x, 0, width, height, 0, 0, canvas.width, canvas.height);
-    return;
-  }
-  ctx.fillStyle = game.edge.kind === "sim" ? "#3a6ea5" : "#b8733a";
-  ctx.fillRect(0, 0, canvas.width, canvas.height);
-  ctx.fillStyle = "rgba(255,255,255,.7)";
-  ctx.fillRect(0, canvas.height * 0.9, (canvas.width * (frame + 1)) / k, canvas.height * 0.1);
+  if (!game.image) return; // an edge without animation: the last frame stays
+  const { width, height } = game.image;
+  const [source, x] = game.image.frame(frame);
+  ctx.drawImage(source, x, 0, width, height, 0, 0, canvas.width, canvas.height);
 }
 
 function tick(now) {
   if (!game.running) return;
   if (stats.ticks.length < FRAME_LOG_MAX) stats.ticks.push(now);
-  const clip = game.k * game.period;
-  if (game.clipStart === null || now - game.clipStart >= 2 * clip) {
-    game.clipStart = now; // first frame, or the tab was throttled: restart the clock here
-    startEdge();
+  const due = game.edge === null || game.waitingSince !== null || now - game.clipStart >= game.k * game.period;
+  if (!due || nextClip(now)) {
+    const frame = Math.min(game.k - 1, Math.floor((now - game.clipStart) / game.period));
+    if (frame !== game.lastFrame) {
+      draw(frame);
+      if (stats.frames.length < FRAME_LOG_MAX) stats.frames.push(now);
+    }
+    game.lastFrame = frame;
   }
-  while (now - game.clipStart >= clip) {
-    game.clipStart += clip;
-    startEdge();
-  }
-  const frame = Math.min(game.k - 1, Math.floor((now - game.clipStart) / game.period));
-  if (frame !== game.lastFrame || stats.frames.length === 0) {
-    draw(frame);
-    if (stats.frames.length < FRAME_LOG_MAX) stats.frames.push(now);
-  }
-  game.lastFrame = frame;
   requestAnimationFrame(tick);
 }
 
 function play() {
   if (game.running || document.hidden) return;
   game.running = true;
-  game.clipStart = null;
-  game.lastFrame = -1;
+  game.clipStart = null; // the next boundary restarts the clock
+  game.edge = null;
   requestAnimationFrame(tick);
 }
 
@@ -356,9 +427,15 @@ function pause() {
   endTrace();
 }
 
-function restart() {
-  endTrace();
+// A new game from the start vertex, on the graph's latest publication: growth may have
+// published one since (a revalidation of the one played costs a 304). Kept as it is when
+// the server cannot be reached.
+async function restart() {
+  const latest = await api(publicationPath(game.name)).catch(() => game.pub);
+  endTrace(); // the game played so far, on the publication it was played on
+  if (latest.publication_id !== game.pub.publication_id) usePublication(latest);
   game.vertex = game.pub.start;
+  prefetchFrom(game.vertex);
   stats.score = 0;
   showScore();
 }
@@ -367,11 +444,13 @@ function showScore() {
   $("score").textContent = Math.round(stats.score * POINTS_PER_SCORE).toLocaleString("en");
 }
 
-// The loading state: shown until the first strips are decoded, and while a clip's strip
-// is still on its way (its placeholder plays meanwhile).
-function loading(on) {
-  $("loading").hidden = !on;
-  canvas.setAttribute("aria-busy", String(on));
+// What the picture waits for: "loading", the first clip ("loading clips..." over the
+// poster); "late", a clip due mid-game (the last frame stays, with a small sign in a
+// corner: never a word or a colour over the picture); null, nothing.
+function showWait(kind) {
+  $("loading").hidden = kind !== "loading";
+  $("waiting").hidden = kind !== "late";
+  canvas.setAttribute("aria-busy", String(kind !== null));
 }
 
 function describe(pub) {
@@ -382,6 +461,23 @@ function describe(pub) {
   return parts.join(" · ");
 }
 
+function publicationPath(name) { return `/api/graphs/${encodeURIComponent(name)}/publication`; }
+
+function usePublication(pub) {
+  game.pub = pub;
+  game.period = 1000 / pub.fps;
+  game.k = pub.frames_per_clip;
+  stats.publicationId = pub.publication_id;
+  $("publication").textContent = describe(pub);
+}
+
+// Why a graph cannot be played here, or null: the menu offers only those that can.
+function unplayable(graph) {
+  if (graph.latest_publication === null) return "it has no publication yet";
+  if (!graph.animated) return "it was published without animations, for bots (choose another graph)";
+  return null;
+}
+
 // ---- start ------------------------------------------------------------------------
 async function main() {
   const status = $("status");
@@ -389,35 +485,36 @@ async function main() {
     token = token || (await registerPlayer());
     flushPending();
     const graphs = await api("/api/graphs");
+    const playable = graphs.filter((g) => unplayable(g) === null);
     const wanted = new URLSearchParams(location.search).get("graph");
-    const playable = graphs.filter((g) => g.latest_publication !== null);
     const name = wanted || playable[0]?.name;
-    if (!name) throw new Error("no published graph yet");
+    if (!name) throw new Error("no graph published with animations yet");
     const select = $("graph");
-    for (const g of graphs) select.add(new Option(g.name, g.name, false, g.name === name));
+    for (const g of playable) select.add(new Option(g.name, g.name, false, g.name === name));
+    select.value = name; // empty when the graph asked for is not offered
     select.addEventListener("change", () => { location.search = `?graph=${encodeURIComponent(select.value)}`; });
-    game.pub = await api(`/api/graphs/${encodeURIComponent(name)}/publication`);
-    game.period = 1000 / game.pub.fps;
-    game.k = game.pub.frames_per_clip;
+    const graph = graphs.find((g) => g.name === name);
+    if (!graph) throw new Error(`no graph ${name}`);
+    const why = unplayable(graph);
+    if (why) throw new Error(`${name}: ${why}`);
+    game.name = name;
+    usePublication(await api(publicationPath(name)));
     game.vertex = game.pub.start;
     game.trace = newTrace();
-    stats.publicationId = game.pub.publication_id;
-    $("publication").textContent = describe(game.pub);
     paintPoster(game.pub.vertices[game.vertex][CONTROLS.LEVEL].poster);
-    const firstStrips = Promise.all(preloadFrom(game.vertex));
-    await Promise.race([firstStrips, new Promise((resolve) => setTimeout(resolve, START_WAIT_MS))]);
-    loading(false);
+    const firstClips = prefetchFrom(game.vertex).map((url) => clips.get(url).decoding);
+    await Promise.race([Promise.all(firstClips), new Promise((resolve) => setTimeout(resolve, START_WAIT_MS))]);
     document.addEventListener("visibilitychange", () => (document.hidden ? pause() : play()));
     addEventListener("pagehide", pause);
     $("restart").addEventListener("click", restart);
-    play();
+    play(); // "loading clips..." stays until the first clip plays
   } catch (error) {
-    loading(false);
+    showWait(null);
     status.textContent = `cannot play: ${error.message}`;
   }
 }
 
-// A still of the start state while the first strips load (replaced by the first clip).
+// A still of the start state while the first clips load (replaced by the first clip).
 function paintPoster(url) {
   if (!url) return;
   const image = new Image();
