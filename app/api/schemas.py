@@ -82,7 +82,8 @@ class EdgeOut(BaseModel):
     kind: Literal["sim", "blend"]
     err: float
     score: float
-    #: URL of the animation strip, or null where the edge has none (draw a placeholder)
+    #: URL of the animation strip, or null where the edge has none (the web client holds
+    #: the last frame shown for the clip's time)
     animation: str | None
     #: URL of the strip's first frame as a still image (null with the animation)
     poster: str | None
