@@ -335,6 +335,7 @@ def test_a_setting_of_the_wrong_type_is_named_in_one_line(tmp_path: Path) -> Non
         ("SRG_UPLOADS_PER_MINUTE", "0", "greater than or equal to 1"),
         ("SRG_HIGH_ERROR_THRESHOLD", "nan", "finite number"),
         ("SRG_BEAT_INTERVAL", "inf", "finite number"),
+        ("SRG_PUBLISH_EVERY", "-600", "greater than or equal to 0"),
         ("SRG_PLAYER_MODEL", "bogus", "'eq2', 'logit' or 'knn'"),
     ],
 )
