@@ -58,7 +58,7 @@ SKY_RADIANCE = 0.3
 
 @dataclass(frozen=True)
 class RenderSettings:
-    """Image size, samples per pixel, path depth, the denoiser and the mesh's smoothing.
+    """Image size, samples per pixel, path depth, the median's passes, the mesh's smoothing.
 
     The defaults are the game's, chosen by the measurements in docs/render.md (the
     cheapest setting without visible noise at 480 x 360, deep enough that light leaves
@@ -69,7 +69,7 @@ class RenderSettings:
     height: int = 360
     spp: int = 4
     max_depth: int = 12
-    median: bool = True
+    median_passes: int = 2
     smoothing_steps: int = SMOOTHING_STEPS
 
 
@@ -247,7 +247,9 @@ class LiquidRenderer:
             mi.Bitmap.PixelFormat.RGB, mi.Struct.Type.UInt8, srgb_gamma=True
         )
         image = np.array(bitmap, dtype=np.uint8)
-        return median_denoise(image) if self.settings.median else image
+        for _ in range(self.settings.median_passes):
+            image = median_denoise(image)
+        return image
 
     def frames(self, sdf_frames: np.ndarray) -> np.ndarray:
         """(k, H, W, 3) uint8 images of (k, X, Y, Z) float SDF frames.
