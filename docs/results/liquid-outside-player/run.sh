@@ -3,6 +3,7 @@
 # side by side: publish both (no renders), 30 sessions on each, grow both by 800 frames.
 # usage: run.sh OUT_DIR [ROUNDS] [PORT]   (srg on PATH; SRG_VAR_DIR names the database)
 set -euo pipefail
+export SRG_GROWTH_RENDERS=false  # the player plays edges, not pictures
 out=$1; rounds=${2:-4}; port=${3:-8765}
 here=$(cd "$(dirname "$0")" && pwd)
 mkdir -p "$out"
