@@ -75,7 +75,7 @@ def plot_scatter(study: ThresholdStudy, path: Path, old_threshold: float | None 
         ]
     )
     wrong = np.array([b.wrong for b in study.blends])
-    fig, (ax, bx) = plt.subplots(1, 2, figsize=(10, 4), dpi=90)
+    fig, (ax, bx) = plt.subplots(1, 2, figsize=(10, 4), dpi=90, layout="constrained")
     ax.scatter(x[~wrong], score[~wrong], s=12, c="tab:blue", label="looks right")
     ax.scatter(x[wrong], score[wrong], s=12, c="tab:red", marker="x", label="visibly wrong")
     ax.axhline(1.0, color="k", ls="--", lw=1, label="criterion (artifact = its limit)")
@@ -114,7 +114,6 @@ def plot_scatter(study: ThresholdStudy, path: Path, old_threshold: float | None 
     bx.set_ylabel("P(visibly wrong)")
     bx.set_ylim(-0.03, 1.03)
     bx.legend(fontsize=7, loc="upper left")
-    fig.tight_layout()
     return _save(fig, path)
 
 
@@ -123,7 +122,7 @@ def plot_measures(study: ThresholdStudy, path: Path) -> Path:
     dist = np.array([b.dist for b in study.blends])
     x = 10.0 ** log_dist(dist)
     wrong = np.array([b.wrong for b in study.blends])
-    fig, axes = plt.subplots(1, 3, figsize=(12, 3.6), dpi=90)
+    fig, axes = plt.subplots(1, 3, figsize=(12, 3.6), dpi=90, layout="constrained")
     for ax, (name, title) in zip(axes, MEASURES, strict=True):
         y = 100 * np.array([getattr(b, name) for b in study.blends])
         ax.scatter(x[~wrong], y[~wrong], s=10, c="tab:blue", label="looks right")
@@ -134,7 +133,6 @@ def plot_measures(study: ThresholdStudy, path: Path) -> Path:
         ax.set_ylabel(f"{name} (% of visible liquid area)")
         ax.set_title(title, fontsize=9)
     axes[0].legend(fontsize=7)
-    fig.tight_layout()
     return _save(fig, path)
 
 
@@ -160,7 +158,12 @@ def plot_strips(study: ThresholdStudy, path: Path) -> Path:
             )
     n = len(STRIP_FRAMES)
     fig, axes = plt.subplots(
-        len(rows), n, figsize=(1.35 * n + 1.7, 1.05 * len(rows) + 0.3), dpi=100, squeeze=False
+        len(rows),
+        n,
+        figsize=(1.35 * n + 1.7, 1.05 * len(rows) + 0.3),
+        dpi=100,
+        squeeze=False,
+        layout="constrained",
     )
     for r, (label, images, outline) in enumerate(rows):
         for col, f in enumerate(STRIP_FRAMES):
@@ -179,7 +182,6 @@ def plot_strips(study: ThresholdStudy, path: Path) -> Path:
         "nearest visibly wrong one above\n(red: the silhouette of the simulated clip d)",
         fontsize=9,
     )
-    fig.tight_layout()
     return _save(fig, path, colours=48)
 
 

@@ -23,7 +23,8 @@ from app.core.player_models import PlayerModelKind
 from app.core.strategies import Strategy
 from app.db import transaction
 from app.reports.contact_sheet import Tile, contact_sheet
-from app.reports.experiment import ArraysLoader, write_report
+from app.reports.experiment import write_report
+from app.reports.figures import ArraysLoader
 from app.services.animations import Progress
 from app.services.dynamics import QUICK_LIQUID_PRESET
 from app.services.experiment.plan import (
