@@ -18,6 +18,8 @@ those before they start (:func:`require_current_schema`, :func:`require_intact`)
 
 from __future__ import annotations
 
+import re
+import shlex
 import sqlite3
 from collections.abc import Callable, Iterator
 from contextlib import AbstractContextManager, contextmanager
@@ -63,7 +65,8 @@ class DatabaseUnavailable(Unavailable):
 
 
 class DatabaseNotReady(DatabaseUnavailable):
-    """The configured database does not exist yet, or has no srg schema: upgrade it."""
+    """The configured database does not exist yet (create it), or has no srg schema
+    (upgrade it)."""
 
     problem = "not migrated"
 
@@ -229,6 +232,34 @@ def schema_missing(exc: DBAPIError) -> bool:
     return str(orig).startswith(("no such table", "no such column"))
 
 
+#: what PostgreSQL answers a connection to a database it does not have (its SQLSTATE,
+#: invalid_catalog_name 3D000, comes in the server's startup reply, which libpq turns into
+#: this text only: psycopg's connection error carries no SQLSTATE)
+_NO_SUCH_DATABASE = re.compile(r'FATAL:\s+database ".*" does not exist')
+
+
+def database_missing(exc: DBAPIError) -> bool:
+    """Whether ``exc`` says the server has no database of the configured name."""
+    return (
+        getattr(exc.orig, "sqlstate", None) == "3D000"
+        or _NO_SUCH_DATABASE.search(str(exc.orig)) is not None
+    )
+
+
+def createdb_command(url: URL) -> str:
+    """The ``createdb`` line that makes the PostgreSQL database ``url`` names, on its server
+    and as its user (libpq's own defaults where the URL leaves a part out)."""
+    words = ["createdb"]
+    if url.host:
+        words += ["-h", url.host]
+    if url.port:
+        words += ["-p", str(url.port)]
+    if url.username:
+        words += ["-U", url.username]
+    words.append(url.database or "")
+    return shlex.join(words)
+
+
 #: SQLite's primary result codes (https://www.sqlite.org/rescode.html) that say the file
 #: cannot serve as it is, whatever the statement; what each means to the user
 _SQLITE_PROBLEMS = {
@@ -250,19 +281,27 @@ _SERVER_PROBLEMS = {
 }
 
 
-def database_unavailable(exc: DBAPIError, where: str) -> DatabaseUnavailable | None:
+def database_unavailable(exc: DBAPIError, url: URL) -> DatabaseUnavailable | None:
     """What ``exc`` says about the database when it says it cannot serve; ``None`` for a bug.
 
     It cannot serve when its server cannot be reached (or dropped the connection), its
     file is not a database or is damaged, a lock outlasts the busy timeout and the write
-    retries (:mod:`app.store.transactions`), or it has no srg schema. A statement the
-    database refuses (a constraint, a syntax error) is our bug and stays one; both drivers
-    raise some of those as ``OperationalError`` too, so the driver's code decides, not the
-    exception's class. ``where`` names the database in the message.
+    retries (:mod:`app.store.transactions`), or it has no srg schema, or (on a server) does
+    not exist. A statement the database refuses (a constraint, a syntax error) is our bug
+    and stays one; both drivers raise some of those as ``OperationalError`` too, so the
+    driver's code decides, not the exception's class. The message names the database at
+    ``url`` (:func:`shown_database`).
     """
+    where = shown_database(url)
     if schema_missing(exc):
         return DatabaseNotReady(
             f"the database {where} has no srg schema (or an older one): {UPGRADE_HINT}"
+        )
+    if database_missing(exc):
+        return DatabaseNotReady(
+            f"the database {where} does not exist: create it with `{createdb_command(url)}`, "
+            f"then {UPGRADE_HINT}",
+            "does not exist",
         )
     orig = exc.orig
     if isinstance(orig, sqlite3.Error):
@@ -293,7 +332,7 @@ def unavailable_raised(engine: Engine) -> Iterator[None]:
     try:
         yield
     except DBAPIError as exc:
-        unavailable = database_unavailable(exc, shown_database(engine.url))
+        unavailable = database_unavailable(exc, engine.url)
         if unavailable is None:
             raise
         raise unavailable from None

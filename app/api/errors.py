@@ -36,7 +36,7 @@ from starlette.types import Receive, Scope, Send
 from app.api.head import routed_method
 from app.api.schemas import ErrorBody
 from app.core.errors import SrgError
-from app.db import database_unavailable, parse_database_url, shown_database
+from app.db import database_unavailable, parse_database_url
 
 log = logging.getLogger(__name__)
 
@@ -176,7 +176,7 @@ def install_error_handlers(app: FastAPI) -> None:
     async def database_error(request: Request, exc: Exception) -> JSONResponse:
         assert isinstance(exc, DBAPIError)
         url = parse_database_url(request.app.state.settings.resolved_database_url)
-        unavailable = database_unavailable(exc, shown_database(url))
+        unavailable = database_unavailable(exc, url)
         if unavailable is None:
             return await unexpected(request, exc)
         log.error("%s", unavailable)

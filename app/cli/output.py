@@ -149,8 +149,8 @@ def database_user_error(exc: DBAPIError) -> str | None:
     statement is a bug and keeps its traceback.
     """
     from app.config import get_settings
-    from app.db import database_unavailable, parse_database_url, shown_database
+    from app.db import database_unavailable, parse_database_url
 
     url = parse_database_url(get_settings().resolved_database_url)
-    unavailable = database_unavailable(exc, shown_database(url))
+    unavailable = database_unavailable(exc, url)
     return None if unavailable is None else str(unavailable)

@@ -10,6 +10,7 @@ from __future__ import annotations
 import json
 import socket
 import sqlite3
+import uuid
 from collections.abc import Iterator
 from pathlib import Path
 
@@ -17,6 +18,7 @@ import pytest
 from cli_helpers import ok, one_line_error, srg
 from database_helpers import postgres_base_url, postgres_database
 from sqlalchemy import select
+from sqlalchemy.engine import make_url
 from trace_helpers import looping_trace
 
 from app.cli.output import progress_bar, user_error_message
@@ -89,6 +91,21 @@ def test_a_configured_database_without_tables_says_to_upgrade(tmp_path: Path) ->
 def test_a_postgresql_database_without_tables_says_to_upgrade(tmp_path: Path) -> None:
     for url in postgres_database(postgres_base_url()):
         one_line_error(srg(tmp_path, "status", SRG_DATABASE_URL=url), "run `srg db upgrade`")
+
+
+@pytest.mark.postgres
+def test_a_postgresql_database_that_does_not_exist_says_to_create_it(tmp_path: Path) -> None:
+    """The finding: the operator read "(unreachable)" and the server's "does not exist",
+    with no word of how to make it (``srg db upgrade`` cannot: a server's databases are
+    its operator's to make)."""
+    base = make_url(postgres_base_url())
+    name = f"srg_missing_{uuid.uuid4().hex[:10]}"
+    url = base.set(port=base.port or 5432, database=name)
+    create = f"createdb -h {url.host} -p {url.port} -U {url.username} {name}"
+    hint = f"does not exist: create it with `{create}`, then run `srg db upgrade`"
+    for command in (["status"], ["init", "g"], ["db", "upgrade"]):
+        done = srg(tmp_path, *command, SRG_DATABASE_URL=url.render_as_string(hide_password=False))
+        one_line_error(done, hint)
 
 
 @pytest.mark.parametrize(

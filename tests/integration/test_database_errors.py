@@ -4,15 +4,27 @@ bugs (a 500, a traceback): real errors from real statements, on both backends.""
 from __future__ import annotations
 
 import sqlite3
+import uuid
 from pathlib import Path
 
 import pytest
+from database_helpers import postgres_base_url
 from sqlalchemy import text
+from sqlalchemy.engine import make_url
 from sqlalchemy.exc import DBAPIError
 from sqlalchemy.orm import Session
 
-from app.db import DatabaseUnavailable, database_unavailable, make_engine
+from app.db import (
+    DatabaseNotReady,
+    DatabaseUnavailable,
+    createdb_command,
+    database_unavailable,
+    make_engine,
+)
 from app.models import Player
+
+#: the database the messages name where the test does not look at the name
+SOME_URL = make_url("sqlite:///db")
 
 
 def raised(session: Session, statement: str) -> DBAPIError:
@@ -27,11 +39,11 @@ def test_statements_the_database_refuses_are_bugs(session: Session) -> None:
     session.flush()
     duplicate = "INSERT INTO players (name, kind, token_hash) VALUES ('twice', 'bot', 'b')"
     for statement in (duplicate, "SELEC 1", "SELECT no_such_function(1)"):
-        assert database_unavailable(raised(session, statement), "db") is None, statement
+        assert database_unavailable(raised(session, statement), SOME_URL) is None, statement
 
 
 def test_a_missing_table_is_a_database_not_migrated(session: Session) -> None:
-    unavailable = database_unavailable(raised(session, "SELECT * FROM no_such_table"), "db")
+    unavailable = database_unavailable(raised(session, "SELECT * FROM no_such_table"), SOME_URL)
     assert unavailable is not None and unavailable.problem == "not migrated"
     assert "run `srg db upgrade`" in str(unavailable)
 
@@ -51,6 +63,30 @@ def test_a_lock_that_outlasts_the_busy_timeout_is_unavailable(tmp_path: Path) ->
     finally:
         engine.dispose()
         holder.close()
-    unavailable = database_unavailable(caught.value, str(path))
+    unavailable = database_unavailable(caught.value, make_url(f"sqlite:///{path}"))
     assert isinstance(unavailable, DatabaseUnavailable) and unavailable.problem == "locked"
     assert str(unavailable) == f"cannot use the database {path} (locked): database is locked"
+
+
+@pytest.mark.postgres
+def test_a_postgresql_database_that_does_not_exist_says_how_to_create_it() -> None:
+    """The finding: a missing database read as "unreachable", with no word of createdb."""
+    base = make_url(postgres_base_url())
+    url = base.set(port=base.port or 5432, database=f"srg_missing_{uuid.uuid4().hex[:10]}")
+    engine = make_engine(url.render_as_string(hide_password=False))
+    try:
+        with pytest.raises(DBAPIError) as caught, engine.connect():
+            pass
+    finally:
+        engine.dispose()
+    unavailable = database_unavailable(caught.value, url)
+    assert isinstance(unavailable, DatabaseNotReady) and unavailable.problem == "does not exist"
+    create = f"createdb -h {url.host} -p {url.port} -U {url.username} {url.database}"
+    assert f"create it with `{create}`, then run `srg db upgrade`" in str(unavailable)
+
+
+def test_the_createdb_line_names_only_what_the_url_gives() -> None:
+    named = make_url("postgresql+psycopg://ops:secret@db.example:6543/srg")
+    assert createdb_command(named) == "createdb -h db.example -p 6543 -U ops srg"
+    assert createdb_command(make_url("postgresql+psycopg:///srg")) == "createdb srg"
+    assert createdb_command(make_url("postgresql:///odd name")) == "createdb 'odd name'"
