@@ -71,6 +71,8 @@ class GraphSummary(BaseModel):
     dynamics: str
     n_controls: int
     frames_per_clip: int
+    #: the latest publication's number (1, 2, ... per graph: the publication's own
+    #: ``number``, as ``srg status`` shows it; not its ``publication_id``); null before one
     latest_publication: int | None
     #: the latest publication has animations to show; false for one made for bots
     #: without them (`srg demo`'s baseline), which the web client does not offer

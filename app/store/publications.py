@@ -23,8 +23,9 @@ from app.store.graphs import get_graph_row, require_saved
 
 
 class GraphListing(NamedTuple):
-    """A graph as the catalogue lists it, with its latest publication (None before one)
-    and whether that publication has animations (those made for bots have none)."""
+    """A graph as the catalogue lists it, with its latest publication's number (None
+    before one; as ``srg status`` shows it) and whether that publication has animations
+    (those made for bots have none)."""
 
     name: str
     dynamics: str
@@ -154,17 +155,27 @@ def latest_publication_id(session: Session, graph: str | int) -> int:
 
 
 def graph_listings(session: Session) -> list[GraphListing]:
-    """Every graph, in creation order, with the id of its latest publication and whether
-    any of its edges has an animation (the scan stops at the first that has one)."""
-    latest = (
-        select(PublicationRow.graph_id, func.max(PublicationRow.id).label("publication_id"))
+    """Every graph, in creation order, with the number of its latest publication (the
+    one :func:`latest_publication` finds) and whether any of that publication's edges has
+    an animation (the scan stops at the first that has one)."""
+    highest = (
+        select(PublicationRow.graph_id, func.max(PublicationRow.number).label("number"))
         .group_by(PublicationRow.graph_id)
+        .subquery()
+    )
+    latest = (
+        select(PublicationRow.id, PublicationRow.graph_id, PublicationRow.number)
+        .join(
+            highest,
+            (highest.c.graph_id == PublicationRow.graph_id)
+            & (highest.c.number == PublicationRow.number),
+        )
         .subquery()
     )
     animated = (
         select(PublicationEdge.publication_id)
         .where(
-            PublicationEdge.publication_id == latest.c.publication_id,
+            PublicationEdge.publication_id == latest.c.id,
             PublicationEdge.animation.is_not(None),
         )
         .exists()
@@ -175,7 +186,7 @@ def graph_listings(session: Session) -> list[GraphListing]:
             Graph.dynamics,
             Graph.n_controls,
             Graph.frames_per_clip,
-            latest.c.publication_id,
+            latest.c.number,
             animated,
         )
         .outerjoin(latest, latest.c.graph_id == Graph.id)

@@ -17,6 +17,7 @@ from app.bench.ingest import build_toy_graph
 from app.core.toy import ToyDynamics
 from app.models import Player
 from app.render.animation import STRIP_MEDIA_TYPE, decode_strip
+from app.services.status import graph_summary
 from app.store.artifacts import ArtifactStore
 from app.store.graphs import load_graph
 from app.store.publications import publish
@@ -36,9 +37,28 @@ def test_graphs_list_the_latest_publication(
     assert reply.status_code == 200
     graph, bots, unpublished = reply.json()
     assert graph["name"] == published.name
-    assert graph["latest_publication"] == published.publication_id and graph["animated"]
-    assert bots["latest_publication"] is not None and not bots["animated"]
+    assert graph["latest_publication"] == 1 and graph["animated"]
+    assert bots["latest_publication"] == 1 and not bots["animated"]
     assert unpublished["latest_publication"] is None and not unpublished["animated"]
+
+
+def test_graphs_and_srg_status_name_the_latest_publication_alike(
+    client: TestClient, published: Published, session: Session, artifacts: ArtifactStore
+) -> None:
+    """The finding: ``srg status`` said a graph's latest publication was 1 (its number)
+    where ``GET /api/graphs`` said 7 (its id). Both say the number now, the publication's
+    own ``number``."""
+    twice = build_toy_graph(session, artifacts, name="twice")
+    for _ in range(2):
+        publish(session, twice.graph_id, twice.graph)
+    session.commit()
+    listed = {
+        graph["name"]: graph["latest_publication"] for graph in client.get("/api/graphs").json()
+    }
+    assert listed == {name: graph_summary(session, name)["latest_publication"] for name in listed}
+    assert listed == {published.name: 1, "twice": 2}
+    latest = client.get("/api/graphs/twice/publication").json()
+    assert latest["number"] == 2 != latest["publication_id"]  # ids count every graph's
 
 
 def test_the_publication_carries_every_edge(client: TestClient, published: Published) -> None:
