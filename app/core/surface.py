@@ -174,7 +174,9 @@ def clip_descriptor(grid: SurfaceGrid, tank: Box, occupancy_frames: np.ndarray) 
     w = [_axis_overlap(grid, a, np.linspace(tank.lo[a], tank.hi[a], n + 1)) for a in range(3)]
     coarse_volume = np.prod([(tank.hi[a] - tank.lo[a]) / n for a in range(3)])
     occ = np.asarray(occupancy_frames, dtype=np.float64).mean(axis=0)
-    filled = np.einsum("xyz,ix,jy,lz->ijl", occ, w[0], w[1], w[2]) * grid.voxel_volume
+    # contracted one axis at a time (optimize): 4 ms a clip on tiny without a path, 0.06 with
+    filled = np.einsum("xyz,ix,jy,lz->ijl", occ, w[0], w[1], w[2], optimize=True)
+    filled = filled * grid.voxel_volume
     return (filled / coarse_volume).ravel()
 
 
