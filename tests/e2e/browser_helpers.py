@@ -6,7 +6,12 @@ import os
 from pathlib import Path
 from typing import TYPE_CHECKING
 
+import numpy as np
 import pytest
+from sqlalchemy import select
+from sqlalchemy.orm import Session
+
+from app.models import TraceStep
 
 if TYPE_CHECKING:
     from playwright.sync_api import Page
@@ -45,3 +50,13 @@ def play_with_keys(page: Page) -> None:
         page.wait_for_timeout(ms)
         if key:
             page.keyboard.up(key)
+
+
+def trace_steps(session: Session, trace_id: int) -> np.ndarray:
+    """(n, 2) int64 (vertex, control) of one stored trace, in play order."""
+    rows = session.execute(
+        select(TraceStep.vertex, TraceStep.control)
+        .where(TraceStep.trace_id == trace_id)
+        .order_by(TraceStep.step)
+    ).all()
+    return np.array(rows, dtype=np.int64)

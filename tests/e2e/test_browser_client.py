@@ -22,7 +22,14 @@ from typing import TYPE_CHECKING
 
 import numpy as np
 import pytest
-from browser_helpers import CHROMIUM, CHROMIUM_ARGS, DESKTOP, play_with_keys, require_chromium
+from browser_helpers import (
+    CHROMIUM,
+    CHROMIUM_ARGS,
+    DESKTOP,
+    play_with_keys,
+    require_chromium,
+    trace_steps,
+)
 from PIL import Image
 from sqlalchemy import Engine, select
 
@@ -32,7 +39,7 @@ from app.bench.ingest import ToyGraph, build_toy_graph
 from app.config import Settings
 from app.core.graph import EdgeKind
 from app.db import make_engine, session_factory
-from app.models import Base, Trace, TraceStep
+from app.models import Base, Trace
 from app.render.animation import STRIP_MEDIA_TYPE, encode_strip
 from app.store.animations import set_animations
 from app.store.artifacts import ArtifactStore
@@ -120,17 +127,7 @@ def stored_traces(served: Served, timeout: float = 10.0) -> list[np.ndarray]:
             if ids or time.monotonic() > deadline:
                 break
             time.sleep(0.2)
-        return [
-            np.array(
-                session.execute(
-                    select(TraceStep.vertex, TraceStep.control)
-                    .where(TraceStep.trace_id == trace_id)
-                    .order_by(TraceStep.step)
-                ).all(),
-                dtype=np.int64,
-            )
-            for trace_id in ids
-        ]
+        return [trace_steps(session, trace_id) for trace_id in ids]
 
 
 def assert_no_gaps(frames: np.ndarray, ticks: np.ndarray, period: float) -> None:

@@ -21,14 +21,21 @@ from typing import TYPE_CHECKING, Any
 
 import numpy as np
 import pytest
-from browser_helpers import CHROMIUM, CHROMIUM_ARGS, DESKTOP, play_with_keys, require_chromium
+from browser_helpers import (
+    CHROMIUM,
+    CHROMIUM_ARGS,
+    DESKTOP,
+    play_with_keys,
+    require_chromium,
+    trace_steps,
+)
 from sqlalchemy import Engine, select
 
 from app.api.app import create_app
 from app.api.local_server import serve_in_thread
 from app.config import Settings
 from app.db import make_engine, session_factory
-from app.models import Base, Trace, TraceStep
+from app.models import Base, Trace
 from app.services.creation import init_graph
 from app.services.publishing import publish_graph
 from app.store.publications import load_publication
@@ -204,12 +211,5 @@ def stored_traces(
             time.sleep(0.2)
         steps: dict[int, np.ndarray] = {}
         for trace_id, publication_id in rows:
-            steps[publication_id] = np.array(
-                session.execute(
-                    select(TraceStep.vertex, TraceStep.control)
-                    .where(TraceStep.trace_id == trace_id)
-                    .order_by(TraceStep.step)
-                ).all(),
-                dtype=np.int64,
-            )
+            steps[publication_id] = trace_steps(session, trace_id)
         return steps
