@@ -102,6 +102,11 @@ class Settings(BaseSettings):
     growth_renders: bool = Field(
         True, description="render clip and blend animations while growing (else at publish)"
     )
+    reuse_simulations: bool = Field(
+        True,
+        description="a liquid clip already simulated from the same state and control is "
+        "reused, not simulated again (docs/runtime.md)",
+    )
     occupancy_cache_ttl: int = Field(
         7 * 24 * 3600, ge=1, description="Redis occupancy cache TTL (s)"
     )

@@ -16,6 +16,8 @@ high-error threshold come from the preset's stored calibration
 
 from __future__ import annotations
 
+import functools
+import hashlib
 import json
 from dataclasses import asdict, dataclass
 from pathlib import Path
@@ -42,12 +44,31 @@ from app.core.surface import (
     quantise_sdf,
     surface_grid,
 )
+from app.kernels.context import runtime
 from app.kernels.sdf import SdfKernel
 from app.kernels.sph import SphSimulator
 from app.liquid.devices import LiquidDevices
 from app.render.mitsuba_scene import LiquidRenderer, RenderSettings, pick_variant
 
 CALIBRATION_DIR = Path(__file__).resolve().parents[1] / "data" / "calibration"
+#: the packages whose code makes a clip's bytes: the pure core, the kernels, this one
+CLIP_CODE = ("core", "kernels", "liquid")
+
+
+@functools.cache
+def clip_code_digest() -> str:
+    """sha256 of the sources that turn a start state into a clip (:data:`CLIP_CODE`).
+
+    Part of a clip's simulation key (``simulation_identity``): a clip remembered by an
+    earlier version of the code is simulated again, not reused.
+    """
+    app = Path(__file__).resolve().parents[1]
+    digest = hashlib.sha256()
+    for package in CLIP_CODE:
+        for path in sorted((app / package).rglob("*")):
+            if path.suffix in (".py", ".cl"):
+                digest.update(str(path.relative_to(app)).encode() + b"\0" + path.read_bytes())
+    return digest.hexdigest()
 
 
 class MissingCalibration(NotFound):
@@ -139,6 +160,7 @@ class LiquidDynamics:
         self._sdf: SdfKernel | None = None
         self._renderer: LiquidRenderer | None = None
         self._rest: np.ndarray | None = None
+        self._identity: str | None = None
 
     # ---- Dynamics constants --------------------------------------------------------
     @property
@@ -157,6 +179,17 @@ class LiquidDynamics:
     @property
     def high_error_threshold(self) -> float:
         return self.calibration.high_error_threshold
+
+    @property
+    def simulation_identity(self) -> str:
+        """What a clip's bytes depend on besides its start state and control: the scene,
+        the OpenCL device and the code (the kernels are bit-reproducible on one device,
+        docs/runtime.md, "Each simulation once")."""
+        if self._identity is None:
+            device = runtime(self.devices.opencl_device).device
+            parts = [repr(self.scene), device.name, device.platform.version, clip_code_digest()]
+            self._identity = hashlib.sha256("\n".join(parts).encode()).hexdigest()
+        return self._identity
 
     # ---- engines, built on first use -------------------------------------------------
     @property

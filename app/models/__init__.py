@@ -10,6 +10,7 @@ from app.models.graph import (
     Graph,
     GrowthEpoch,
     GrowthRequest,
+    SimulatedClip,
     Vertex,
 )
 from app.models.play import Player, Publication, PublicationEdge, Trace, TraceStep
@@ -28,6 +29,7 @@ __all__ = [
     "Player",
     "Publication",
     "PublicationEdge",
+    "SimulatedClip",
     "Trace",
     "TraceStep",
     "Vertex",

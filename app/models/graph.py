@@ -185,3 +185,20 @@ class ExpansionClip(Base):
     #: the new clip's strip, as rendered before strips waited for their edge's expansion
     #: (docs/runtime.md, "Strips"); no longer written, still read by the artifact GC
     animation: Mapped[str | None] = mapped_column(ForeignKey("artifacts.hash"))
+
+
+class SimulatedClip(Base):
+    """A clip already simulated, by what determines it: one simulation per (dynamics,
+    start state, control) in the database (docs/runtime.md, "Each simulation once").
+
+    A cache, not a reference: ``clip`` has no foreign key, so ``srg gc`` may collect a
+    clip no graph holds any longer, and the next lookup of its key simulates again.
+    """
+
+    __tablename__ = "simulated_clips"
+
+    #: sha256 of the dynamics' identity, the control and the start state's bytes
+    key: Mapped[str] = mapped_column(String(HASH_LENGTH), primary_key=True)
+    #: the finished clip's arrays artifact (frames, end state, features)
+    clip: Mapped[str] = mapped_column(String(HASH_LENGTH))
+    created_at: Mapped[datetime] = created_at_column()

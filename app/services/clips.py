@@ -9,6 +9,7 @@ done. Simulating needs no database at all
 
 from __future__ import annotations
 
+import hashlib
 import time
 from dataclasses import dataclass
 from typing import Protocol, runtime_checkable
@@ -23,8 +24,11 @@ from app.models import Graph
 from app.services.animations import AnimationReuse, frames_strip, reuse_error_limit
 from app.services.loading import artifact_store, graph_dynamics
 from app.store.animations import clip_features, set_animations, stored_clip
+from app.store.array_codec import ARRAYS_MEDIA_TYPE
+from app.store.artifacts import ArtifactCorrupt, ArtifactNotFound
 from app.store.epochs import expansion_clip, get_epoch, record_clip
 from app.store.graphs import clip_bundle_digest, get_graph_row
+from app.store.simulated_clips import record_simulated_clip, simulated_clip
 
 
 @runtime_checkable
@@ -40,6 +44,9 @@ class SurfacedDynamics(Protocol):
     ) -> tuple[np.ndarray, np.ndarray]: ...
 
     def surface_frames(self, positions: np.ndarray) -> np.ndarray: ...
+
+    @property
+    def simulation_identity(self) -> str: ...
 
 
 @dataclass(frozen=True)
@@ -67,12 +74,56 @@ def clip_job(
     """The start state and dynamics of a planned clip, or its digest once recorded."""
     if (stored := expansion_clip(session, epoch_id, position, control)) is not None:
         return stored.clip  # a redelivery after the clip was recorded
+    return _planned_job(session, settings, epoch_id, position, control)
+
+
+def _planned_job(
+    session: Session, settings: Settings, epoch_id: int, position: int, control: int
+) -> ClipJob:
     row, dead_end = planned_clip(session, epoch_id, position)
     bundle = clip_bundle_digest(session, row.id, dead_end)
     if bundle is None:
         raise NotFound(f"graph {row.id} has no clip {dead_end}")
     state = artifact_store(settings).get_arrays(bundle, ("end_state",))["end_state"]
     return ClipJob(graph_dynamics(row, settings), state, control)
+
+
+def simulation_key(job: ClipJob) -> str | None:
+    """What determines the job's clip, hashed: the dynamics' identity, the control and
+    the start state's bytes; None for a dynamics whose clips are not worth remembering
+    (the toy simulates faster than a lookup)."""
+    if not isinstance(job.dynamics, SurfacedDynamics):
+        return None
+    digest = hashlib.sha256(job.dynamics.simulation_identity.encode())
+    digest.update(np.int64(job.control).tobytes())
+    digest.update(np.ascontiguousarray(job.state).tobytes())
+    return digest.hexdigest()
+
+
+def remembered_clip(session: Session, settings: Settings, job: ClipJob) -> str | None:
+    """The clip of an identical simulation done before, registered again in this
+    transaction (docs/runtime.md, "Each simulation once"); None: simulate it.
+
+    Its file is read and checked, which also marks it as in use for ``srg gc``; one that
+    was collected or fails its hash is a miss.
+    """
+    key = simulation_key(job) if settings.reuse_simulations else None
+    digest = None if key is None else simulated_clip(session, key)
+    if digest is None:
+        return None
+    artifacts = artifact_store(settings)
+    try:
+        data = artifacts.get_bytes(digest)
+    except (ArtifactNotFound, ArtifactCorrupt):
+        return None
+    return artifacts.put_bytes(data, media_type=ARRAYS_MEDIA_TYPE, session=session)
+
+
+def remember_clip(session: Session, settings: Settings, job: ClipJob, clip: str) -> None:
+    """Note ``clip`` as the simulation of ``job`` for the next identical one."""
+    key = simulation_key(job) if settings.reuse_simulations else None
+    if key is not None:
+        record_simulated_clip(session, key, clip)
 
 
 def simulate_job(job: ClipJob) -> dict[str, np.ndarray]:
@@ -137,10 +188,13 @@ def clip_from_arrays(arrays: dict[str, np.ndarray]) -> tuple[SimClip, ClipFeatur
 def simulate_step(
     session: Session, settings: Settings, epoch_id: int, position: int, control: int
 ) -> str:
-    """Simulate one clip of a planned expansion; return its stage artifact's digest."""
+    """Simulate one clip of a planned expansion; return its stage artifact's digest
+    (the finished clip's when an identical simulation was done before)."""
     job = clip_job(session, settings, epoch_id, position, control)
     if isinstance(job, str):
         return job
+    if (remembered := remembered_clip(session, settings, job)) is not None:
+        return remembered
     if settings.test_simulate_delay > 0:  # test-only: a window to kill the worker in
         time.sleep(settings.test_simulate_delay)
     return artifact_store(settings).put_arrays(simulate_job(job), session=session)
@@ -158,11 +212,13 @@ def sdf_step(
     stored = expansion_clip(session, epoch_id, position, control)
     if stored is not None:
         return stored.clip
-    row, _ = planned_clip(session, epoch_id, position)
+    job = _planned_job(session, settings, epoch_id, position, control)
     artifacts = artifact_store(settings)
-    clip = finish_clip(graph_dynamics(row, settings), artifacts.get_arrays(stage))
+    clip = finish_clip(job.dynamics, artifacts.get_arrays(stage))
     digest = stage if clip is None else artifacts.put_arrays(clip, session=session)
     record_clip(session, epoch_id, position, control, digest)
+    if clip is not None:
+        remember_clip(session, settings, job, digest)
     return digest
 
 

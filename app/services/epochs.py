@@ -39,6 +39,8 @@ from app.services.clips import (
     clip_from_arrays,
     clip_job,
     finish_clip,
+    remember_clip,
+    remembered_clip,
     render_step,
     simulate_job,
 )
@@ -366,11 +368,15 @@ def _simulate_in_process(
     single writer is held only for the short record, so processes grow side by side)."""
     with scope() as session:
         job = clip_job(session, settings, epoch_id, position, control)
-    if isinstance(job, str):
-        return job
+        if isinstance(job, str):
+            return job
+        if (remembered := remembered_clip(session, settings, job)) is not None:
+            record_clip(session, epoch_id, position, control, remembered)
+            return remembered
     stage = simulate_job(job)
     clip = finish_clip(job.dynamics, stage) or stage
     with scope() as session:
         digest = artifact_store(settings).put_arrays(clip, session=session)
         record_clip(session, epoch_id, position, control, digest)
+        remember_clip(session, settings, job, digest)
     return digest

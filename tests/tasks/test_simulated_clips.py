@@ -1,0 +1,156 @@
+"""Each simulation once: a liquid clip already simulated from the same state and control
+is reused, in process and through the workers' steps, with the same bytes."""
+
+from __future__ import annotations
+
+from collections.abc import Iterator
+from pathlib import Path
+
+import numpy as np
+import pytest
+from database_helpers import migrate
+from sqlalchemy import func, select
+from sqlalchemy.orm import Session
+
+from app.config import Settings, get_settings
+from app.core.toy import ToyDynamics
+from app.db import get_engine, transaction
+from app.liquid.adapter import LiquidDynamics
+from app.models import Clip, Graph, SimulatedClip
+from app.services import clips, epochs, growing
+from app.services.clips import ClipJob, simulation_key
+from app.services.creation import init_graph
+from app.services.loading import graph_dynamics
+
+#: expansions grown per graph: two expansions of three controls, six clips
+EXPANSIONS = 2
+
+
+@pytest.fixture
+def settings(tmp_path: Path, monkeypatch: pytest.MonkeyPatch) -> Iterator[Settings]:
+    url = f"sqlite:///{tmp_path / 'srg.sqlite3'}"
+    migrate(url)
+    for name, value in {
+        "SRG_DATABASE_URL": url,
+        "SRG_VAR_DIR": str(tmp_path / "var"),
+        "SRG_ARTIFACT_DIR": str(tmp_path / "artifacts"),
+        "SRG_GROWTH_RENDERS": "false",
+        "SRG_BATCH_SIZE": "4",
+        "SRG_BROKER_URL": "",
+    }.items():
+        monkeypatch.setenv(name, value)
+    get_settings.cache_clear()
+    get_engine.cache_clear()
+    yield get_settings()
+    get_engine().dispose()
+    get_settings.cache_clear()
+    get_engine.cache_clear()
+
+
+def _new_graph(settings: Settings, name: str) -> None:
+    with transaction() as session:
+        init_graph(session, settings, name=name, dynamics="liquid", preset="tiny")
+
+
+def _grow(settings: Settings, name: str) -> int:
+    """Grow ``name`` by :data:`EXPANSIONS`; return the PCISPH substeps it ran."""
+    before = _substeps(settings, name)
+    growing.grow_graph(transaction, settings, name=name, expansions=EXPANSIONS)
+    return _substeps(settings, name) - before
+
+
+def _substeps(settings: Settings, name: str) -> int:
+    """Substeps run so far by this process's simulator of the graph's dynamics."""
+    with transaction() as session:
+        row = session.scalars(select(Graph).where(Graph.name == name)).one()
+        dynamics = graph_dynamics(row, settings)
+    assert isinstance(dynamics, LiquidDynamics)
+    return dynamics.simulator.stats.substeps
+
+
+def _bundles(name: str) -> list[str]:
+    with transaction() as session:
+        graph = select(Graph.id).where(Graph.name == name).scalar_subquery()
+        return list(
+            session.scalars(select(Clip.bundle).where(Clip.graph_id == graph).order_by(Clip.idx))
+        )
+
+
+def _remembered() -> list[str]:
+    with transaction() as session:
+        return list(session.scalars(select(SimulatedClip.clip)))
+
+
+def test_a_graph_grown_again_reuses_every_clip_and_with_reuse_off_simulates_the_same_bytes(
+    settings: Settings, monkeypatch: pytest.MonkeyPatch
+) -> None:
+    _new_graph(settings, "first")
+    assert _grow(settings, "first") > 0
+    assert len(_remembered()) == EXPANSIONS * 3
+
+    _new_graph(settings, "again")
+    assert _grow(settings, "again") == 0
+    assert _bundles("again") == _bundles("first")
+
+    monkeypatch.setenv("SRG_REUSE_SIMULATIONS", "false")
+    get_settings.cache_clear()
+    reuse_off = get_settings()
+    assert not reuse_off.reuse_simulations
+    _new_graph(reuse_off, "simulated")
+    assert _grow(reuse_off, "simulated") > 0
+    assert _bundles("simulated") == _bundles("first")
+
+
+def test_a_remembered_clip_that_was_collected_is_simulated_again(settings: Settings) -> None:
+    _new_graph(settings, "first")
+    _grow(settings, "first")
+    store = Path(settings.resolved_artifact_dir)
+    for digest in _remembered():
+        (store / digest[:2] / digest[2:4] / digest).unlink()
+
+    _new_graph(settings, "again")
+    assert _grow(settings, "again") > 0
+    assert _bundles("again") == _bundles("first")
+    assert all((store / d[:2] / d[2:4] / d).exists() for d in _remembered())
+
+
+def test_the_workers_steps_reuse_a_remembered_clip_and_record_it(settings: Settings) -> None:
+    _new_graph(settings, "first")
+    _grow(settings, "first")
+    _new_graph(settings, "again")
+    before = _substeps(settings, "again")
+    with transaction() as session:
+        graph_id = session.scalars(select(Graph.id).where(Graph.name == "again")).one()
+        plan = epochs.plan_epoch(session, settings, graph_id)
+    assert plan is not None
+    with transaction() as session:
+        stage = clips.simulate_step(session, settings, plan.epoch_id, 0, 1)
+        assert stage in _remembered_in(session)
+        assert clips.sdf_step(session, settings, stage, plan.epoch_id, 0, 1) == stage
+    assert _substeps(settings, "again") == before
+
+
+def _remembered_in(session: Session) -> set[str]:
+    return set(session.scalars(select(SimulatedClip.clip)))
+
+
+def test_the_key_tells_apart_what_changes_a_clip_and_leaves_out_the_toy() -> None:
+    low = LiquidDynamics("tiny")
+    state = np.zeros((4, 6), dtype=np.float32)
+    key = simulation_key(ClipJob(low, state, 0))
+    assert key is not None and len(key) == 64
+    assert simulation_key(ClipJob(low, state.copy(), 0)) == key
+    assert simulation_key(ClipJob(low, state, 1)) != key
+    nudged = state.copy()
+    nudged[3, 4] = np.nextafter(np.float32(0), np.float32(1))
+    assert simulation_key(ClipJob(low, nudged, 0)) != key
+    assert simulation_key(ClipJob(LiquidDynamics("tiny", "high"), state, 0)) != key
+    assert simulation_key(ClipJob(ToyDynamics(), state, 0)) is None
+
+
+def test_nothing_is_remembered_of_the_toy(settings: Settings) -> None:
+    with transaction() as session:
+        init_graph(session, settings, name="toy")
+    growing.grow_graph(transaction, settings, name="toy", expansions=EXPANSIONS)
+    with transaction() as session:
+        assert session.scalar(select(func.count()).select_from(SimulatedClip)) == 0
