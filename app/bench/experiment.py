@@ -20,6 +20,8 @@ from typing import Any
 
 from app.core.errors import InvalidInput
 from app.core.strategies import parse_strategy
+from app.db import make_engine, session_factory
+from app.store.simulated_clips import reuse_counts
 
 SRG = str(Path(sys.executable).with_name("srg"))
 
@@ -44,6 +46,10 @@ def bench_experiment(arguments: list[str]) -> dict[str, Any]:
             raise InvalidInput(done.stderr.strip().splitlines()[-1].removeprefix("srg: error: "))
         after = resource.getrusage(resource.RUSAGE_CHILDREN)
         result = json.loads(out.read_text())
+        engine = make_engine(f"sqlite:///{Path(var) / 'srg.sqlite3'}")
+        with session_factory(engine)() as session:
+            grown, simulated = reuse_counts(session)
+        engine.dispose()
     cpu = (after.ru_utime - before.ru_utime) + (after.ru_stime - before.ru_stime)
     # a run that reads no traces is played by every seed and crowd: one graph for all
     runs = {
@@ -70,6 +76,10 @@ def bench_experiment(arguments: list[str]) -> dict[str, Any]:
         "frames": frames,
         "frames_per_s": round(frames / wall, 2),
         "load_average_1min": round(os.getloadavg()[0], 2),
+        # clips the epochs grew, and how many of them were simulated rather than reused
+        # (docs/runtime.md, "Each simulation once")
+        "clips_grown": grown,
+        "clips_simulated": simulated,
         "runs": runs,
     }
 

@@ -6,10 +6,10 @@ artifacts that may have been collected since (docs/runtime.md, "Each simulation 
 
 from __future__ import annotations
 
-from sqlalchemy import select
+from sqlalchemy import func, select
 from sqlalchemy.orm import Session
 
-from app.models import SimulatedClip
+from app.models import ExpansionClip, SimulatedClip
 from app.store._sql import insert_ignoring_duplicates
 
 
@@ -22,3 +22,10 @@ def record_simulated_clip(session: Session, key: str, clip: str) -> None:
     """Remember ``clip`` as the simulation of ``key``; the first writer of a key wins
     (two writers of one key computed the same bytes)."""
     insert_ignoring_duplicates(session, SimulatedClip, [{"key": key, "clip": clip}])
+
+
+def reuse_counts(session: Session) -> tuple[int, int]:
+    """(clips grown by epochs, simulations remembered): their difference was reused."""
+    grown = session.scalar(select(func.count()).select_from(ExpansionClip)) or 0
+    simulated = session.scalar(select(func.count()).select_from(SimulatedClip)) or 0
+    return grown, simulated

@@ -21,6 +21,7 @@ from app.services import clips, epochs, growing
 from app.services.clips import ClipJob, simulation_key
 from app.services.creation import init_graph
 from app.services.loading import graph_dynamics
+from app.store.simulated_clips import reuse_counts
 
 #: expansions grown per graph: two expansions of three controls, six clips
 EXPANSIONS = 2
@@ -91,6 +92,8 @@ def test_a_graph_grown_again_reuses_every_clip_and_with_reuse_off_simulates_the_
     _new_graph(settings, "again")
     assert _grow(settings, "again") == 0
     assert _bundles("again") == _bundles("first")
+    with transaction() as session:
+        assert reuse_counts(session) == (2 * EXPANSIONS * 3, EXPANSIONS * 3)
 
     monkeypatch.setenv("SRG_REUSE_SIMULATIONS", "false")
     get_settings.cache_clear()
