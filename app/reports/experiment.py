@@ -12,6 +12,7 @@ from typing import Any
 import numpy as np
 
 from app.core.comparison import (
+    AIMLESS_CROWDS,
     ERROR_RATIO_TARGET,
     HIGH_ERROR_FLOOR,
     HIGH_ERROR_RATIO_TARGET,
@@ -201,8 +202,10 @@ def comparison_section(result: dict[str, Any]) -> list[str]:
         "pairs two graphs grown from one initial tree); the 95 % interval resamples the "
         "seeds and, inside each, both graphs' sessions (a two-level bootstrap). Targets at "
         f"the last checkpoint: error ratio <= {ERROR_RATIO_TARGET} with the interval's "
-        f"upper end below 1; high-error ratio <= {HIGH_ERROR_RATIO_TARGET} where "
-        f"baseline's high-error fraction is above {HIGH_ERROR_FLOOR}.",
+        "upper end below 1 for a crowd with an aim; the upper end below 1 alone for an "
+        f"aimless one ({', '.join(sorted(AIMLESS_CROWDS))}); high-error ratio <= "
+        f"{HIGH_ERROR_RATIO_TARGET} where baseline's high-error fraction is above "
+        f"{HIGH_ERROR_FLOOR}.",
         "",
         "| crowd | frames | error ratio [95 % interval] | per seed | verdict "
         "| high-error ratio [95 % interval] | baseline high-error | targets |",

@@ -5,7 +5,13 @@ from __future__ import annotations
 import numpy as np
 import pytest
 
-from app.core.comparison import RatioInterval, SessionSample, meets_targets, ratio_interval
+from app.core.comparison import (
+    RatioInterval,
+    SessionSample,
+    error_ratio_target,
+    meets_targets,
+    ratio_interval,
+)
 
 
 def sample(rng: np.random.Generator, rate: float, sessions: int = 30) -> SessionSample:
@@ -101,3 +107,12 @@ def test_targets(
     error: RatioInterval, high_error: RatioInterval, baseline_high: float, met: bool
 ) -> None:
     assert meets_targets(error, high_error, baseline_high) is met
+
+
+def test_an_aimless_crowd_needs_only_a_gain_above_the_noise() -> None:
+    assert error_ratio_target("goal-directed") == error_ratio_target("avoider") == 0.5
+    assert error_ratio_target("hesitant") is None and error_ratio_target("random") is None
+    no_high = interval(0.0, 0.0)
+    assert meets_targets(interval(0.7, 0.8), no_high, 0.0, error_ratio_target("hesitant"))
+    assert not meets_targets(interval(0.7, 0.8), no_high, 0.0, error_ratio_target("avoider"))
+    assert not meets_targets(interval(0.7, 1.05), no_high, 0.0, error_ratio_target("hesitant"))

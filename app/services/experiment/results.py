@@ -15,6 +15,7 @@ import numpy as np
 from app.config import Settings
 from app.core.comparison import (
     SessionSample,
+    error_ratio_target,
     meets_targets,
     ratio_interval,
 )
@@ -160,7 +161,8 @@ def compare_with_baseline(
                 "baseline_high_error_fraction": baseline_high,
             }
             if index == len(plan.checkpoints) - 1:
-                row["meets_targets"] = meets_targets(errors, high, baseline_high)
+                target = error_ratio_target(bot)
+                row["meets_targets"] = meets_targets(errors, high, baseline_high, target)
             rows.append(row)
         comparison[bot] = rows
     return comparison
