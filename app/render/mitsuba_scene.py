@@ -50,7 +50,9 @@ WATER_IOR = 1.33
 WATER_TINT = (0.5, 0.75, 0.95)
 TARGET_COLOUR = (0.85, 0.35, 0.2)
 WALL_COLOUR = (0.8, 0.8, 0.78)
-FRAME_COLOUR = (0.2, 0.22, 0.25)
+#: the tank's side frames: a light brushed-metal grey; seen through a splash, the darker
+#: grey they had (0.2) came out near-black inside the water (docs/render.md)
+FRAME_COLOUR = (0.5, 0.55, 0.625)
 #: the back wall glows with this fraction of its colour (a light box behind the tank)
 BACKLIGHT = 0.35
 SKY_RADIANCE = 0.3

@@ -1,16 +1,17 @@
 #!/usr/bin/env bash
 # Rounds of the outside player on two liquid `tiny` graphs (baseline, sr-crowd) grown
 # side by side: publish both (no renders), 30 sessions on each, grow both by 800 frames.
-# usage: run.sh OUT_DIR [ROUNDS] [PORT] [REPEAT]   (srg on PATH; SRG_VAR_DIR names the
-# database; REPEAT, 0 by default, draws other sessions: round r plays seeds 100 REPEAT + r)
+# usage: run.sh OUT_DIR [ROUNDS] [PORT] [REPEAT] [FLUID]   (srg on PATH; SRG_VAR_DIR names
+# the database; REPEAT, 0 by default, draws other sessions: round r plays seeds
+# 100 REPEAT + r; FLUID low, the default, or high)
 set -euo pipefail
 export SRG_GROWTH_RENDERS=false  # the player plays edges, not pictures
-out=$1; rounds=${2:-4}; port=${3:-8765}; repeat=${4:-0}
+out=$1; rounds=${2:-4}; port=${3:-8765}; repeat=${4:-0}; fluid=${5:-low}
 here=$(cd "$(dirname "$0")" && pwd)
 mkdir -p "$out"
 srg db upgrade >/dev/null
 for strategy in baseline sr-crowd; do
-  srg init "outside-$strategy" --dynamics liquid --preset tiny --strategy "$strategy" >/dev/null
+  srg init "outside-$strategy" --dynamics liquid --preset tiny --fluid "$fluid" --strategy "$strategy" >/dev/null
 done
 srg serve --port "$port" >"$out/serve.log" 2>&1 &
 server=$!
