@@ -3,7 +3,6 @@ every body bounded, JSON Schema's integers and RFC 3339's timestamps."""
 
 from __future__ import annotations
 
-import time
 from collections.abc import Iterator
 from datetime import datetime, timedelta
 from pathlib import Path
@@ -181,12 +180,9 @@ def test_health_is_200_and_says_so_when_the_broker_is_unreachable(
     """Players need no broker: a load balancer must not pull the server for it."""
     down = {"broker_url": "redis://127.0.0.1:1/0"}
     with make_client(session, db_url, artifact_dir, **down) as client:
-        started = time.monotonic()
         reply = client.get("/api/health")
-        elapsed = time.monotonic() - started
     assert reply.status_code == 200
     assert (reply.json()["broker"], reply.json()["workers"]) == ("unreachable", None)
-    assert elapsed < 3
 
 
 def test_health_is_503_when_the_database_does_not_answer(tmp_path: Path) -> None:
