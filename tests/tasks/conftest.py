@@ -13,10 +13,11 @@ from collections.abc import Callable, Iterator
 from pathlib import Path
 
 import pytest
-from database_helpers import postgres_base_url, postgres_database
+from database_helpers import migrate, postgres_base_url, postgres_database
 from tasks_cluster import ROOT, Cluster, RedisServer, free_port
 
-from app.config import Settings
+from app.config import Settings, get_settings
+from app.db import get_engine
 from app.services.graph_cache import graph_cache
 
 
@@ -72,3 +73,25 @@ def _fresh_graph_cache() -> Iterator[None]:
     graph_cache.clear()
     yield
     graph_cache.clear()
+
+
+@pytest.fixture
+def settings(tmp_path: Path, monkeypatch: pytest.MonkeyPatch) -> Iterator[Settings]:
+    """Settings (and the app's engine) of a fresh SQLite database, no broker."""
+    url = f"sqlite:///{tmp_path / 'srg.sqlite3'}"
+    migrate(url)
+    for name, value in {
+        "SRG_DATABASE_URL": url,
+        "SRG_VAR_DIR": str(tmp_path / "var"),
+        "SRG_ARTIFACT_DIR": str(tmp_path / "artifacts"),
+        "SRG_GROWTH_RENDERS": "false",
+        "SRG_BATCH_SIZE": "4",
+        "SRG_BROKER_URL": "",
+    }.items():
+        monkeypatch.setenv(name, value)
+    get_settings.cache_clear()
+    get_engine.cache_clear()
+    yield get_settings()
+    get_engine().dispose()
+    get_settings.cache_clear()
+    get_engine.cache_clear()

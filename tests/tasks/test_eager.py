@@ -5,13 +5,11 @@ from __future__ import annotations
 import logging
 import os
 import time
-from collections.abc import Iterator
 from dataclasses import replace
 from pathlib import Path
 
 import numpy as np
 import pytest
-from database_helpers import migrate
 from sqlalchemy import func, select, update
 from tasks_cluster import RedisServer
 from tasks_helpers import eager_reference, seed_graph, snapshot
@@ -24,7 +22,7 @@ from app.core.growth import expand_blend_edge, initial_tree
 from app.core.player_models import PlayerModelKind
 from app.core.refinement import RefinerConfig
 from app.core.toy import ToyDynamics
-from app.db import get_engine, make_engine, session_factory, transaction
+from app.db import make_engine, session_factory, transaction
 from app.models import Clip, Graph, GrowthEpoch, GrowthRequest, Publication, PublicationEdge
 from app.services import between_epochs, clips, epochs, growing, refining
 from app.services.loading import open_graph
@@ -39,28 +37,6 @@ from app.tasks import celery_app
 from app.tasks.celery_app import celery_config
 from app.tasks.growth import grow_epoch, integrate, publish_if_due, schedule_growth
 from app.tasks.maintenance import collect_artifacts
-
-
-@pytest.fixture
-def settings(tmp_path: Path, monkeypatch: pytest.MonkeyPatch) -> Iterator[Settings]:
-    """Settings (and the app's engine) of a fresh SQLite database, no broker."""
-    url = f"sqlite:///{tmp_path / 'srg.sqlite3'}"
-    migrate(url)
-    for name, value in {
-        "SRG_DATABASE_URL": url,
-        "SRG_VAR_DIR": str(tmp_path / "var"),
-        "SRG_ARTIFACT_DIR": str(tmp_path / "artifacts"),
-        "SRG_GROWTH_RENDERS": "false",
-        "SRG_BATCH_SIZE": "4",
-        "SRG_BROKER_URL": "",
-    }.items():
-        monkeypatch.setenv(name, value)
-    get_settings.cache_clear()
-    get_engine.cache_clear()
-    yield get_settings()
-    get_engine().dispose()
-    get_settings.cache_clear()
-    get_engine.cache_clear()
 
 
 def test_without_a_broker_tasks_run_eagerly() -> None:

@@ -3,18 +3,16 @@ is reused, in process and through the workers' steps, with the same bytes."""
 
 from __future__ import annotations
 
-from collections.abc import Iterator
 from pathlib import Path
 
 import numpy as np
 import pytest
-from database_helpers import migrate
 from sqlalchemy import func, select
 from sqlalchemy.orm import Session
 
 from app.config import Settings, get_settings
 from app.core.toy import ToyDynamics
-from app.db import get_engine, transaction
+from app.db import transaction
 from app.liquid.adapter import LiquidDynamics
 from app.models import Clip, Graph, SimulatedClip
 from app.services import clips, epochs, growing
@@ -25,27 +23,6 @@ from app.store.simulated_clips import reuse_counts
 
 #: expansions grown per graph: two expansions of three controls, six clips
 EXPANSIONS = 2
-
-
-@pytest.fixture
-def settings(tmp_path: Path, monkeypatch: pytest.MonkeyPatch) -> Iterator[Settings]:
-    url = f"sqlite:///{tmp_path / 'srg.sqlite3'}"
-    migrate(url)
-    for name, value in {
-        "SRG_DATABASE_URL": url,
-        "SRG_VAR_DIR": str(tmp_path / "var"),
-        "SRG_ARTIFACT_DIR": str(tmp_path / "artifacts"),
-        "SRG_GROWTH_RENDERS": "false",
-        "SRG_BATCH_SIZE": "4",
-        "SRG_BROKER_URL": "",
-    }.items():
-        monkeypatch.setenv(name, value)
-    get_settings.cache_clear()
-    get_engine.cache_clear()
-    yield get_settings()
-    get_engine().dispose()
-    get_settings.cache_clear()
-    get_engine.cache_clear()
 
 
 def _new_graph(settings: Settings, name: str) -> None:
