@@ -5,6 +5,7 @@
 set -euo pipefail
 cd "$(dirname "$0")/.."
 SRG_EXTRAS=all source infra/venv.sh
+bash infra/opencl.sh
 # Mitsuba's LLVM variant renders about 3x faster than scalar_rgb but needs libLLVM >= 17
 # (Debian's default 14/15 crash in it); without it rendering falls back to scalar_rgb.
 if ! ls /usr/lib/*/libLLVM.so.19* >/dev/null 2>&1 && command -v apt-get >/dev/null; then

@@ -4,6 +4,7 @@
 set -euo pipefail
 cd "$(dirname "$0")/.."
 SRG_EXTRAS=all,test source infra/venv.sh
+bash infra/opencl.sh
 bash infra/services.sh
 echo "test: ruff"
 ruff check app tests

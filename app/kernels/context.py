@@ -1,7 +1,8 @@
 """OpenCL device, context, queue and program cache.
 
 The device is the first whose name contains the caller's ``device`` string (the shells
-pass ``Settings.opencl_device``; ``''`` prefers PoCL's CPU device). Contexts are created
+pass ``Settings.opencl_device``; ``''`` prefers a PoCL CPU device that can compile for
+this CPU: docs/runtime.md, "The OpenCL device"). Contexts are created
 lazily and keyed by process id and device, so a Celery worker forked from a parent that
 already used OpenCL builds its own context instead of inheriting one that does not
 survive ``fork``. Programs are built once per context and source/options.
@@ -50,8 +51,35 @@ class ClRuntime:
 _RUNTIMES: dict[tuple[int, str], ClRuntime] = {}
 
 
+#: the smallest program that exercises a device's compiler (the probe of :func:`compiles`)
+PROBE_SOURCE = "__kernel void probe(__global float *x) { x[get_global_id(0)] += 1.0f; }"
+
+_COMPILES: dict[int, bool] = {}
+
+
+def compiles(device: cl.Device) -> bool:
+    """Whether ``device`` builds :data:`PROBE_SOURCE`; asked once per process and device.
+
+    A PoCL whose LLVM predates the host CPU lists the device and then fails every build
+    ("unknown target CPU 'generic'"); the probe lets selection pass over it.
+    """
+    key = device.int_ptr
+    if key not in _COMPILES:
+        try:
+            cl.Program(cl.Context([device]), PROBE_SOURCE).build(options=list(BUILD_OPTIONS))
+            _COMPILES[key] = True
+        except cl.Error as error:
+            log.warning("OpenCL device %s cannot compile: %s", device.name, error)
+            _COMPILES[key] = False
+    return _COMPILES[key]
+
+
 def select_device(name_contains: str) -> cl.Device:
-    """First device whose name contains ``name_contains``; '' prefers a PoCL CPU device."""
+    """First device whose name contains ``name_contains``; '' prefers a PoCL CPU device.
+
+    With ``''`` the first PoCL CPU device that :func:`compiles` wins, then any device that
+    does; with none, an :class:`Unavailable` that says what to install.
+    """
     devices = [(p, d) for p in cl.get_platforms() for d in p.get_devices()]
     if not devices:
         raise Unavailable("no OpenCL device found")
@@ -61,10 +89,19 @@ def select_device(name_contains: str) -> cl.Device:
                 return d
         names = [d.name for _, d in devices]
         raise Unavailable(f"no OpenCL device matches {name_contains!r}; have {names}")
-    for p, d in devices:
-        if "portable computing language" in p.name.lower() and d.type & cl.device_type.CPU:
+    pocl_cpus = [
+        d
+        for p, d in devices
+        if "portable computing language" in p.name.lower() and d.type & cl.device_type.CPU
+    ]
+    for d in [*pocl_cpus, *(d for _, d in devices if d not in pocl_cpus)]:
+        if compiles(d):
             return d
-    return devices[0][1]
+    names = [f"{d.name} ({p.version})" for p, d in devices]
+    raise Unavailable(
+        f"no OpenCL device can compile for this CPU (have {names}); "
+        "on Debian: apt-get install pocl-opencl-icd"
+    )
 
 
 def runtime(device_name: str = "") -> ClRuntime:
