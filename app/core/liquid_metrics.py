@@ -53,8 +53,9 @@ def shape_distance(occ_a: np.ndarray, occ_b: np.ndarray, voxel_volume: float) ->
     if occ_a.shape != occ_b.shape:
         raise ValueError(f"occupancy shapes differ: {occ_a.shape} vs {occ_b.shape}")
     if occ_a.dtype == np.uint8 and occ_b.dtype == np.uint8:
-        # exact integer sum of the stored levels, scaled once
-        diff = np.abs(occ_a.astype(np.int16) - occ_b.astype(np.int16)).sum(dtype=np.int64)
+        # exact integer sum of the stored levels, scaled once; |a - b| as max - min stays
+        # in uint8 (a third of the int16 path's time: it runs ~100 times a blend)
+        diff = (np.maximum(occ_a, occ_b) - np.minimum(occ_a, occ_b)).sum(dtype=np.int64)
         return float(diff) / OCCUPANCY_LEVELS * voxel_volume
     a, b = dequantise_occupancy(occ_a), dequantise_occupancy(occ_b)
     return float(np.abs(a - b).sum(dtype=np.float64)) * voxel_volume

@@ -60,6 +60,17 @@ def test_shape_distance_is_the_symmetric_difference_volume() -> None:
     assert shape_distance(a / 255.0, b / 255.0, 2.0) == pytest.approx(24 * 2.0)
 
 
+@given(st.integers(0, 2**32 - 1))
+@settings(max_examples=20, deadline=None)
+def test_the_stored_levels_give_the_float_fractions_distance(seed: int) -> None:
+    """The uint8 path (no widening) against the fractions': no wrap-around at 0 or 255."""
+    rng = np.random.default_rng(seed)
+    a, b = (rng.choice(np.array([0, 1, 128, 254, 255], np.uint8), SHAPE) for _ in range(2))
+    assert shape_distance(a, b, 0.5) == pytest.approx(
+        shape_distance(a / 255.0, b / 255.0, 0.5), rel=1e-6
+    )
+
+
 @given(st.floats(0.0, 10.0), st.floats(0.06, 5.0))
 def test_an_energy_gain_costs_more_than_an_equal_loss(e: float, delta: float) -> None:
     gain = energy_distance(e, e + delta, PARAMS.rest_kinetic)
