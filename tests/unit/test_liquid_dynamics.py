@@ -2,13 +2,22 @@
 
 from __future__ import annotations
 
+import json
+from dataclasses import asdict
+from pathlib import Path
+
 import numpy as np
 import pytest
 
 from app.config import Settings
 from app.core.dynamics import Dynamics, SimClip
 from app.core.surface import dequantise_sdf, liquid_volumes, occupancy
-from app.liquid.adapter import LiquidDynamics, load_calibration
+from app.liquid.adapter import (
+    CALIBRATION_DIR,
+    LiquidDynamics,
+    calibration_path,
+    load_calibration,
+)
 from app.liquid.devices import LiquidDevices
 
 
@@ -87,3 +96,16 @@ def test_the_devices_default_to_the_embedded_configuration() -> None:
     assert LiquidDynamics("tiny").devices == LiquidDevices()
     chosen = LiquidDevices(opencl_device="cpu", render_variant="scalar_rgb")
     assert LiquidDynamics("tiny", devices=chosen).devices is chosen
+
+
+@pytest.mark.parametrize("path", sorted(CALIBRATION_DIR.glob("*.json")), ids=lambda p: p.stem)
+def test_every_shipped_calibration_loads_and_is_a_measurement(path: Path) -> None:
+    """Each file names its preset and fluid, loads, and holds four positive finite
+    constants; the threshold is the visible one, with the study's details beside it."""
+    stored = json.loads(path.read_text())
+    preset, fluid = stored["preset"], stored.get("fluid", "low")
+    assert calibration_path(preset, fluid) == path
+    constants = load_calibration(preset, fluid)
+    values = np.array(list(asdict(constants).values()))
+    assert np.all(np.isfinite(values)) and np.all(values > 0), constants
+    assert stored["visible_threshold"]["threshold"] == constants.high_error_threshold
