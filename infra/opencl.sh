@@ -6,13 +6,15 @@
 # (docs/runtime.md, "The OpenCL device").
 set -euo pipefail
 cd "$(dirname "$0")/.."
-probe() { .venv/bin/python -c "from app.kernels.context import select_device; select_device('')" 2>/dev/null; }
-if probe; then exit 0; fi
+source infra/apt.sh
+probe=(.venv/bin/python -c "from app.kernels.context import select_device; select_device('')")
+if "${probe[@]}" 2>/dev/null; then exit 0; fi
 if ! command -v apt-get >/dev/null; then
   echo "no OpenCL device compiles for this CPU; install a PoCL built with a newer LLVM" >&2
   exit 1
 fi
-echo "installing Debian's PoCL: pip's cannot compile for this CPU (apt-get)" >&2
-DEBIAN_FRONTEND=noninteractive apt-get install -y -qq --no-install-recommends pocl-opencl-icd >/dev/null 2>&1 \
-  || { apt-get update -qq && DEBIAN_FRONTEND=noninteractive apt-get install -y -qq --no-install-recommends pocl-opencl-icd >/dev/null; }
-probe || { .venv/bin/python -c "from app.kernels.context import select_device; select_device('')"; exit 1; }
+apt_install pocl-opencl-icd
+if ! error=$("${probe[@]}" 2>&1); then
+  echo "${error##*$'\n'}" >&2  # the last line: what is missing
+  exit 1
+fi

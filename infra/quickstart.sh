@@ -9,10 +9,8 @@ bash infra/opencl.sh
 # Mitsuba's LLVM variant renders about 3x faster than scalar_rgb but needs libLLVM >= 17
 # (Debian's default 14/15 crash in it); without it rendering falls back to scalar_rgb.
 if ! ls /usr/lib/*/libLLVM.so.19* >/dev/null 2>&1 && command -v apt-get >/dev/null; then
-  echo "installing libllvm19 for faster rendering (apt-get)" >&2
-  DEBIAN_FRONTEND=noninteractive apt-get install -y -qq libllvm19 >/dev/null 2>&1 \
-    || { apt-get update -qq && DEBIAN_FRONTEND=noninteractive apt-get install -y -qq libllvm19 >/dev/null 2>&1; } \
-    || echo "no libllvm19: rendering with scalar_rgb" >&2
+  source infra/apt.sh
+  apt_install libllvm19 || echo "no libllvm19: rendering with scalar_rgb" >&2
 fi
 srg db upgrade
 srg demo "$@"

@@ -6,14 +6,7 @@ set -euo pipefail
 
 say() { echo "services: $*"; }
 
-apt_install() {
-  say "installing $* (apt-get)"
-  if [ -z "${SRG_APT_UPDATED:-}" ]; then
-    apt-get update -qq
-    export SRG_APT_UPDATED=1
-  fi
-  DEBIAN_FRONTEND=noninteractive apt-get install -y -qq "$@" >/dev/null
-}
+source "$(dirname "$0")/apt.sh"
 
 pg_trust_works() { psql -h 127.0.0.1 -U postgres -w -d postgres -Atqc 'select 1' >/dev/null 2>&1; }
 
