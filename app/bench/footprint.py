@@ -16,7 +16,7 @@ from app.db import transaction
 from app.services.loading import artifact_store
 from app.store.array_codec import read_member_sizes
 from app.store.footprint import graph_bundles, graph_footprint
-from app.store.graphs import get_graph_row
+from app.store.graph_catalogue import get_graph_row
 
 
 def bench_bytes(settings: Settings, name: str) -> dict[str, Any]:

@@ -216,7 +216,8 @@ def _integration(
     """
     from app.services import clips, epochs, loading
     from app.store.artifacts import ArtifactStore
-    from app.store.graphs import create_graph, save_graph
+    from app.store.graph_catalogue import create_graph
+    from app.store.graph_persistence import save_graph
 
     devices = LiquidDevices.from_settings(settings)
     dynamics = loading.cached_dynamics(dynamics_name, preset, None, devices)

@@ -35,7 +35,8 @@ from app.core.toy import ToyDynamics
 from app.db import make_engine, session_factory
 from app.models import Base
 from app.store.artifacts import ArtifactStore
-from app.store.graphs import create_graph, save_graph
+from app.store.graph_catalogue import create_graph
+from app.store.graph_persistence import save_graph
 from app.store.publications import load_publication, publish
 from app.store.traces import stored_play
 

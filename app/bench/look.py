@@ -27,7 +27,7 @@ from app.services.loading import artifact_store, graph_dynamics
 from app.store.animations import clip_animations
 from app.store.array_codec import decode_arrays
 from app.store.artifacts import ArtifactStore
-from app.store.graphs import clip_bundle_digest, get_graph_row
+from app.store.graph_catalogue import clip_bundle_digest, get_graph_row
 
 #: a frame with more near-black pixels than this share counts as showing shards
 SHARD_FRAME = 0.005

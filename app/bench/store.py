@@ -24,7 +24,8 @@ from app.core.graph import StateGraph
 from app.db import make_engine
 from app.models import Base
 from app.store.artifacts import ArtifactStore
-from app.store.graphs import create_graph, load_graph, save_graph
+from app.store.graph_catalogue import create_graph
+from app.store.graph_persistence import load_graph, save_graph
 
 
 @dataclass(frozen=True)

@@ -65,7 +65,7 @@ def grow(
     from app.config import get_settings
     from app.core.strategies import parse_strategy
     from app.services.growing import grow_graph
-    from app.store.graphs import MAX_ROW_ID
+    from app.store.graph_catalogue import MAX_ROW_ID
 
     if frames is not None and expansions is not None:
         raise InvalidInput("give --frames or --expansions, not both")
@@ -107,7 +107,7 @@ def publish(
     from app.config import get_settings
     from app.services.publishing import publish_graph
     from app.store.animations import count_missing_animations
-    from app.store.graphs import get_graph_row
+    from app.store.graph_catalogue import get_graph_row
 
     require_intact()
     with transaction() as session:
@@ -168,7 +168,7 @@ def status(
 ) -> None:
     """Sizes, publications, epochs and play (traces, players, last upload) of one graph or all."""
     from app.services.status import graph_summary
-    from app.store.graphs import graph_ids
+    from app.store.graph_catalogue import graph_ids
 
     with transaction() as session:
         graphs = [name] if name is not None else graph_ids(session)

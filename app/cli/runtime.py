@@ -89,7 +89,7 @@ def grow_epoch(name: str = typer.Argument(..., help="graph name or id")) -> None
     """Send one grow_epoch task now (what beat sends); prints its task id."""
     from app.config import get_settings
     from app.db import transaction
-    from app.store.graphs import get_graph_row
+    from app.store.graph_catalogue import get_graph_row
     from app.tasks.celery_app import require_broker
     from app.tasks.growth import grow_epoch as task
 

@@ -19,7 +19,7 @@ from app.core.session_figures import MAX_RELATIVE_SE, MIN_SESSIONS, SessionFigur
 from app.services.loading import graph_dynamics
 from app.services.prediction import latest_play_prediction
 from app.store.analytics import graph_analytics
-from app.store.graphs import get_graph_row
+from app.store.graph_catalogue import get_graph_row
 
 
 def played_graph_analytics(

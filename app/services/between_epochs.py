@@ -18,7 +18,7 @@ from app.services.loading import keep_graph, loaded_graph
 from app.services.publishing import publish_graph, relink_blends
 from app.services.refining import rank_stored, refiner_for
 from app.store.epochs import running_epoch
-from app.store.graphs import get_graph_row, growing_graph_ids, mark_growing, size_frames
+from app.store.graph_catalogue import get_graph_row, growing_graph_ids, mark_growing, size_frames
 from app.store.locks import lock_graph, lock_graph_if_free
 from app.store.publications import latest_publication
 

@@ -27,7 +27,7 @@ from app.store.animations import clip_features, set_animations, stored_clip
 from app.store.array_codec import ARRAYS_MEDIA_TYPE
 from app.store.artifacts import ArtifactCorrupt, ArtifactNotFound
 from app.store.epochs import expansion_clip, get_epoch, record_clip
-from app.store.graphs import clip_bundle_digest, get_graph_row
+from app.store.graph_catalogue import clip_bundle_digest, get_graph_row
 from app.store.simulated_clips import record_simulated_clip, simulated_clip
 
 

@@ -16,7 +16,8 @@ from app.liquid.devices import LiquidDevices
 from app.services.dynamics import make_dynamics
 from app.services.loading import artifact_store
 from app.services.status import graph_summary
-from app.store.graphs import create_graph, graph_exists, graph_name_length, save_graph
+from app.store.graph_catalogue import create_graph, graph_exists, graph_name_length
+from app.store.graph_persistence import save_graph
 
 #: the most simulated clips ``srg init --depth`` may ask of the initial tree; past it the
 #: tree grows as N^depth and a typo would run for ever (growth refines from there)

@@ -43,7 +43,7 @@ from app.store.animations import (
     count_missing_animations,
     publication_animations,
 )
-from app.store.graphs import get_graph_row, graph_exists
+from app.store.graph_catalogue import get_graph_row, graph_exists
 
 #: graph sizes (frames) where bots play: on `tiny` the two strategies part by 1,500
 DEMO_CHECKPOINTS = (300, 600, 1_000, 1_500)

@@ -60,7 +60,8 @@ from app.store.epochs import (
     start_epoch,
     stored_clips,
 )
-from app.store.graphs import get_graph_row, save_graph, stored_edge_kind
+from app.store.graph_catalogue import get_graph_row, stored_edge_kind
+from app.store.graph_persistence import save_graph
 from app.store.locks import lock_epoch_graph, lock_graph
 
 log = logging.getLogger(__name__)

@@ -41,7 +41,7 @@ from app.store.fsck import (
     expansion_clip_with,
     sqlite_integrity,
 )
-from app.store.graphs import clip_bundle_digest
+from app.store.graph_catalogue import clip_bundle_digest
 
 
 @dataclass

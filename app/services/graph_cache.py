@@ -20,7 +20,7 @@ from dataclasses import dataclass
 from sqlalchemy import Connection, event
 from sqlalchemy.orm import Session
 
-from app.store.graphs import graph_revision
+from app.store.graph_catalogue import graph_revision
 
 Key = tuple[str, str, int]
 

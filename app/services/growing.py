@@ -17,7 +17,7 @@ from app.db import Scope
 from app.services.animations import Progress
 from app.services.epochs import plan_epoch, run_epoch
 from app.store.epochs import get_epoch, running_epoch
-from app.store.graphs import get_graph_row, size_frames
+from app.store.graph_catalogue import get_graph_row, size_frames
 
 
 @dataclass

@@ -24,7 +24,8 @@ from app.models import Graph
 from app.services.dynamics import make_dynamics
 from app.services.graph_cache import graph_cache
 from app.store.artifacts import ArtifactStore
-from app.store.graphs import get_graph_row, load_graph
+from app.store.graph_catalogue import get_graph_row
+from app.store.graph_persistence import load_graph
 from app.store.occupancy_cache import RedisShapeCache
 
 #: the cache entries of loaded graphs (one scope: every use case shares the copy)

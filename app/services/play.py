@@ -23,7 +23,7 @@ from app.core.bots import parse_bot, play_sessions
 from app.core.errors import InvalidInput
 from app.core.metrics import high_error_fraction, observed_mean_error
 from app.services.loading import graph_dynamics
-from app.store.graphs import get_graph_row
+from app.store.graph_catalogue import get_graph_row
 from app.store.publications import latest_publication_id, load_publication
 from app.store.traces import bot_player, record_trace
 

@@ -14,7 +14,7 @@ from app.config import Settings
 from app.core.growth import relink_all
 from app.services.animations import Progress, render_missing_animations, reuse_error_limit
 from app.services.loading import LoadedGraph, open_graph
-from app.store.graphs import save_graph
+from app.store.graph_persistence import save_graph
 from app.store.publications import get_publication, publish
 
 

@@ -7,7 +7,7 @@ from sqlalchemy.orm import Session
 from app.core.graph import EdgeKind
 from app.store.animations import count_missing_animations
 from app.store.epochs import epoch_count
-from app.store.graphs import edge_kind_counts, get_graph_row, size_frames
+from app.store.graph_catalogue import edge_kind_counts, get_graph_row, size_frames
 from app.store.publications import latest_publication
 from app.store.traces import play_summary
 

@@ -2,7 +2,7 @@
 
 A SIM edge shows its clip's strip (rendered once per clip, kept on the clip row); a BLEND
 edge shows its own blend. Saving a changed edge drops its strip
-(:func:`app.store.graphs.save_graph`), so these queries find what to render again.
+(:func:`app.store.graph_persistence.save_graph`), so these queries find what to render again.
 """
 
 from __future__ import annotations
@@ -20,7 +20,8 @@ from app.core.graph import EdgeKind
 from app.models import Artifact, Clip, Edge, PublicationEdge
 from app.store.artifacts import ArtifactStore
 from app.store.clipbank import ShapeOf
-from app.store.graphs import get_graph_row, stored_descriptor, stored_potential
+from app.store.graph_catalogue import get_graph_row
+from app.store.graph_persistence import stored_descriptor, stored_potential
 
 #: animations are videos (image strips before); every other artifact is internal
 ANIMATION_MEDIA_PREFIXES = ("image/", "video/")

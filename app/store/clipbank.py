@@ -11,7 +11,7 @@ LRU caches because best-target searches compare the same popular clips again and
 The shape cache is bounded in bytes, not entries: an occupancy grid is 48 KB on ``tiny``
 and about 1 MB on ``paper``, so a count bound would let a 200k-frame graph's worker hold
 gigabytes.
-Clips put since the last save stay in memory until :func:`app.store.graphs.save_graph`
+Clips put since the last save stay in memory until :func:`app.store.graph_persistence.save_graph`
 writes their bundles and calls :meth:`StoredClipBank.mark_saved`.
 """
 

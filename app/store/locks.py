@@ -13,7 +13,7 @@ from sqlalchemy.orm import Session
 from app.db import begin_immediate
 from app.models import Graph, GrowthEpoch
 from app.store.epochs import get_epoch
-from app.store.graphs import GraphNotFound
+from app.store.graph_catalogue import GraphNotFound
 
 
 def lock_graph(session: Session, graph_id: int) -> Graph:

@@ -19,7 +19,8 @@ from app.core.publication import Publication, freeze
 from app.models import Edge, Graph, PublicationEdge
 from app.models import Publication as PublicationRow
 from app.store._sql import bulk_insert
-from app.store.graphs import get_graph_row, require_saved
+from app.store.graph_catalogue import get_graph_row
+from app.store.graph_persistence import require_saved
 
 
 class GraphListing(NamedTuple):
@@ -56,7 +57,7 @@ class NothingPublished(NotFound):
 def publish(session: Session, graph_id: int, graph: StateGraph) -> int:
     """Freeze the saved ``graph`` as the graph's next publication; return its id.
 
-    The graph must be saved first (:class:`~app.store.graphs.StaleGraph` otherwise), so
+    The graph must be saved first (:class:`~app.store.graph_persistence.StaleGraph` otherwise), so
     the copied animations belong to the edges being published.
     """
     require_saved(session, graph_id, graph)
@@ -144,7 +145,7 @@ def latest_publication(session: Session, graph_id: int) -> PublicationRow | None
 def latest_publication_id(session: Session, graph: str | int) -> int:
     """The id of the latest publication of the graph named (or numbered) ``graph``.
 
-    :class:`~app.store.graphs.GraphNotFound` without the graph, :class:`NothingPublished`
+    :class:`~app.store.graph_catalogue.GraphNotFound` without the graph, :class:`NothingPublished`
     before its first publication.
     """
     row = get_graph_row(session, graph)

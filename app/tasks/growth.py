@@ -31,7 +31,8 @@ from app.config import get_settings
 from app.db import transaction
 from app.services import between_epochs, clips, epochs
 from app.store.epochs import running_epoch
-from app.store.graphs import StaleGraph, get_graph_row, size_frames
+from app.store.graph_catalogue import get_graph_row, size_frames
+from app.store.graph_persistence import StaleGraph
 from app.store.growth_requests import end_request, failure_reason, start_request
 from app.tasks.celery_app import celery_app
 

@@ -19,7 +19,7 @@ from app.models import Player
 from app.render.animation import STRIP_MEDIA_TYPE, decode_strip
 from app.services.status import graph_summary
 from app.store.artifacts import ArtifactStore
-from app.store.graphs import load_graph
+from app.store.graph_persistence import load_graph
 from app.store.publications import publish
 
 ADMIN = {"Authorization": f"Bearer {ADMIN_TOKEN}"}

@@ -22,7 +22,7 @@ from app.store.artifact_gc import (
     scan_artifact_files,
 )
 from app.store.artifacts import ArtifactStore
-from app.store.graphs import load_graph
+from app.store.graph_persistence import load_graph
 
 HOUR = 3600.0
 TWO_HOURS_AGO = datetime.now(UTC) - timedelta(hours=2)

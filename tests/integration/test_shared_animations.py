@@ -15,7 +15,8 @@ from app.services.animations import AnimationReuse, render_missing_animations
 from app.services.loading import LoadedGraph
 from app.store.animations import clip_animations, set_animations
 from app.store.artifacts import ArtifactStore
-from app.store.graphs import create_graph, get_graph_row, save_graph
+from app.store.graph_catalogue import create_graph, get_graph_row
+from app.store.graph_persistence import save_graph
 
 #: edge 3 (after clip 0, control 0 again) repeats clip 0; edge 6 is a clip of its own
 COPY_EDGE, DISTINCT_EDGE = 3, 6

@@ -13,7 +13,8 @@ from app.models import Artifact, Clip
 from app.store.animations import set_animations
 from app.store.artifacts import ArtifactStore
 from app.store.footprint import graph_footprint
-from app.store.graphs import create_graph, save_graph
+from app.store.graph_catalogue import create_graph
+from app.store.graph_persistence import save_graph
 
 Toy = tuple[ToyDynamics, StateGraph, MemoryClipBank]
 

@@ -18,14 +18,8 @@ from app.models import Clip, Edge, Graph
 from app.store.animations import set_animations
 from app.store.artifacts import ArtifactStore
 from app.store.clipbank import MIN_SHAPE_ENTRIES, EndStateDropped, StoredClipBank
-from app.store.graphs import (
-    GraphNotFound,
-    StaleGraph,
-    create_graph,
-    get_graph_row,
-    load_graph,
-    save_graph,
-)
+from app.store.graph_catalogue import GraphNotFound, create_graph, get_graph_row
+from app.store.graph_persistence import StaleGraph, load_graph, save_graph
 
 Toy = tuple[ToyDynamics, StateGraph, MemoryClipBank]
 

@@ -19,7 +19,8 @@ from app.models import GrowthEpoch, Player, PublicationEdge, Trace, TraceStep
 from app.store.animations import set_animations
 from app.store.artifacts import ArtifactStore
 from app.store.epochs import EpochStatus, finish_epoch, start_epoch
-from app.store.graphs import StaleGraph, create_graph, save_graph
+from app.store.graph_catalogue import create_graph
+from app.store.graph_persistence import StaleGraph, save_graph
 from app.store.publications import (
     PublicationNotFound,
     latest_publication,

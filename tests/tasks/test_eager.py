@@ -29,7 +29,8 @@ from app.services.loading import open_graph
 from app.store.animations import clip_animations, edges_without_animation
 from app.store.artifacts import ArtifactStore
 from app.store.epochs import start_epoch
-from app.store.graphs import create_graph, load_graph, save_graph
+from app.store.graph_catalogue import create_graph
+from app.store.graph_persistence import load_graph, save_graph
 from app.store.growth_requests import add_request, latest_request
 from app.store.locks import lock_graph
 from app.store.occupancy_cache import RedisShapeCache

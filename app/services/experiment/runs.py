@@ -33,7 +33,7 @@ from app.services.experiment.results import collect
 from app.services.growing import grow_graph
 from app.services.loading import artifact_store
 from app.store.experiments import add_checkpoint, done_checkpoints, frames_of_graphs
-from app.store.graphs import graph_exists
+from app.store.graph_catalogue import graph_exists
 
 #: seconds between two looks at the run processes (and the frames they grew)
 PROGRESS_POLL = 1.0
