@@ -2,7 +2,7 @@
 
 A caller may hand over an open connection in ``config.attributes["connection"]`` (the
 tests do, to migrate a throwaway database); otherwise an engine is built from Settings
-with the same connection setup as the application (app.db.make_engine).
+with the same connection setup as the application (app.db.engines.make_engine).
 ``render_as_batch`` makes ALTERs run on SQLite as copy-and-move.
 """
 
@@ -14,7 +14,7 @@ from sqlalchemy.engine import Connection
 
 from alembic import context
 from app.config import get_settings
-from app.db import make_engine
+from app.db.engines import make_engine
 from app.models import Base
 
 config = context.config

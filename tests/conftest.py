@@ -23,7 +23,7 @@ from app.core.clipbank import MemoryClipBank
 from app.core.graph import StateGraph
 from app.core.growth import expand_blend_edge, initial_tree
 from app.core.toy import ToyDynamics
-from app.db import make_engine
+from app.db.engines import make_engine
 from app.store.artifacts import ArtifactStore
 
 BACKENDS = ["sqlite", pytest.param("postgresql", marks=pytest.mark.postgres)]

@@ -33,7 +33,8 @@ from app.api.ratelimit import RateLimits
 from app.api.routes import admin, animations, graphs, health, players, traces
 from app.config import Settings, get_settings
 from app.core.publication import Publication
-from app.db import make_engine, session_factory
+from app.db.engines import make_engine
+from app.db.sessions import session_factory
 from app.store.artifacts import ArtifactStore
 
 if TYPE_CHECKING:

@@ -22,7 +22,7 @@ from sqlalchemy.orm import Session
 
 from app.api.errors import ApiError
 from app.config import Settings
-from app.db import Scope, transaction
+from app.db.sessions import Scope, transaction
 from app.store.traces import player_for_token
 
 BEARER_CHALLENGE = {"WWW-Authenticate": "Bearer"}

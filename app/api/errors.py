@@ -6,7 +6,7 @@ own HTTP errors and any :class:`~app.core.errors.SrgError` (a graph not found: 4
 name refused: 422, ...; the ``http_status`` of its kind) into that one shape
 (:class:`~app.api.schemas.ErrorBody`), so a client needs one code path for failures.
 A database that cannot serve (unreachable, not a database, damaged, locked past the write
-retries, not migrated: :func:`~app.db.database_unavailable`) is a 503 naming the problem
+retries, not migrated: :func:`~app.db.errors.database_unavailable`) is a 503 naming the problem
 alone, neither the URL nor the file, so any route can answer it; the error is logged in
 full. Any other exception is a bug: a 500 that says no more than "internal error".
 :func:`error_responses` declares the same shape in the OpenAPI document for each status a
@@ -36,7 +36,8 @@ from starlette.types import Receive, Scope, Send
 from app.api.head import routed_method
 from app.api.schemas import ErrorBody
 from app.core.errors import SrgError
-from app.db import database_unavailable, parse_database_url
+from app.db.engines import parse_database_url
+from app.db.errors import database_unavailable
 
 log = logging.getLogger(__name__)
 

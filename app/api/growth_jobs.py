@@ -16,7 +16,7 @@ import logging
 import threading
 
 from app.config import Settings
-from app.db import Scope
+from app.db.sessions import Scope
 from app.store.growth_requests import end_request, failure_reason, start_request
 
 log = logging.getLogger(__name__)

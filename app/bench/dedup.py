@@ -24,7 +24,7 @@ import numpy as np
 from PIL import Image
 
 from app.config import Settings
-from app.db import transaction
+from app.db.sessions import transaction
 from app.render.animation import decode_strip
 from app.reports.contact_sheet import Tile, contact_sheet
 from app.services.animations import AnimationReuse

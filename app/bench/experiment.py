@@ -20,7 +20,8 @@ from typing import Any
 
 from app.core.errors import InvalidInput
 from app.core.strategies import parse_strategy
-from app.db import make_engine, session_factory
+from app.db.engines import make_engine
+from app.db.sessions import session_factory
 from app.store.simulated_clips import reuse_counts
 
 SRG = str(Path(sys.executable).with_name("srg"))

@@ -12,7 +12,7 @@ from collections import Counter
 from typing import Any
 
 from app.config import Settings
-from app.db import transaction
+from app.db.sessions import transaction
 from app.services.loading import artifact_store
 from app.store.array_codec import read_member_sizes
 from app.store.footprint import graph_bundles, graph_footprint

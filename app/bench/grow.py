@@ -36,7 +36,8 @@ from app.core.clipbank import MemoryClipBank
 from app.core.dynamics import Dynamics
 from app.core.graph import EdgeKind, StateGraph
 from app.core.growth import expand_blend_edge, initial_tree
-from app.db import make_engine, session_factory
+from app.db.engines import make_engine
+from app.db.sessions import session_factory
 from app.liquid.devices import LiquidDevices
 from app.store.epochs import finished_epoch_count
 

@@ -32,7 +32,8 @@ from app.core.errors import InvalidInput
 from app.core.graph import StateGraph
 from app.core.growth import expand_blend_edge, initial_tree
 from app.core.toy import ToyDynamics
-from app.db import make_engine, session_factory
+from app.db.engines import make_engine
+from app.db.sessions import session_factory
 from app.models import Base
 from app.store.artifacts import ArtifactStore
 from app.store.graph_catalogue import create_graph

@@ -19,7 +19,7 @@ from app.config import Settings
 from app.core.errors import NotFound
 from app.core.silhouette import silhouette_projector, silhouettes, tank_camera
 from app.core.surface import dequantise_sdf
-from app.db import session_factory
+from app.db.sessions import session_factory
 from app.liquid.adapter import LiquidDynamics
 from app.render.animation import decode_strip
 from app.render.look import DARK_LEVEL, dark_fractions, dark_inside, fraction_percentiles

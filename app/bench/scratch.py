@@ -16,7 +16,8 @@ from sqlalchemy import text
 from sqlalchemy.engine import make_url
 from tenacity import Retrying, retry_if_exception_type, stop_after_delay, wait_fixed
 
-from app.db import alembic_config, make_engine
+from app.db.engines import make_engine
+from app.db.migrations import alembic_config
 
 
 @contextmanager

@@ -21,7 +21,7 @@ from sqlalchemy.orm import Session
 from app.core.clipbank import MemoryClipBank
 from app.core.dynamics import ClipFeatures, SimClip
 from app.core.graph import StateGraph
-from app.db import make_engine
+from app.db.engines import make_engine
 from app.models import Base
 from app.store.artifacts import ArtifactStore
 from app.store.graph_catalogue import create_graph

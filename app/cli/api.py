@@ -19,7 +19,8 @@ def serve(
 
     from app.api.app import create_app
     from app.api.serving import UVICORN_OPTIONS, require_listenable
-    from app.db import get_engine, require_current_schema, require_intact
+    from app.db.engines import get_engine, require_intact
+    from app.db.migrations import require_current_schema
 
     # refused here in one line, rather than served as a 503 to every request: a database
     # unreachable, not a database, damaged or not migrated (the embedded default migrates)
@@ -50,7 +51,7 @@ def analytics(
     """
     from app.config import get_settings
     from app.core.players import parse_player_selection
-    from app.db import session_factory
+    from app.db.sessions import session_factory
     from app.services.analytics import played_graph_analytics
 
     if top < 1:

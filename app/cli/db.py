@@ -25,7 +25,8 @@ def migrate(direction: str, revision: str) -> None:
 
     from alembic import command
     from app.config import get_settings
-    from app.db import alembic_config, parse_database_url
+    from app.db.engines import parse_database_url
+    from app.db.migrations import alembic_config
 
     parse_database_url(get_settings().resolved_database_url)  # one line, before Alembic
     logging.basicConfig(format="%(levelname)-5.5s [%(name)s] %(message)s")
@@ -40,7 +41,7 @@ def migrate(direction: str, revision: str) -> None:
 def upgrade(revision: str = typer.Argument("head", help="target revision")) -> None:
     """Migrate the configured database up to ``revision`` (default: the latest)."""
     from app.config import get_settings
-    from app.db import parse_database_url
+    from app.db.engines import parse_database_url
 
     migrate("upgrade", revision)
     url = parse_database_url(get_settings().resolved_database_url)

@@ -36,7 +36,7 @@ def demo(
 
     from app.config import get_settings
     from app.core.player_models import parse_player_model
-    from app.db import require_intact
+    from app.db.engines import require_intact
     from app.liquid.devices import LiquidDevices
     from app.services.demo import (
         demo_plan,

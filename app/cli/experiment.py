@@ -71,7 +71,7 @@ def experiment(
 
     from app.config import get_settings
     from app.core.strategies import Strategy
-    from app.db import require_intact
+    from app.db.engines import require_intact
     from app.reports.experiment import interval_text, write_report
     from app.services.experiment.plan import create_experiment, stored_plan
     from app.services.experiment.runs import Grower, grow_in_process, run_experiment

@@ -2,7 +2,7 @@
 
 Each command runs one service call in one transaction: it commits when the service
 returns and rolls back (writing nothing) when it raises. Those that write refuse a
-damaged SQLite file first (:func:`app.db.require_intact`).
+damaged SQLite file first (:func:`app.db.engines.require_intact`).
 """
 
 from __future__ import annotations
@@ -11,7 +11,8 @@ import typer
 
 from app.cli.output import JSON_HELP, emit, progress_bar
 from app.core.errors import InvalidInput
-from app.db import require_intact, transaction
+from app.db.engines import require_intact
+from app.db.sessions import transaction
 
 
 def init(

@@ -145,11 +145,12 @@ def database_user_error(exc: DBAPIError) -> str | None:
     """What a database error means to the user, when it is theirs to fix; else ``None``.
 
     A database that cannot serve (never upgraded, unreachable, not a database, damaged,
-    locked: :func:`app.db.database_unavailable`) is; a constraint violated or a wrong
+    locked: :func:`app.db.errors.database_unavailable`) is; a constraint violated or a wrong
     statement is a bug and keeps its traceback.
     """
     from app.config import get_settings
-    from app.db import database_unavailable, parse_database_url
+    from app.db.engines import parse_database_url
+    from app.db.errors import database_unavailable
 
     url = parse_database_url(get_settings().resolved_database_url)
     unavailable = database_unavailable(exc, url)

@@ -77,7 +77,8 @@ def set_growing(
     on: bool = typer.Option(..., "--on/--off", help="grow it on every beat tick, or stop"),
 ) -> None:
     """Mark a graph for beat's periodic growth (or take it off)."""
-    from app.db import require_intact, transaction
+    from app.db.engines import require_intact
+    from app.db.sessions import transaction
     from app.services.between_epochs import set_growing as mark
 
     require_intact()
@@ -88,7 +89,7 @@ def set_growing(
 def grow_epoch(name: str = typer.Argument(..., help="graph name or id")) -> None:
     """Send one grow_epoch task now (what beat sends); prints its task id."""
     from app.config import get_settings
-    from app.db import transaction
+    from app.db.sessions import transaction
     from app.store.graph_catalogue import get_graph_row
     from app.tasks.celery_app import require_broker
     from app.tasks.growth import grow_epoch as task

@@ -14,7 +14,7 @@ from sqlalchemy.exc import IntegrityError
 
 from app.config import Settings
 from app.core.errors import Conflict, InvalidInput
-from app.db import transaction
+from app.db.sessions import transaction
 from app.services.loading import artifact_store
 from app.store.artifact_gc import (
     collect_orphaned_artifacts,

@@ -21,7 +21,7 @@ from app.config import Settings
 from app.core.graph import EdgeKind
 from app.core.player_models import PlayerModelKind
 from app.core.strategies import Strategy
-from app.db import transaction
+from app.db.sessions import transaction
 from app.reports.contact_sheet import Tile, contact_sheet
 from app.reports.experiment import write_report
 from app.reports.figures import ArraysLoader

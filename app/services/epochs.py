@@ -32,7 +32,7 @@ from app.config import Settings
 from app.core.graph import EdgeKind
 from app.core.growth import integrate_expansion, select_for_expansion
 from app.core.strategies import Strategy
-from app.db import Scope
+from app.db.sessions import Scope
 from app.models import Graph, GrowthEpoch
 from app.services.animations import blend_strip
 from app.services.clips import (
@@ -335,7 +335,7 @@ def run_epoch(
 ) -> list[Integration]:
     """What is left of a planned epoch, step by step in plan order, one ``scope`` a step.
 
-    With :func:`app.db.transaction` as the scope every step commits on its own, as on
+    With :func:`app.db.sessions.transaction` as the scope every step commits on its own, as on
     the workers: an interruption keeps what was done, and running the epoch again (it
     reads what is left from the database) finishes it with the same result.
     """

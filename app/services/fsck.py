@@ -26,7 +26,7 @@ from sqlalchemy.orm import Session
 
 from app.config import Settings
 from app.core.dynamics import Dynamics
-from app.db import session_factory, transaction
+from app.db.sessions import session_factory, transaction
 from app.models import Graph
 from app.services.clips import ClipJob, finish_clip, planned_clip, simulate_job
 from app.services.loading import artifact_store, graph_dynamics

@@ -13,7 +13,7 @@ from app.config import Settings
 from app.core.errors import Conflict
 from app.core.refinement import GrowthBudget
 from app.core.strategies import parse_strategy
-from app.db import Scope
+from app.db.sessions import Scope
 from app.services.animations import Progress
 from app.services.epochs import plan_epoch, run_epoch
 from app.store.epochs import get_epoch, running_epoch
@@ -56,7 +56,7 @@ def grow_graph(
     planned (rank, pick the top BLEND edges, relink lazily), each clip simulated, the
     expansions integrated in plan order, and animations rendered when ``renders``
     (default ``settings.growth_renders``). Every step runs in a ``scope()``:
-    :func:`app.db.transaction` makes each step durable (an interrupted grow keeps its
+    :func:`app.db.sessions.transaction` makes each step durable (an interrupted grow keeps its
     finished steps, and the next grow first finishes the interrupted epoch);
     :func:`app.services.epochs.in_session` runs all in one caller-owned transaction.
     """

@@ -25,7 +25,7 @@ from app.core.player_models import (
 )
 from app.core.prediction import prediction_figures
 from app.core.strategies import Strategy
-from app.db import transaction
+from app.db.sessions import transaction
 from app.services.experiment.plan import stored_experiment_id, stored_plan
 from app.services.loading import open_graph
 from app.services.refining import refiner_config

@@ -10,7 +10,7 @@ from __future__ import annotations
 from sqlalchemy import select
 from sqlalchemy.orm import Session
 
-from app.db import begin_immediate
+from app.db.engines import begin_immediate
 from app.models import Graph, GrowthEpoch
 from app.store.epochs import get_epoch
 from app.store.graph_catalogue import GraphNotFound

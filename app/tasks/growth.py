@@ -28,7 +28,7 @@ from celery.utils.log import get_task_logger
 from sqlalchemy.exc import IntegrityError, OperationalError
 
 from app.config import get_settings
-from app.db import transaction
+from app.db.sessions import transaction
 from app.services import between_epochs, clips, epochs
 from app.store.epochs import running_epoch
 from app.store.graph_catalogue import get_graph_row, size_frames

@@ -33,7 +33,8 @@ from sqlalchemy.orm import Session, sessionmaker
 from sqlalchemy.pool import NullPool
 
 from app.config import Settings, get_settings
-from app.db import make_engine, session_factory, transaction
+from app.db.engines import make_engine
+from app.db.sessions import session_factory, transaction
 from app.services import epochs
 from app.tasks.celery_app import celery_app
 from app.tasks.growth import epoch_canvas

@@ -98,7 +98,8 @@ def player_count(session: Session) -> int:
 
 def toy_graph_database(settings: Settings) -> Settings:
     """Make the tables of ``settings``' SQLite file and the toy graph ``g`` in it."""
-    from app.db import make_engine, session_factory
+    from app.db.engines import make_engine
+    from app.db.sessions import session_factory
     from app.models import Base
     from app.services.creation import init_graph
 

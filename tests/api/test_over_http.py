@@ -18,7 +18,8 @@ from app.api.local_server import serve_in_thread
 from app.api.serving import UNREADABLE
 from app.bench.ingest import bench_ingest, build_toy_graph
 from app.config import Settings
-from app.db import make_engine, session_factory
+from app.db.engines import make_engine
+from app.db.sessions import session_factory
 from app.models import Base, Trace, TraceStep
 from app.store.artifacts import ArtifactStore
 from app.store.publications import publish

@@ -12,7 +12,7 @@ import pytest
 
 from app.cli.main import main
 from app.config import get_settings
-from app.db import get_engine
+from app.db.engines import get_engine
 
 SRG = Path(sys.executable).with_name("srg")
 

@@ -24,7 +24,8 @@ from trace_helpers import looping_trace
 from app.cli.output import progress_bar, user_error_message
 from app.config import Settings
 from app.core.errors import InvalidInput, NotFound
-from app.db import make_engine, session_factory
+from app.db.engines import make_engine
+from app.db.sessions import session_factory
 from app.models import Graph
 from app.store.publications import latest_publication, load_publication
 from app.store.traces import bot_player, record_trace

@@ -12,7 +12,7 @@ import pytest
 from cli_helpers import ok, one_line_error, srg
 from sqlalchemy import insert, select
 
-from app.db import make_engine
+from app.db.engines import make_engine
 from app.models import Artifact
 
 HOURS_AGO = time.time() - 2 * 3600

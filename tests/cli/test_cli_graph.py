@@ -20,7 +20,7 @@ from sqlalchemy import func, select
 from app.api.app import create_app
 from app.api.local_server import serve_in_thread
 from app.config import Settings
-from app.db import make_engine
+from app.db.engines import make_engine
 from app.models import Trace
 
 

@@ -19,7 +19,7 @@ from app.api.client import publication_from_json
 from app.api.local_server import serve_in_thread
 from app.config import Settings
 from app.core.bots import BotKind, play_sessions
-from app.db import make_engine
+from app.db.engines import make_engine
 from app.store.traces import load_traces
 
 #: sessions of people on the first publication (the web client's requests, over HTTP)

@@ -38,7 +38,8 @@ from app.api.local_server import serve_in_thread
 from app.bench.ingest import ToyGraph, build_toy_graph
 from app.config import Settings
 from app.core.graph import EdgeKind
-from app.db import make_engine, session_factory
+from app.db.engines import make_engine
+from app.db.sessions import session_factory
 from app.models import Base, Trace
 from app.render.animation import STRIP_MEDIA_TYPE, encode_strip
 from app.store.animations import set_animations

@@ -34,7 +34,8 @@ from sqlalchemy import Engine, select
 from app.api.app import create_app
 from app.api.local_server import serve_in_thread
 from app.config import Settings
-from app.db import make_engine, session_factory
+from app.db.engines import make_engine
+from app.db.sessions import session_factory
 from app.models import Base, Trace
 from app.services.creation import init_graph
 from app.services.publishing import publish_graph

@@ -14,12 +14,12 @@ from sqlalchemy.engine import make_url
 from sqlalchemy.exc import DBAPIError
 from sqlalchemy.orm import Session
 
-from app.db import (
+from app.db.engines import make_engine
+from app.db.errors import (
     DatabaseNotReady,
     DatabaseUnavailable,
     createdb_command,
     database_unavailable,
-    make_engine,
 )
 from app.models import Player
 

@@ -25,7 +25,7 @@ from pathlib import Path
 import pytest
 from alembic.config import Config
 
-from app.db import alembic_config
+from app.db.migrations import alembic_config
 
 ROOT = Path(__file__).resolve().parents[2]
 #: what the distribution is built from: the package, its migrations, their metadata
@@ -106,7 +106,10 @@ def test_the_installed_wheel_migrates_and_runs_the_toy_demo_outside_the_checkout
         assert done.returncode == 0, done.stdout + done.stderr
         return done
 
-    where = "import app, app.db; print(app.__file__); print(app.db.migrations_dir())"
+    where = (
+        "import app, app.db.migrations; "
+        "print(app.__file__); print(app.db.migrations.migrations_dir())"
+    )
     package, migrations = run(python, "-c", where).stdout.split()
     assert Path(package).is_relative_to(purelib) and Path(migrations).is_relative_to(purelib)
 

@@ -13,7 +13,7 @@ from sqlalchemy import inspect, text
 from sqlalchemy.exc import IntegrityError
 
 from alembic import command
-from app.db import make_engine
+from app.db.engines import make_engine
 from app.models import Base
 
 

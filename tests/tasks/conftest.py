@@ -17,7 +17,7 @@ from database_helpers import migrate, postgres_base_url, postgres_database
 from tasks_cluster import ROOT, Cluster, RedisServer, free_port
 
 from app.config import Settings, get_settings
-from app.db import get_engine
+from app.db.engines import get_engine
 from app.services.graph_cache import graph_cache
 
 

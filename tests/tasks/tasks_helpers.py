@@ -11,7 +11,8 @@ from sqlalchemy.orm import Session
 from tasks_cluster import Cluster, wait_for
 
 from app.config import Settings
-from app.db import make_engine, session_factory
+from app.db.engines import make_engine
+from app.db.sessions import session_factory
 from app.models import Clip, Edge, GrowthEpoch, Vertex
 from app.services.creation import init_graph
 from app.services.epochs import in_session

@@ -22,7 +22,8 @@ from app.core.growth import expand_blend_edge, initial_tree
 from app.core.player_models import PlayerModelKind
 from app.core.refinement import RefinerConfig
 from app.core.toy import ToyDynamics
-from app.db import make_engine, session_factory, transaction
+from app.db.engines import make_engine
+from app.db.sessions import session_factory, transaction
 from app.models import Clip, Graph, GrowthEpoch, GrowthRequest, Publication, PublicationEdge
 from app.services import between_epochs, clips, epochs, growing, refining
 from app.services.loading import open_graph

@@ -17,7 +17,7 @@ from app.core.metrics import CheckpointReport, evaluate_checkpoint
 from app.core.player_models import PlayerModelKind, robust_session_length
 from app.core.publication import Publication
 from app.core.strategies import Strategy
-from app.db import get_engine
+from app.db.engines import get_engine
 from app.services.experiment import checkpoint
 from app.services.experiment.plan import ExperimentPlan, create_experiment, parse_checkpoints
 from app.services.experiment.results import PREDICTION_KEYS, prediction_summary

@@ -23,7 +23,7 @@ LINT_IMPORTS = Path(sys.executable).with_name("lint-imports")
 CONTRACTS = 6
 #: where SQL may be written: the store, the tables, the engines, and the benchmarks'
 #: throwaway databases (``CREATE DATABASE`` on a scratch server)
-SQL_HOMES = ("app/store/", "app/models/", "app/db.py", "app/bench/scratch.py")
+SQL_HOMES = ("app/store/", "app/models/", "app/db/", "app/bench/scratch.py")
 #: SQLAlchemy's statement builders
 SQL_BUILDERS = {
     "select", "insert", "update", "delete", "text", "func", "distinct", "and_", "or_",

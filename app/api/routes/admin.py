@@ -29,7 +29,7 @@ from app.api.schemas import (
     GrowthOut,
 )
 from app.config import Settings
-from app.db import Scope
+from app.db.sessions import Scope
 from app.store.epochs import epochs_after, last_epoch_number
 from app.store.graph_catalogue import get_graph_row
 from app.store.growth_requests import RequestState, RequestView, add_request, latest_request

@@ -24,7 +24,7 @@ from app.api.deps import get_session
 from app.api.errors import ApiError, error_responses
 from app.api.ratelimit import RateLimits
 from app.api.schemas import Health
-from app.db import ping
+from app.db.sessions import ping
 
 if TYPE_CHECKING:  # Celery is imported only where a broker is configured
     from app.tasks.broker_health import BrokerProbe

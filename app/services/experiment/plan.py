@@ -19,7 +19,7 @@ from app.core.errors import Conflict, InvalidInput, NotFound
 from app.core.names import check_name
 from app.core.player_models import PlayerModelKind, parse_player_model
 from app.core.strategies import Strategy, parse_strategy
-from app.db import transaction
+from app.db.sessions import transaction
 from app.liquid.devices import LiquidDevices
 from app.services.dynamics import DYNAMICS_NAMES, UnknownDynamics, make_dynamics
 from app.store.experiments import (

@@ -21,7 +21,7 @@ from app.core.comparison import (
 )
 from app.core.metrics import relative_difference
 from app.core.strategies import Strategy
-from app.db import transaction
+from app.db.sessions import transaction
 from app.services.experiment.plan import ExperimentPlan, stored_experiment_id, stored_plan
 from app.services.loading import artifact_store
 from app.store.artifacts import ArtifactStore

@@ -20,7 +20,7 @@ from multiprocessing import get_context
 from typing import Any
 
 from app.config import Settings
-from app.db import transaction
+from app.db.sessions import transaction
 from app.services.animations import Progress
 from app.services.creation import init_graph
 from app.services.experiment.checkpoint import checkpoint_figures
