@@ -5,10 +5,10 @@ The two bearer tokens (a player's, the admin's) are declared as the OpenAPI secu
 schemes ``playerToken`` and ``adminToken``; their absence is answered here, in the API's
 error shape (401 with ``WWW-Authenticate: Bearer``), not by FastAPI's own.
 
-Routes own their transaction (STYLE habit 7): a route that writes does so in one
-:func:`~app.store.transactions.in_transaction` (on SQLite: the write lock first, and a
-retry on its lock error); any exception rolls the session back here, so a rejected
-request writes nothing.
+Routes own their transaction (docs/play.md, "Trace upload, check by check"): a route that
+writes does so in one :func:`~app.store.transactions.in_transaction` (on SQLite: the
+write lock first, and a retry on its lock error); any exception rolls the session back
+here, so a rejected request writes nothing.
 """
 
 from __future__ import annotations
