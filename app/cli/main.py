@@ -12,7 +12,7 @@ from importlib.metadata import version
 
 import typer
 
-from app.cli import api, bench, db, demo, experiment, graph, liquid, runtime
+from app.cli import analytics, bench, db, demo, experiment, graph, liquid, runtime, serve
 from app.cli.output import user_errors_in_one_line
 
 app = typer.Typer(
@@ -51,8 +51,8 @@ COMMANDS: dict[str, Callable[..., None]] = {
     "fsck": graph.fsck,
     "experiment": experiment.experiment,
     "demo": demo.demo,
-    "serve": api.serve,
-    "analytics": api.analytics,
+    "serve": serve.serve,
+    "analytics": analytics.analytics,
     "validate": liquid.validate,
     "calibrate": liquid.calibrate,
     "worker": runtime.worker,

@@ -1,4 +1,4 @@
-"""``srg serve`` and ``srg analytics``: the play side of the CLI."""
+"""``srg analytics``: what the traces of a graph's play say, as tables or JSON."""
 
 from __future__ import annotations
 
@@ -6,29 +6,6 @@ import typer
 
 from app.cli.output import JSON_HELP, emit
 from app.core.errors import InvalidInput
-
-
-def serve(
-    host: str = typer.Option("127.0.0.1", help="interface to listen on"),
-    port: int = typer.Option(8000, help="TCP port"),
-) -> None:
-    """Serve the HTTP API and the browser client (open http://HOST:PORT/)."""
-    if not 0 < port < 65536:
-        raise InvalidInput(f"--port must be a TCP port, 1 to 65535, got {port}")
-    import uvicorn
-
-    from app.api.app import create_app
-    from app.api.serving import UVICORN_OPTIONS, require_listenable
-    from app.db.engines import get_engine, require_intact
-    from app.db.migrations import require_current_schema
-
-    # refused here in one line, rather than served as a 503 to every request: a database
-    # unreachable, not a database, damaged or not migrated (the embedded default migrates)
-    engine = get_engine()
-    require_current_schema(engine)
-    require_intact(engine)
-    require_listenable(host, port)
-    uvicorn.run(create_app(), host=host, port=port, **UVICORN_OPTIONS)
 
 
 def analytics(
