@@ -79,7 +79,7 @@ def set_growing(
     """Mark a graph for beat's periodic growth (or take it off)."""
     from app.db.engines import require_intact
     from app.db.sessions import transaction
-    from app.services.between_epochs import set_growing as mark
+    from app.services.rank_relink_publish import set_growing as mark
 
     require_intact()
     with transaction() as session:

@@ -29,7 +29,7 @@ from sqlalchemy.exc import IntegrityError, OperationalError
 
 from app.config import get_settings
 from app.db.sessions import transaction
-from app.services import between_epochs, clips, epochs
+from app.services import clips, epochs, rank_relink_publish
 from app.store.epochs import running_epoch
 from app.store.graph_catalogue import get_graph_row, size_frames
 from app.store.graph_persistence import StaleGraph
@@ -108,7 +108,7 @@ def blend(epoch_id: int) -> int:
 def rank(graph_id: int) -> str | None:
     """STATERANK of the graph now (warm-started), stored: the ``pi`` artifact's digest."""
     with transaction() as session:
-        return between_epochs.rank_graph(session, get_settings(), graph_id)
+        return rank_relink_publish.rank_graph(session, get_settings(), graph_id)
 
 
 @celery_app.task(name="srg.relink", bind=True)
@@ -117,8 +117,8 @@ def relink(self: Any, graph_id: int) -> int:
     settings = get_settings()
     try:
         with transaction() as session:
-            return between_epochs.relink_graph(session, settings, graph_id)
-    except between_epochs.EpochRunning as exc:
+            return rank_relink_publish.relink_graph(session, settings, graph_id)
+    except rank_relink_publish.EpochRunning as exc:
         raise self.retry(exc=exc, countdown=settings.beat_interval) from exc
 
 
@@ -128,8 +128,8 @@ def publish(self: Any, graph_id: int) -> int:
     settings = get_settings()
     try:
         with transaction() as session:
-            return between_epochs.publish_between_epochs(session, settings, graph_id)
-    except between_epochs.EpochRunning as exc:
+            return rank_relink_publish.publish_between_epochs(session, settings, graph_id)
+    except rank_relink_publish.EpochRunning as exc:
         raise self.retry(exc=exc, countdown=settings.beat_interval) from exc
 
 
@@ -194,7 +194,7 @@ def publish_if_due(graph_id: int) -> int | None:
     """Beat's publication of a growing graph due one; its id, or None (not due after all,
     or another writer holds the graph: the next tick asks again)."""
     with transaction() as session:
-        return between_epochs.publish_if_due(session, get_settings(), graph_id)
+        return rank_relink_publish.publish_if_due(session, get_settings(), graph_id)
 
 
 @celery_app.task(name="srg.schedule_growth")
@@ -202,7 +202,7 @@ def schedule_growth() -> dict[str, list[int]]:
     """Beat's tick: for each graph with ``growing = true`` its publication when one is due
     (``SRG_PUBLISH_EVERY``), else a ``grow_epoch``; the ids of each."""
     with transaction() as session:
-        tick = between_epochs.beat_tick(session, get_settings())
+        tick = rank_relink_publish.beat_tick(session, get_settings())
     for graph_id in tick.publish:
         publish_if_due.delay(graph_id)
     for graph_id in tick.grow:

@@ -217,7 +217,7 @@ def test_two_beat_ticks_at_once_open_one_epoch(
     cluster.start_worker("w2", concurrency=1)
     app = client(cluster)
     with cluster.session() as session:
-        from app.services.between_epochs import set_growing
+        from app.services.rank_relink_publish import set_growing
 
         set_growing(session, graph_id, True)
         session.commit()
@@ -242,7 +242,7 @@ def test_beat_publishes_on_the_workers_what_they_grew(cluster_env: Callable[...,
     cluster.start_worker("w1", concurrency=2)
     app = client(cluster)
     with cluster.session() as session:
-        from app.services.between_epochs import set_growing
+        from app.services.rank_relink_publish import set_growing
 
         set_growing(session, graph_id, True)
         session.commit()

@@ -25,7 +25,7 @@ from app.core.toy import ToyDynamics
 from app.db.engines import make_engine
 from app.db.sessions import session_factory, transaction
 from app.models import Clip, Graph, GrowthEpoch, GrowthRequest, Publication, PublicationEdge
-from app.services import between_epochs, clips, epochs, growing, refining
+from app.services import clips, epochs, growing, rank_relink_publish, refining
 from app.services.loading import open_graph
 from app.store.animations import clip_animations, edges_without_animation
 from app.store.artifacts import ArtifactStore
@@ -290,7 +290,7 @@ def test_beat_publishes_a_growing_graph_when_due_and_grows_it_otherwise(
     graph_id = seed_graph(settings)
     idle = seed_graph(settings, "not-growing")
     with transaction() as session:
-        between_epochs.set_growing(session, graph_id, True)
+        rank_relink_publish.set_growing(session, graph_id, True)
     ticks = [schedule_growth.delay().get() for _ in range(5)]
     assert ticks == [
         {"grow": [], "publish": [graph_id]},
@@ -317,7 +317,7 @@ def test_beat_never_publishes_with_publish_every_0_nor_while_an_epoch_runs(
 ) -> None:
     graph_id = seed_graph(settings)
     with transaction() as session:
-        between_epochs.set_growing(session, graph_id, True)
+        rank_relink_publish.set_growing(session, graph_id, True)
         start_epoch(session, graph_id, "baseline")  # running: the tick leaves it to grow_epoch
         session.execute(update(GrowthEpoch).values(heartbeat=time.time()))
     assert schedule_growth.delay().get() == {"grow": [graph_id], "publish": []}
@@ -342,8 +342,8 @@ def test_a_publication_due_skips_a_graph_another_writer_holds(
     with factory() as holder, factory() as session:
         lock_graph(holder, graph_id)
         started = time.monotonic()
-        assert between_epochs.publish_if_due(session, settings, graph_id) is None
+        assert rank_relink_publish.publish_if_due(session, settings, graph_id) is None
         assert time.monotonic() - started < 5
         session.rollback()
         holder.rollback()
-        assert between_epochs.publish_if_due(session, settings, graph_id) is not None
+        assert rank_relink_publish.publish_if_due(session, settings, graph_id) is not None
