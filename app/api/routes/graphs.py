@@ -9,7 +9,7 @@ from app.api.cache import FrozenCache
 from app.api.deps import get_session
 from app.api.encoding import EncodedJson, accepts_gzip, etag_matches
 from app.api.errors import error_responses
-from app.api.published import list_graphs, publication_out
+from app.api.graph_bodies import list_graphs, publication_out
 from app.api.schemas import GraphSummary, PublicationOut
 from app.store.graph_catalogue import get_graph_row
 from app.store.publications import latest_publication_id

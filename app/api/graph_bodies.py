@@ -1,4 +1,5 @@
-"""What clients download: the graph list and a publication, as the API's bodies.
+"""The bodies of the graph routes (:mod:`app.api.routes.graphs`): what clients download,
+the graph list and a publication.
 
 The rows come from :mod:`app.store.publications`; here they become the schemas, with
 the figures a player reads beside the game (the graph's size when published, how much
