@@ -73,9 +73,9 @@ def experiment(
     from app.core.strategies import Strategy
     from app.db.engines import require_intact
     from app.reports.experiment import interval_text, write_report
+    from app.services.crowd_model_ablation import eq2_ingredients
     from app.services.experiment.plan import create_experiment, stored_plan
     from app.services.experiment.runs import Grower, grow_in_process, run_experiment
-    from app.services.ingredients import eq2_ingredients
     from app.services.loading import artifact_store
 
     if jobs is not None and jobs < 1:
