@@ -13,7 +13,7 @@ from pathlib import Path
 import typer
 
 from app.cli.liquid import FLUID_HELP, PRESET_HELP
-from app.cli.output import emit
+from app.cli.output import emit, progress_bar
 from app.core.errors import InvalidInput
 from app.core.scene import DEFAULT_FLUID
 from app.services.dynamics import (
@@ -261,3 +261,41 @@ def dedup(
     if not all(0.0 < v <= 1.0 for v in values):
         raise InvalidInput(message)
     emit(bench_dedup(get_settings(), name, values, sheet), as_json=True)
+
+
+@app.command("writer")
+def writer(
+    frames: int = typer.Option(200_000, help="grow the graph to this many simulated frames"),
+    batch: int = typer.Option(30, help="expansions per epoch"),
+    workers: str = typer.Option("50,100,200,400", help="comma-separated worker counts W"),
+    clip_seconds: float = typer.Option(
+        18.9,
+        help="worker-seconds per clip (default: the paper preset's, renders included, "
+        "docs/runtime.md)",
+    ),
+    liquid_seconds: float = typer.Option(
+        0.33,
+        help="seconds the liquid adds to each integration (default: the paper preset's "
+        "with warm caches, docs/runtime.md)",
+    ),
+) -> None:
+    """The single writer grown to --frames with synthetic clips: its share of the time at W."""
+    from app.bench.writer import bench_writer
+    from app.config import get_settings
+
+    _positive("--frames", frames)
+    _positive("--batch", batch)
+    counts = _positive_ints("--workers", workers)
+    if not (clip_seconds > 0 and liquid_seconds >= 0):  # also refuses nan
+        raise InvalidInput("--clip-seconds must be positive and --liquid-seconds at least 0")
+    with progress_bar(frames, "frames grown by the writer") as advance:
+        result = bench_writer(
+            settings=get_settings(),
+            frames=frames,
+            batch=batch,
+            workers=counts,
+            clip_seconds=clip_seconds,
+            liquid_seconds=liquid_seconds,
+            progress=advance,
+        )
+    emit(result, as_json=True)

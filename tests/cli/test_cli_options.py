@@ -52,6 +52,7 @@ def test_benchmarks_take_no_json_option() -> None:
         "rank",
         "sph",
         "store",
+        "writer",
     }
     assert [name for name in benches if "--json" in options_of(ALL[name])] == []
 

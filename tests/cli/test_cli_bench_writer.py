@@ -1,0 +1,48 @@
+"""`srg bench writer`: the real writer grown with synthetic clips, put on a virtual clock."""
+
+from __future__ import annotations
+
+import json
+from pathlib import Path
+
+import pytest
+from cli_helpers import ok, one_line_error, srg
+
+from app.bench.writer import _virtual_clock
+
+
+def test_the_virtual_clock_adds_the_clips_rounds_and_the_writer() -> None:
+    # 2 expansions x 3 controls = 6 clips on 3 workers: two rounds of 10 s; the writer
+    # measured 2 s and the liquid adds 0.5 s to each of the 2 integrations
+    clock = _virtual_clock(
+        [(100, 2.0)], batch=2, n_controls=3, workers=3, clip_seconds=10.0, liquid_seconds=0.5
+    )
+    assert clock["writer_share"] == round(3 / 23, 4)
+    assert clock["virtual_hours"] == round(23 / 3600, 2)
+    assert clock["slices"] == [{"up_to_frames": 100, "writer_share": round(3 / 23, 4)}]
+
+
+@pytest.mark.parametrize(
+    ("args", "message"),
+    [
+        (["--frames", "0"], "--frames must be positive, got 0"),
+        (["--workers", "10,x"], "--workers takes comma-separated positive integers"),
+        (["--clip-seconds", "nan"], "--clip-seconds must be positive"),
+        (["--liquid-seconds", "-1"], "--liquid-seconds at least 0"),
+    ],
+)
+def test_bad_options_fail_in_one_line(tmp_path: Path, args: list[str], message: str) -> None:
+    done = srg(tmp_path, "bench", "writer", *args)
+    one_line_error(done, message)
+    assert done.stdout == ""
+
+
+@pytest.mark.slow
+def test_more_workers_leave_the_writer_a_larger_share(tmp_path: Path) -> None:
+    out = ok(tmp_path, "bench", "writer", "--frames", "600", "--batch", "4", "--workers", "2,1000")
+    result = json.loads(out)
+    assert result["frames"] >= 600
+    few, many = result["by_workers"]
+    assert 0 < few["writer_share"] < many["writer_share"] < 1
+    assert many["virtual_hours"] < few["virtual_hours"]
+    assert result["integration_median_ms_last_tenth"] > 0
