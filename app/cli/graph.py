@@ -7,6 +7,8 @@ damaged SQLite file first (:func:`app.db.engines.require_intact`).
 
 from __future__ import annotations
 
+from contextlib import ExitStack
+
 import typer
 
 from app.cli.output import JSON_HELP, emit, progress_bar
@@ -29,9 +31,11 @@ def init(
 ) -> None:
     """Create a graph: the initial tree of the dynamics, its leaves blended back."""
     from app.config import get_settings
+    from app.core.growth import initial_tree_clips
     from app.core.player_models import parse_player_model
+    from app.services.animations import Progress
     from app.services.creation import init_graph
-    from app.services.dynamics import DEFAULT_LIQUID_PRESET, check_fluid
+    from app.services.dynamics import DEFAULT_LIQUID_PRESET, check_fluid, control_count
 
     if dynamics == "liquid" and preset is None:
         preset = DEFAULT_LIQUID_PRESET
@@ -40,7 +44,16 @@ def init(
     if player_model is not None:  # '' too: it names no model, not the default
         parse_player_model(player_model)
     require_intact()
-    with transaction() as session:
+    total = initial_tree_clips(control_count(dynamics), max(depth, 0))
+    shown: Progress | None = None
+    with ExitStack() as bar, transaction() as session:
+
+        def advance(n: int) -> None:  # the bar shows once the first clip is simulated,
+            nonlocal shown  # after every check: a refusal stays one line
+            if shown is None:
+                shown = bar.enter_context(progress_bar(total, "clips of the initial tree"))
+            shown(n)
+
         summary = init_graph(
             session,
             get_settings(),
@@ -51,6 +64,7 @@ def init(
             strategy=strategy,
             depth=depth,
             player_model=player_model,
+            progress=advance,
         )
     emit(summary, json_output)
 

@@ -65,12 +65,24 @@ def simulate_clip(
     return sim, dynamics.features(sim)
 
 
+def initial_tree_clips(n_controls: int, depth: int) -> int:
+    """Clips :func:`initial_tree` simulates: N + N^2 + ... + N^depth."""
+    return sum(n_controls**level for level in range(1, depth + 1))
+
+
 def initial_tree(
-    dynamics: Dynamics, bank: ClipBank, *, depth: int = 2, prefilter_k: int = 100
+    dynamics: Dynamics,
+    bank: ClipBank,
+    *,
+    depth: int = 2,
+    prefilter_k: int = 100,
+    progress: Callable[[int], None] | None = None,
 ) -> StateGraph:
     """A complete N-ary simulation tree of ``depth`` levels whose leaves are blended back.
 
     Depth 2 gives N interior SIM edges and N^2 BLEND edges (paper Fig. 3, left/centre).
+    ``progress(1)`` follows each of its :func:`initial_tree_clips`: at the paper's
+    resolution they take minutes.
     """
     if depth < 2:
         raise ValueError("the initial tree needs depth >= 2 so that leaves have SIM targets")
@@ -85,6 +97,8 @@ def initial_tree(
                 sim, features = simulate_clip(dynamics, state, control)
                 clip = graph.add_clip(vertex, features)
                 bank.put(clip, sim, features)
+                if progress is not None:
+                    progress(1)
                 edge = graph.edge_id(vertex, control)
                 if level < depth - 1:
                     child = graph.add_vertex(control, clip)

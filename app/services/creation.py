@@ -13,6 +13,7 @@ from app.core.names import check_name
 from app.core.player_models import parse_player_model
 from app.core.strategies import parse_strategy
 from app.liquid.devices import LiquidDevices
+from app.services.animations import Progress
 from app.services.dynamics import make_dynamics
 from app.services.loading import artifact_store
 from app.services.status import graph_summary
@@ -56,8 +57,11 @@ def init_graph(
     depth: int = 2,
     seed: int = 0,
     player_model: str | None = None,
+    progress: Progress | None = None,
 ) -> dict[str, object]:
     """Store the initial tree of a new graph; return its summary.
+
+    ``progress(1)`` follows each clip of the tree (``app.core.growth.initial_tree_clips``).
 
     ``player_model`` is the crowd model sr-crowd learns (default ``SRG_PLAYER_MODEL``).
 
@@ -76,7 +80,9 @@ def init_graph(
     check_initial_depth(depth, model.n_controls)
     artifacts = artifact_store(settings)
     bank = MemoryClipBank()
-    graph = initial_tree(model, bank, depth=depth, prefilter_k=settings.prefilter_k)
+    graph = initial_tree(
+        model, bank, depth=depth, prefilter_k=settings.prefilter_k, progress=progress
+    )
     scene: dict[str, object] = {"fps": model.fps}
     if preset is not None:
         scene["preset"] = preset

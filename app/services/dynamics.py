@@ -9,7 +9,7 @@ from __future__ import annotations
 
 from app.core.dynamics import Dynamics
 from app.core.errors import InvalidInput
-from app.core.scene import DEFAULT_FLUID, FLUIDS, TILT_TANK_SPACINGS
+from app.core.scene import DEFAULT_FLUID, FLUIDS, TILT_DEGREES, TILT_TANK_SPACINGS
 from app.core.toy import ToyDynamics
 from app.liquid.devices import LiquidDevices
 
@@ -29,6 +29,10 @@ LIQUID_FLUIDS = tuple(FLUIDS)
 
 class UnknownDynamics(InvalidInput):
     """A dynamics name srg does not have."""
+
+    @classmethod
+    def of(cls, name: str) -> UnknownDynamics:
+        return cls(f"unknown dynamics {name!r} (known: {', '.join(DYNAMICS_NAMES)})")
 
 
 class UnknownPreset(InvalidInput):
@@ -51,6 +55,14 @@ def check_fluid(fluid: str) -> str:
     if fluid not in LIQUID_FLUIDS:
         raise UnknownFluid(f"unknown fluid {fluid!r} (known: {', '.join(LIQUID_FLUIDS)})")
     return fluid
+
+
+def control_count(name: str) -> int:
+    """The controls N of the dynamics ``name`` (the tank's tilts are the same for every
+    preset and fluid), known without building it."""
+    if name not in DYNAMICS_NAMES:
+        raise UnknownDynamics.of(name)
+    return ToyDynamics.n_controls if name == "toy" else len(TILT_DEGREES)
 
 
 def make_dynamics(
@@ -89,4 +101,4 @@ def make_dynamics(
                 f"no calibration for liquid preset {preset!r} ({fluid} viscosity); "
                 f"run `srg calibrate --preset {preset}{option}` first"
             ) from None
-    raise UnknownDynamics(f"unknown dynamics {name!r} (known: {', '.join(DYNAMICS_NAMES)})")
+    raise UnknownDynamics.of(name)

@@ -66,6 +66,15 @@ def test_bad_strategy_bot_and_budget_write_nothing(var: Path) -> None:
     assert status(var) == before
 
 
+def test_init_counts_the_clips_of_its_tree_and_a_refusal_shows_no_bar(var: Path) -> None:
+    done = srg(var, "init", "counted", "--depth", "3")
+    assert done.returncode == 0, done.stderr
+    assert "clips of the initial tree" in done.stderr and "39/39" in done.stderr  # 3 + 9 + 27
+    refused = srg(var, "init", "counted")
+    one_line_error(refused, "already exists")
+    assert "clips of the initial tree" not in refused.stderr
+
+
 def test_an_unpublished_graph_cannot_be_played(var: Path) -> None:
     ok(var, "init", "fresh")
     one_line_error(srg(var, "play", "fresh"), "no publication yet")
