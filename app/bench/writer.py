@@ -34,8 +34,9 @@ import numpy as np
 
 from app.bench.scratch import scratch_database
 from app.config import Settings
-from app.db import make_engine, session_factory
-from app.store.graphs import get_graph_row, size_frames
+from app.db.engines import make_engine
+from app.db.sessions import session_factory
+from app.store.graph_catalogue import get_graph_row, size_frames
 
 
 def _virtual_clock(
