@@ -147,7 +147,7 @@ def _grown_graph(
 def _search_candidates(graph: StateGraph, prefilter_k: int) -> int:
     """``dist`` calls of one integration's best-target searches (one per new clip)."""
     kinds = np.asarray(graph.edge_kind)
-    controls = np.arange(graph.n_edges) % graph.n_controls
+    controls = graph.edge_arrays()[1]
     sims = np.bincount(controls[kinds == EdgeKind.SIM], minlength=graph.n_controls)
     return int(np.minimum(sims, prefilter_k + 1).sum())
 

@@ -13,6 +13,7 @@ import numpy as np
 import scipy.sparse as sp
 
 from app.core.errors import InvalidInput
+from app.core.graph import edge_vertex_control
 from app.core.player_models import heuristic_player_model
 from app.core.staterank import StateRankResult, staterank
 
@@ -51,17 +52,17 @@ def bench_rank(n_edges: int = 1_000_000, n_controls: int = 3, seed: int = 0) -> 
     restart = 1.0 / SESSION_STEPS
 
     dst, vertex_control, blends = _grown_chain(n_vertices, n_controls, rng)
-    src = np.arange(dst.size) // n_controls
+    src = edge_vertex_control(np.arange(dst.size), n_controls)[0]
     prob = heuristic_player_model(vertex_control, n_controls, ALPHA).ravel()
     cold, cold_seconds = _timed_staterank(src, dst, prob, n_vertices, restart, None)
 
     # One expansion: a random blend edge becomes the SIM edge into a new vertex.
     expanded = int(rng.choice(blends))
-    new_control = expanded % n_controls
+    new_control = edge_vertex_control(expanded, n_controls)[1]
     new_dst = _blend_destinations(vertex_control, new_control, n_controls, rng)
     dst_2 = np.concatenate([dst, new_dst])
     dst_2[expanded] = n_vertices
-    src_2 = np.arange(dst_2.size) // n_controls
+    src_2 = edge_vertex_control(np.arange(dst_2.size), n_controls)[0]
     vertex_control_2 = np.append(vertex_control, new_control)
     prob_2 = heuristic_player_model(vertex_control_2, n_controls, ALPHA).ravel()
     warm, warm_seconds = _timed_staterank(src_2, dst_2, prob_2, n_vertices + 1, restart, cold.pi)
@@ -102,11 +103,11 @@ def _grown_chain(
         open_blends[at] = open_blends[-1]
         open_blends.pop()
         dst[edge] = w
-        vertex_control[w] = edge % n_controls
+        vertex_control[w] = edge_vertex_control(edge, n_controls)[1]
         open_blends.extend(range(w * n_controls, (w + 1) * n_controls))
     blends = np.sort(np.asarray(open_blends, dtype=np.int64))
     for control in range(n_controls):
-        ours = blends[blends % n_controls == control]
+        ours = blends[edge_vertex_control(blends, n_controls)[1] == control]
         dst[ours] = _blend_destinations(vertex_control, control, ours.size, rng)
     return dst, vertex_control, blends
 

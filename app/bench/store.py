@@ -20,7 +20,7 @@ from sqlalchemy.orm import Session
 
 from app.core.clipbank import MemoryClipBank
 from app.core.dynamics import ClipFeatures, SimClip
-from app.core.graph import StateGraph
+from app.core.graph import StateGraph, edge_vertex_control
 from app.db.engines import make_engine
 from app.models import Base
 from app.store.artifacts import ArtifactStore
@@ -69,7 +69,7 @@ def synthetic_graph(
     shapes = [synthetic_shape(f) for f in frames]
     for edge in range(n_all):
         shared = edge % n_arrays
-        control = edge % n_controls
+        source, control = edge_vertex_control(edge, n_controls)
         occupancy, descriptor = shapes[shared]
         features = ClipFeatures(
             control,
@@ -79,7 +79,7 @@ def synthetic_graph(
             descriptor,
             float(score[edge]),
         )
-        clip = graph.add_clip(edge // n_controls, features)
+        clip = graph.add_clip(source, features)
         bank.put(clip, SimClip(control, frames[shared], frames[shared, -1]), features)
     graph.add_vertex(control=0, clip=-1)
     for edge in range(n_sim):
@@ -87,7 +87,7 @@ def synthetic_graph(
     for edge in range(n_sim):
         graph.set_sim(edge, edge, edge + 1)
     for edge in range(n_sim, graph.n_edges):
-        control = edge % n_controls
+        source, control = edge_vertex_control(edge, n_controls)
         target = control + n_controls * int(rng.integers((n_sim - 1 - control) // n_controls + 1))
         graph.set_blend(edge, edge, target, float(rng.random()))
     return graph, bank

@@ -15,10 +15,24 @@ from __future__ import annotations
 import bisect
 from dataclasses import dataclass, field
 from enum import IntEnum
+from typing import Any
 
 import numpy as np
 
 from app.core.dynamics import ClipFeatures
+
+
+def edge_index(vertex: Any, control: Any, n_controls: int) -> Any:
+    """Edge ``vertex * N + control``: the one layout of every table of edges (a graph's, a
+    publication's, a trace's steps, the stored rows), for ints, NumPy arrays and SQL
+    column expressions alike."""
+    return vertex * n_controls + control
+
+
+def edge_vertex_control(edge: Any, n_controls: int) -> tuple[Any, Any]:
+    """``(vertex, control)`` of an edge index (or an array of them): the inverse of
+    :func:`edge_index`."""
+    return divmod(edge, n_controls)
 
 
 class EdgeKind(IntEnum):
@@ -82,13 +96,13 @@ class StateGraph:
         return self.n_clips * self.frames_per_clip
 
     def edge_id(self, vertex: int, control: int) -> int:
-        return vertex * self.n_controls + control
+        return int(edge_index(vertex, control, self.n_controls))
 
     def edge_source(self, edge: int) -> int:
-        return edge // self.n_controls
+        return int(edge_vertex_control(edge, self.n_controls)[0])
 
     def edge_control(self, edge: int) -> int:
-        return edge % self.n_controls
+        return int(edge_vertex_control(edge, self.n_controls)[1])
 
     def blend_edges(self) -> np.ndarray:
         return np.flatnonzero(np.asarray(self.edge_kind) == EdgeKind.BLEND)
@@ -121,12 +135,8 @@ class StateGraph:
 
     def edge_arrays(self) -> tuple[np.ndarray, np.ndarray, np.ndarray]:
         """(source, control, destination) of every edge, as int64 arrays."""
-        edges = np.arange(self.n_edges)
-        return (
-            edges // self.n_controls,
-            edges % self.n_controls,
-            np.asarray(self.edge_dst, dtype=np.int64),
-        )
+        source, control = edge_vertex_control(np.arange(self.n_edges), self.n_controls)
+        return source, control, np.asarray(self.edge_dst, dtype=np.int64)
 
     # ---- mutation (called by app.core.growth only) ----------------------------
     def add_clip(self, source: int, features: ClipFeatures) -> int:
@@ -214,14 +224,15 @@ class StateGraph:
             kind, clip, dst = self.edge_kind[e], self.edge_clip[e], self.edge_dst[e]
             if clip < 0 or not 0 <= dst < self.n_vertices:
                 raise GraphInvariantError(f"edge {e} is unfilled")
-            if self.clip_control[clip] != e % n or self.clip_source[clip] != e // n:
+            source, control = edge_vertex_control(e, n)
+            if self.clip_control[clip] != control or self.clip_source[clip] != source:
                 raise GraphInvariantError(f"edge {e} owns a clip of another edge")
             if kind == EdgeKind.SIM:
                 if self.vertex_clip[dst] != clip:
                     raise GraphInvariantError(f"SIM edge {e} does not end at its clip's vertex")
             else:
                 target = self.edge_target[e]
-                if self.edge_kind[target] != EdgeKind.SIM or target % n != e % n:
+                if self.edge_kind[target] != EdgeKind.SIM or self.edge_control(target) != control:
                     raise GraphInvariantError(f"BLEND edge {e} has a bad target {target}")
                 if self.edge_clip[target] == clip or self.edge_dst[target] != dst:
                     raise GraphInvariantError(f"BLEND edge {e} is inconsistent with {target}")

@@ -17,6 +17,7 @@ from dataclasses import asdict, dataclass
 
 import numpy as np
 
+from app.core.graph import edge_vertex_control
 from app.core.player_models import (
     Trace,
     mean_session_length,
@@ -143,7 +144,7 @@ def predicted_edge_probabilities(
     if model.ndim != 2 or edge_dst.shape != (model.size,):
         raise ValueError(f"edge_dst {edge_dst.shape} must hold one entry per cell of {model.shape}")
     n_vertices, n_controls = model.shape
-    src = np.arange(edge_dst.size) // n_controls
+    src = edge_vertex_control(np.arange(edge_dst.size), n_controls)[0]
     prob = model.reshape(-1)
     rank = staterank(src, edge_dst, prob, n_vertices, start, restart)
     return edge_probabilities(rank.pi, src, prob)

@@ -15,6 +15,7 @@ import scipy.sparse as sp
 from scipy.spatial import cKDTree
 
 from app.core.errors import InvalidInput
+from app.core.graph import edge_index
 
 #: One step of a trace: the vertex the player was at and the control they took there.
 Trace = Sequence[tuple[int, int]] | np.ndarray
@@ -290,7 +291,7 @@ def trace_edges(traces: Iterable[Trace], n_vertices: int, n_controls: int) -> np
         raise ValueError(f"a trace visits a vertex outside 0..{n_vertices - 1}")
     if steps.size and not (control.min() >= 0 and control.max() < n_controls):
         raise ValueError(f"a trace takes a control outside 0..{n_controls - 1}")
-    return vertex * n_controls + control
+    return np.asarray(edge_index(vertex, control, n_controls))
 
 
 def observed_control_counts(

@@ -10,7 +10,7 @@ from dataclasses import dataclass
 
 import numpy as np
 
-from app.core.graph import StateGraph
+from app.core.graph import StateGraph, edge_index
 
 
 @dataclass(frozen=True)
@@ -27,7 +27,7 @@ class Publication:
         return len(self.edge_dst) // self.n_controls
 
     def destination(self, vertex: int, control: int) -> int:
-        return int(self.edge_dst[vertex * self.n_controls + control])
+        return int(self.edge_dst[edge_index(vertex, control, self.n_controls)])
 
     def follows_edges(self, steps: np.ndarray) -> bool:
         """Whether a trace (rows of vertex, control) starts anywhere valid and follows edges."""
@@ -36,7 +36,7 @@ class Publication:
         v, c = steps[:, 0], steps[:, 1]
         if v.min() < 0 or v.max() >= self.n_vertices or c.min() < 0 or c.max() >= self.n_controls:
             return False
-        return bool(np.all(self.edge_dst[v[:-1] * self.n_controls + c[:-1]] == v[1:]))
+        return bool(np.all(self.edge_dst[edge_index(v[:-1], c[:-1], self.n_controls)] == v[1:]))
 
     def stray_step(self, steps: np.ndarray) -> tuple[int, str] | None:
         """The index of a trace's first step that is not a valid edge, and why; None if all are.
@@ -49,7 +49,9 @@ class Publication:
         out_of_range = (v < 0) | (v >= self.n_vertices) | (c < 0) | (c >= self.n_controls)
         leads_to = np.full(len(steps), -1, dtype=np.int64)
         valid = ~out_of_range[:-1]
-        leads_to[1:][valid] = self.edge_dst[v[:-1][valid] * self.n_controls + c[:-1][valid]]
+        leads_to[1:][valid] = self.edge_dst[
+            edge_index(v[:-1][valid], c[:-1][valid], self.n_controls)
+        ]
         off_path = np.zeros(len(steps), dtype=bool)
         off_path[1:] = valid & (leads_to[1:] != v[1:])
         wrong = out_of_range | off_path

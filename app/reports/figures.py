@@ -25,6 +25,7 @@ from matplotlib.collections import LineCollection  # noqa: E402
 from matplotlib.figure import Figure  # noqa: E402
 from matplotlib.patches import Patch  # noqa: E402
 
+from app.core.graph import edge_vertex_control  # noqa: E402
 from app.core.seed_interval import seed_interval  # noqa: E402
 
 ArraysLoader = Callable[[str], dict[str, np.ndarray]]
@@ -205,7 +206,7 @@ def plot_density_graph(
     n_controls = arrays["edge_dst"].size // n_vertices
     xy = _layout(arrays["vertex_descriptors"].astype(np.float64))
     sim = np.flatnonzero(arrays["edge_kind"] == 0)
-    src, dst = sim // n_controls, arrays["edge_dst"][sim]
+    src, dst = edge_vertex_control(sim, n_controls)[0], arrays["edge_dst"][sim]
     segments = np.stack([xy[src], xy[dst]], axis=1)
     fig, axes = plt.subplots(1, 2, figsize=(9.6, 4.6), layout="constrained")
     for ax, key, label in zip(

@@ -29,7 +29,7 @@ import numpy as np
 from sqlalchemy.orm import Session
 
 from app.config import Settings
-from app.core.graph import EdgeKind
+from app.core.graph import EdgeKind, edge_index
 from app.core.growth import integrate_expansion, select_for_expansion
 from app.core.strategies import Strategy
 from app.db.sessions import Scope
@@ -309,7 +309,7 @@ def blend_step(session: Session, settings: Settings, epoch_id: int) -> int:
         for e, d in epoch.plan or []
         if graph.edge_kind[e] == EdgeKind.SIM and graph.edge_clip[e] == d
     ]
-    wanted = {v * n + c for v in vertices for c in range(n)}
+    wanted = {edge_index(v, c, n) for v in vertices for c in range(n)}
     unrendered = set(
         edges_without_animation(session, row.id, n, vertices=vertices, kind=EdgeKind.BLEND)
     )

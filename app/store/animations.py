@@ -16,7 +16,7 @@ from sqlalchemy.orm import Session
 
 from app.core.dynamics import ClipFeatures
 from app.core.errors import NotFound
-from app.core.graph import EdgeKind
+from app.core.graph import EdgeKind, edge_index, edge_vertex_control
 from app.models import Artifact, Clip, Edge, PublicationEdge
 from app.store.artifacts import ArtifactStore
 from app.store.clipbank import ShapeOf
@@ -46,8 +46,9 @@ def set_animations(
         session.execute(
             update(Edge),
             [
-                {"graph_id": graph_id, "vertex": e // n, "control": e % n, "animation": h}
+                {"graph_id": graph_id, "vertex": v, "control": c, "animation": h}
                 for e, h in edges.items()
+                for v, c in [edge_vertex_control(e, n)]
             ],
         )
 
@@ -69,7 +70,7 @@ def edges_without_animation(
         stmt = stmt.where(Edge.vertex.in_(list(vertices)))
     if kind is not None:
         stmt = stmt.where(Edge.kind == int(kind))
-    return [vertex * n_controls + control for vertex, control in session.execute(stmt)]
+    return [edge_index(vertex, control, n_controls) for vertex, control in session.execute(stmt)]
 
 
 def clip_animations(session: Session, graph_id: int) -> dict[int, str]:

@@ -230,7 +230,7 @@ def _load_edges(
     sims: list[list[tuple[float, int, int, int]]] = [[] for _ in range(n)]
     for edge, (kind, clip, dst, target, err) in enumerate(rows):
         if kind == EdgeKind.SIM:
-            control = edge % n
+            control = graph.edge_control(edge)
             sims[control].append((graph.clip_energy(clip, control), edge, clip, dst))
             kind, clip, dst, target, err = EdgeKind.BLEND, NO_CLIP, NO_CLIP, None, np.inf
         graph.edge_kind.append(EdgeKind(kind))
@@ -308,12 +308,11 @@ def _clip_rows(
 
 
 def _edge_rows(graph_id: int, graph: StateGraph, edges: Iterable[int]) -> list[dict[str, Any]]:
-    n = graph.n_controls
     return [
         {
             "graph_id": graph_id,
-            "vertex": e // n,
-            "control": e % n,
+            "vertex": graph.edge_source(e),
+            "control": graph.edge_control(e),
             "kind": int(graph.edge_kind[e]),
             "clip_idx": graph.edge_clip[e],
             "dst": graph.edge_dst[e],

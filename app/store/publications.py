@@ -14,7 +14,7 @@ from sqlalchemy import func, select
 from sqlalchemy.orm import Session
 
 from app.core.errors import NotFound
-from app.core.graph import StateGraph
+from app.core.graph import StateGraph, edge_index, edge_vertex_control
 from app.core.publication import Publication, freeze
 from app.models import Edge, Graph, PublicationEdge
 from app.models import Publication as PublicationRow
@@ -78,20 +78,19 @@ def publish(session: Session, graph_id: int, graph: StateGraph) -> int:
     animations = {
         edge: animation
         for edge, animation in session.execute(
-            select(Edge.vertex * graph.n_controls + Edge.control, Edge.animation).where(
+            select(edge_index(Edge.vertex, Edge.control, graph.n_controls), Edge.animation).where(
                 Edge.graph_id == graph_id, Edge.animation.is_not(None)
             )
         )
     }
-    n = graph.n_controls
     bulk_insert(
         session,
         PublicationEdge,
         [
             {
                 "publication_id": row.id,
-                "vertex": e // n,
-                "control": e % n,
+                "vertex": vertex,
+                "control": control,
                 "dst": int(frozen.edge_dst[e]),
                 "kind": int(frozen.edge_kind[e]),
                 "err": float(frozen.edge_err[e]),
@@ -99,6 +98,7 @@ def publish(session: Session, graph_id: int, graph: StateGraph) -> int:
                 "animation": animations.get(e),
             }
             for e in range(graph.n_edges)
+            for vertex, control in [edge_vertex_control(e, graph.n_controls)]
         ],
     )
     return row.id
