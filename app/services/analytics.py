@@ -16,6 +16,7 @@ from app.config import Settings
 from app.core.player_models import parse_player_model
 from app.core.players import PlayerSelection
 from app.core.session_figures import MAX_RELATIVE_SE, MIN_SESSIONS, SessionFigure
+from app.services.dynamics import threshold_in_force
 from app.services.loading import graph_dynamics
 from app.services.prediction import latest_play_prediction
 from app.store.analytics import graph_analytics
@@ -41,9 +42,7 @@ def played_graph_analytics(
         parse_player_model(player_model)
     row = get_graph_row(session, graph)
     if threshold is None:
-        threshold = (
-            settings.high_error_threshold or graph_dynamics(row, settings).high_error_threshold
-        )
+        threshold = threshold_in_force(settings, graph_dynamics(row, settings))
     report: dict[str, Any] = {
         "graph": graph,
         **graph_analytics(session, row.id, threshold, players),

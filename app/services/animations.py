@@ -19,6 +19,7 @@ from app.core.dedup import Substitute, animation_owners, find_substitute
 from app.core.dynamics import ClipFeatures, Dynamics
 from app.core.graph import EdgeKind
 from app.render.animation import STRIP_MEDIA_TYPE, encode_strip
+from app.services.dynamics import threshold_in_force
 from app.services.loading import LoadedGraph
 from app.store.animations import (
     clip_animations,
@@ -34,8 +35,7 @@ Progress = Callable[[int], None]
 
 def reuse_error_limit(settings: Settings, dynamics: Dynamics) -> float:
     """The largest substitution error at which a clip reuses another's strip (0: never)."""
-    threshold = settings.high_error_threshold or dynamics.high_error_threshold
-    return settings.dedup_error_fraction * threshold
+    return settings.dedup_error_fraction * threshold_in_force(settings, dynamics)
 
 
 ClipColumns = Callable[[int], tuple[int, np.ndarray]]

@@ -7,6 +7,7 @@ API, the CLI and the toy experiments import this module without needing either.
 
 from __future__ import annotations
 
+from app.config import Settings
 from app.core.dynamics import Dynamics
 from app.core.errors import InvalidInput
 from app.core.scene import DEFAULT_FLUID, FLUIDS, TILT_DEGREES, TILT_TANK_SPACINGS
@@ -55,6 +56,13 @@ def check_fluid(fluid: str) -> str:
     if fluid not in LIQUID_FLUIDS:
         raise UnknownFluid(f"unknown fluid {fluid!r} (known: {', '.join(LIQUID_FLUIDS)})")
     return fluid
+
+
+def threshold_in_force(settings: Settings, dynamics: Dynamics) -> float:
+    """The high-error threshold every figure uses: ``SRG_HIGH_ERROR_THRESHOLD`` when set
+    (to compare graphs of different calibrations on one scale), else the one calibrated
+    with the dynamics' scene (docs/threshold.md)."""
+    return settings.high_error_threshold or dynamics.high_error_threshold
 
 
 def control_count(name: str) -> int:

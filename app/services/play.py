@@ -22,6 +22,7 @@ from app.config import Settings
 from app.core.bots import parse_bot, play_sessions
 from app.core.errors import InvalidInput
 from app.core.metrics import high_error_fraction, observed_mean_error
+from app.services.dynamics import threshold_in_force
 from app.services.loading import graph_dynamics
 from app.store.graph_catalogue import get_graph_row
 from app.store.publications import latest_publication_id, load_publication
@@ -69,7 +70,7 @@ def play_graph(
     for index, trace in enumerate(traces):
         key = f"local-{run}-{index}"
         record_trace(session, publication_id, player_id, key, trace, publication=publication)
-    threshold = settings.high_error_threshold or graph_dynamics(row, settings).high_error_threshold
+    threshold = threshold_in_force(settings, graph_dynamics(row, settings))
     steps = np.concatenate(traces)
     return PlayResult(
         graph=row.name,

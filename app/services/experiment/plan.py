@@ -21,7 +21,12 @@ from app.core.player_models import PlayerModelKind, parse_player_model
 from app.core.strategies import Strategy, parse_strategy
 from app.db.sessions import transaction
 from app.liquid.devices import LiquidDevices
-from app.services.dynamics import DYNAMICS_NAMES, UnknownDynamics, make_dynamics
+from app.services.dynamics import (
+    DYNAMICS_NAMES,
+    UnknownDynamics,
+    make_dynamics,
+    threshold_in_force,
+)
 from app.store.experiments import (
     add_experiment,
     existing_graph_names,
@@ -176,8 +181,7 @@ def create_experiment(settings: Settings, name: str, plan: ExperimentPlan) -> Ex
     devices = LiquidDevices.from_settings(settings)
     dynamics = make_dynamics(plan.dynamics, plan.preset, plan.fluid, devices=devices)
     if plan.high_error_threshold is None:
-        threshold = settings.high_error_threshold or dynamics.high_error_threshold
-        plan = replace(plan, high_error_threshold=threshold)
+        plan = replace(plan, high_error_threshold=threshold_in_force(settings, dynamics))
     with transaction() as session:
         if experiment_id(session, name) is not None:
             raise ExperimentExists(
