@@ -28,6 +28,7 @@ from celery.utils.log import get_task_logger
 from sqlalchemy.exc import IntegrityError, OperationalError
 
 from app.config import get_settings
+from app.core.refinement import GrowthBudget
 from app.db.sessions import transaction
 from app.services import clips, epochs, rank_relink_publish
 from app.store.epochs import running_epoch
@@ -254,7 +255,8 @@ def grow_on_workers(
         row = get_graph_row(session, name)
         graph_id, per_expansion = row.id, row.n_controls * row.frames_per_clip
     size = _size_frames(graph_id)
-    while (left := -(-(to_frames - size) // per_expansion)) > 0:
+    budget = GrowthBudget.of(size, to_frames=to_frames)
+    while (left := budget.left(size, 0, per_expansion)) > 0:
         epoch_id = grow_epoch.delay(graph_id, min(left, batch), False).get(
             timeout=settings.task_time_limit
         )
