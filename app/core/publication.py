@@ -29,6 +29,11 @@ class Publication:
     def destination(self, vertex: int, control: int) -> int:
         return int(self.edge_dst[edge_index(vertex, control, self.n_controls)])
 
+    def mean_score_per_step(self, traces: list[np.ndarray]) -> float:
+        """The score of the clips the traces' steps took, averaged over every step."""
+        steps = np.concatenate(traces)
+        return float(self.edge_score[edge_index(steps[:, 0], steps[:, 1], self.n_controls)].mean())
+
     def follows_edges(self, steps: np.ndarray) -> bool:
         """Whether a trace (rows of vertex, control) starts anywhere valid and follows edges."""
         if steps.ndim != 2 or steps.shape[1] != 2 or len(steps) == 0:

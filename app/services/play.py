@@ -19,9 +19,10 @@ import numpy as np
 from sqlalchemy.orm import Session
 
 from app.config import Settings
-from app.core.bots import parse_bot, play_sessions
+from app.core.bots import BotKind, parse_bot, play_sessions
 from app.core.errors import InvalidInput
 from app.core.metrics import high_error_fraction, observed_mean_error
+from app.core.publication import Publication
 from app.services.dynamics import threshold_in_force
 from app.services.loading import graph_dynamics
 from app.store.graph_catalogue import get_graph_row
@@ -64,25 +65,51 @@ def play_graph(
     row = get_graph_row(session, name)
     publication_id = latest_publication_id(session, row.id)
     publication = load_publication(session, publication_id)
-    traces = play_sessions(publication, kind, sessions=sessions, mean_steps=mean_steps, seed=seed)
-    player_id = bot_player(session, f"bot-{kind.value}")
-    run = uuid.uuid4().hex  # each play is new play data, as each browser session is
-    for index, trace in enumerate(traces):
-        key = f"local-{run}-{index}"
-        record_trace(session, publication_id, player_id, key, trace, publication=publication)
+    traces = bots_play(
+        session,
+        publication_id,
+        publication,
+        kind,
+        player=f"bot-{kind.value}",
+        key=f"local-{uuid.uuid4().hex}",  # each play is new play data, as each browser's is
+        sessions=sessions,
+        mean_steps=mean_steps,
+        seed=seed,
+    )
     threshold = threshold_in_force(settings, graph_dynamics(row, settings))
-    steps = np.concatenate(traces)
     return PlayResult(
         graph=row.name,
         publication_id=publication_id,
         seed=seed,
         traces=len(traces),
-        steps=len(steps),
+        steps=sum(len(trace) for trace in traces),
         observed_mean_error=observed_mean_error(traces, publication.edge_err, row.n_controls),
         high_error_fraction=high_error_fraction(
             traces, publication.edge_err, row.n_controls, threshold
         ),
-        mean_score_per_step=float(
-            publication.edge_score[steps[:, 0] * row.n_controls + steps[:, 1]].mean()
-        ),
+        mean_score_per_step=publication.mean_score_per_step(traces),
     )
+
+
+def bots_play(
+    session: Session,
+    publication_id: int,
+    publication: Publication,
+    bot: BotKind,
+    *,
+    player: str,
+    key: str,
+    sessions: int,
+    mean_steps: int,
+    seed: int,
+) -> list[np.ndarray]:
+    """Bots of one kind play the publication; each session is stored as an upload of the
+    bot player ``player`` under the idempotency key ``<key>.<number>``, so playing the
+    same key again (a resumed experiment) stores nothing twice. Returns the traces."""
+    traces = play_sessions(publication, bot, sessions=sessions, mean_steps=mean_steps, seed=seed)
+    player_id = bot_player(session, player)
+    for number, trace in enumerate(traces):
+        record_trace(
+            session, publication_id, player_id, f"{key}.{number}", trace, publication=publication
+        )
+    return traces

@@ -18,6 +18,7 @@ from app.core.player_models import PlayerModelKind, robust_session_length
 from app.core.publication import Publication
 from app.core.strategies import Strategy
 from app.db.engines import get_engine
+from app.services import play
 from app.services.experiment import checkpoint
 from app.services.experiment.plan import ExperimentPlan, create_experiment, parse_checkpoints
 from app.services.experiment.results import PREDICTION_KEYS, prediction_summary
@@ -55,7 +56,7 @@ def test_prediction_is_for_the_publication_played_from_earlier_traces(
         predictions.append(np.asarray(predicted))
         return evaluate_checkpoint(traces, err, n, predicted, *a, **k)
 
-    monkeypatch.setattr(checkpoint, "play_sessions", recording_play)
+    monkeypatch.setattr(play, "play_sessions", recording_play)
     monkeypatch.setattr(checkpoint, "evaluate_checkpoint", recording_evaluate)
     plan = ExperimentPlan(
         strategies=(Strategy.SR_CROWD,), seeds=(1,), checkpoints=(600, 1_500), sessions=10,

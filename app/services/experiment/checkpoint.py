@@ -15,7 +15,7 @@ import numpy as np
 from sqlalchemy.orm import Session
 
 from app.config import Settings
-from app.core.bots import BotKind, play_sessions
+from app.core.bots import BotKind
 from app.core.metrics import (
     evaluate_checkpoint,
     observed_edge_density,
@@ -31,12 +31,12 @@ from app.core.refinement import Refiner
 from app.core.strategies import Strategy
 from app.services.experiment.plan import ExperimentPlan, Run
 from app.services.loading import LoadedGraph, open_graph
+from app.services.play import bots_play
 from app.services.prediction import fixed_graph_prediction, model_fit
 from app.services.publishing import PublishResult, publish_graph
 from app.services.refining import refiner_for
 from app.services.status import graph_summary
 from app.store.publications import load_publication
-from app.store.traces import bot_player, record_trace
 
 BOT_PLAYER = "bot-experiment"
 #: added to a run's seed for the bots of the fixed-graph setting (checkpoints use 0, 1, ...)
@@ -115,9 +115,13 @@ def _crowd_figures(
     their figures taken."""
     published, publication, loaded = on.published, on.publication, on.loaded
     model, predicted = on.model, on.predicted
-    traces = play_sessions(
+    traces = bots_play(
+        session,
+        published.publication_id,
         publication,
         bot,
+        player=BOT_PLAYER,
+        key=f"{published.publication_id}.{seed}.{bot.value}",
         sessions=plan.sessions,
         mean_steps=plan.mean_steps,
         seed=seed * 10_000 + index,
@@ -133,18 +137,6 @@ def _crowd_figures(
             traces, publication.edge_dst, publication.start, fallback=model
         ),
     )
-    player_id = bot_player(session, BOT_PLAYER)
-    key = f"{published.publication_id}.{seed}.{bot.value}"
-    for number, trace in enumerate(traces):
-        record_trace(
-            session,
-            published.publication_id,
-            player_id,
-            f"{key}.{number}",
-            trace,
-            publication=publication,
-        )
-    steps = np.concatenate(traces)
     figures: dict[str, Any] = {
         "checkpoint_frames": plan.checkpoints[index],
         "size_frames": published.size_frames,
@@ -152,7 +144,7 @@ def _crowd_figures(
         "relinked_before_publish": published.relinked,
         "publication_id": published.publication_id,
         "graph_id": loaded.row.id,
-        "mean_score_per_step": float(publication.edge_score[steps[:, 0] * n + steps[:, 1]].mean()),
+        "mean_score_per_step": publication.mean_score_per_step(traces),
         "observed_session_steps": mean_session_length(traces),
         **on.context,
         **report.to_dict(),
