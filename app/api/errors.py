@@ -168,7 +168,8 @@ def install_error_handlers(app: FastAPI) -> None:
 
     async def user_error(_: Request, exc: Exception) -> JSONResponse:
         assert isinstance(exc, SrgError)
-        return error_response(exc.http_status, str(exc.args[0] if exc.args else exc))
+        message = str(exc.args[0] if exc.args else exc)
+        return error_response(exc.http_status, message, details=exc.details)
 
     async def unexpected(_: Request, exc: Exception) -> JSONResponse:
         log.exception("unhandled error", exc_info=exc)

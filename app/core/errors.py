@@ -15,9 +15,17 @@ importing anything outside itself.
 
 
 class SrgError(Exception):
-    """An error the user (operator, player, script) can act on."""
+    """An error the user (operator, player, script) can act on.
+
+    ``details`` is what a script needs to act on it (which step of a trace, say); the
+    API answers it as the body's ``details``.
+    """
 
     http_status = 400
+
+    def __init__(self, *args: object, details: object = None) -> None:
+        super().__init__(*args)
+        self.details = details
 
 
 class InvalidInput(SrgError, ValueError):

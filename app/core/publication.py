@@ -38,10 +38,7 @@ class Publication:
         """Whether a trace (rows of vertex, control) starts anywhere valid and follows edges."""
         if steps.ndim != 2 or steps.shape[1] != 2 or len(steps) == 0:
             return False
-        v, c = steps[:, 0], steps[:, 1]
-        if v.min() < 0 or v.max() >= self.n_vertices or c.min() < 0 or c.max() >= self.n_controls:
-            return False
-        return bool(np.all(self.edge_dst[edge_index(v[:-1], c[:-1], self.n_controls)] == v[1:]))
+        return self.stray_step(steps) is None
 
     def stray_step(self, steps: np.ndarray) -> tuple[int, str] | None:
         """The index of a trace's first step that is not a valid edge, and why; None if all are.

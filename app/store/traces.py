@@ -95,23 +95,25 @@ def record_trace(
     """Store a trace; return ``(trace_id, created)``.
 
     Raises :class:`InvalidTrace` (nothing written) unless every step follows an edge of
-    the publication; ``publication`` may be passed to skip loading it again.
+    the publication, naming the first that does not (the one check of a trace's steps,
+    whoever uploads it); ``publication`` may be passed to skip loading it again.
     :class:`IdempotencyConflict` if the key already names a different trace.
     """
     steps = _validated_steps(steps, idempotency_key)
+    if publication is None:
+        publication = load_publication(session, publication_id)
+    stray = publication.stray_step(steps)
+    if stray is not None:
+        step, why = stray
+        raise InvalidTrace(
+            f"step {step} does not follow the edges of publication {publication_id}: {why}",
+            details={"step": step, "vertex": int(steps[step, 0]), "control": int(steps[step, 1])},
+        )
     existing = _replay(session, publication_id, player_id, idempotency_key, steps)
     if existing is not None:
         return existing, False
     if session.get(Player, player_id) is None:
         raise InvalidTrace(f"no player {player_id}")
-    if publication is None:
-        publication = load_publication(session, publication_id)
-    if not publication.follows_edges(steps):
-        raise InvalidTrace(
-            f"trace does not follow the edges of publication {publication_id}: every step "
-            f"needs 0 <= vertex < {publication.n_vertices}, 0 <= control < "
-            f"{publication.n_controls}, and the next vertex must be that edge's destination"
-        )
     try:
         with session.begin_nested():
             trace = Trace(
