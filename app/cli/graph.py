@@ -33,9 +33,9 @@ def init(
     from app.config import get_settings
     from app.core.growth import initial_tree_clips
     from app.core.player_models import parse_player_model
-    from app.services.animations import Progress
     from app.services.creation import init_graph
     from app.services.dynamics import DEFAULT_LIQUID_PRESET, check_fluid, control_count
+    from app.services.progress import Advance
 
     if dynamics == "liquid" and preset is None:
         preset = DEFAULT_LIQUID_PRESET
@@ -45,7 +45,7 @@ def init(
         parse_player_model(player_model)
     require_intact()
     total = initial_tree_clips(control_count(dynamics), max(depth, 0))
-    shown: Progress | None = None
+    shown: Advance | None = None
     with ExitStack() as bar, transaction() as session:
 
         def advance(n: int) -> None:  # the bar shows once the first clip is simulated,

@@ -42,7 +42,7 @@ from app.liquid.adapter import LiquidDynamics
 from app.liquid.threshold_blends import (
     DEFAULT_CLIPS,
     BlendRecord,
-    Progress,
+    Say,
     measure_pairs,
     no_progress,
     pick_targets,
@@ -95,7 +95,7 @@ def measure_blends(
     rendered: int = DEFAULT_RENDERED,
     examples: bool = True,
     n_boot: int = BOOTSTRAP_RESAMPLES,
-    progress: Progress | None = None,
+    progress: Say | None = None,
 ) -> ThresholdStudy:
     """Simulate, blend, project and label; fit the threshold (see the module docstring).
 
@@ -277,7 +277,7 @@ def measure_visible_threshold(
     clips: int = DEFAULT_CLIPS,
     seed: int = 0,
     rendered: int = DEFAULT_RENDERED,
-    progress: Progress | None = None,
+    progress: Say | None = None,
 ) -> tuple[float, dict[str, Any]]:
     """The high-error threshold of ``dyn``'s preset and fluid and how it was measured.
 

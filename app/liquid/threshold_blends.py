@@ -32,7 +32,7 @@ KEEP_CONTROL = 0.6
 #: targets of each dead-end clip: these ranks of dist (0 = best) and these quantiles
 TARGET_RANKS = (0, 1, 2)
 TARGET_QUANTILES = (0.25, 0.5, 0.75, 1.0)
-Progress = Callable[[str], None]
+Say = Callable[[str], None]
 
 
 def no_progress(message: str) -> None:
@@ -73,7 +73,7 @@ class MeasuredBlends:
 
 
 def study_clips(
-    dyn: LiquidDynamics, clips: int, seed: int, progress: Progress = no_progress
+    dyn: LiquidDynamics, clips: int, seed: int, progress: Say = no_progress
 ) -> list[SimClip]:
     """``clips`` clips from the settled tank: the depth-2 tree first, then random sequences.
 
@@ -129,7 +129,7 @@ def measure_pairs(
     dists: np.ndarray,
     pairs: list[tuple[int, int, int]],
     criterion: VisibilityCriterion,
-    say: Progress = no_progress,
+    say: Say = no_progress,
 ) -> MeasuredBlends:
     """Blend each (dead end, target, rank) of ``pairs`` and measure what a player sees.
 

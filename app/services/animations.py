@@ -21,6 +21,7 @@ from app.core.graph import EdgeKind
 from app.render.animation import STRIP_MEDIA_TYPE, encode_strip
 from app.services.dynamics import threshold_in_force
 from app.services.loading import LoadedGraph
+from app.services.progress import Advance
 from app.store.animations import (
     clip_animations,
     edges_without_animation,
@@ -29,8 +30,6 @@ from app.store.animations import (
     set_animations,
 )
 from app.store.artifacts import ArtifactStore
-
-Progress = Callable[[int], None]
 
 
 def reuse_error_limit(settings: Settings, dynamics: Dynamics) -> float:
@@ -177,7 +176,7 @@ def blend_strip(session: Session, loaded: LoadedGraph, edge: int) -> str:
 
 
 def render_missing_animations(
-    session: Session, loaded: LoadedGraph, max_reuse_error: float, progress: Progress | None = None
+    session: Session, loaded: LoadedGraph, max_reuse_error: float, progress: Advance | None = None
 ) -> int:
     """Give every edge that has none an animation; return how many edges got one.
 

@@ -13,9 +13,9 @@ from app.core.names import check_name
 from app.core.player_models import parse_player_model
 from app.core.strategies import parse_strategy
 from app.liquid.devices import LiquidDevices
-from app.services.animations import Progress
 from app.services.dynamics import make_dynamics
 from app.services.loading import artifact_store
+from app.services.progress import Advance
 from app.services.status import graph_summary
 from app.store.graph_catalogue import create_graph, graph_exists, graph_name_length
 from app.store.graph_persistence import save_graph
@@ -57,7 +57,7 @@ def init_graph(
     depth: int = 2,
     seed: int = 0,
     player_model: str | None = None,
-    progress: Progress | None = None,
+    progress: Advance | None = None,
 ) -> dict[str, object]:
     """Store the initial tree of a new graph; return its summary.
 

@@ -25,7 +25,6 @@ from app.db.sessions import transaction
 from app.reports.contact_sheet import Tile, contact_sheet
 from app.reports.experiment import write_report
 from app.reports.figures import ArraysLoader
-from app.services.animations import Progress
 from app.services.dynamics import QUICK_LIQUID_PRESET
 from app.services.experiment.plan import (
     ExperimentExists,
@@ -37,6 +36,7 @@ from app.services.experiment.plan import (
 )
 from app.services.experiment.runs import Grower, run_experiment
 from app.services.loading import artifact_store
+from app.services.progress import Advance
 from app.services.publishing import PublishResult, publish_graph
 from app.store.animations import (
     PublishedStrip,
@@ -93,7 +93,7 @@ def run_demo(
     grower: Grower,
     *,
     jobs: int,
-    progress: Progress | None = None,
+    progress: Advance | None = None,
 ) -> dict[str, Any]:
     """Grow, play and measure both graphs (resuming a stored demo): the result."""
     try:
@@ -109,7 +109,7 @@ def run_demo(
 
 
 def publish_playable(
-    settings: Settings, name: str, plan: ExperimentPlan, progress: Progress | None = None
+    settings: Settings, name: str, plan: ExperimentPlan, progress: Advance | None = None
 ) -> tuple[str, PublishResult]:
     """Publish the demo's SR-CROWD graph with every animation rendered; its name too."""
     graph = run_graph_name(name, PLAYABLE, plan.seeds[0])

@@ -49,11 +49,11 @@ from app.services.refining import rank_stored, refiner_for
 from app.store.animations import edges_without_animation, set_animations
 from app.store.epochs import (
     EpochStatus,
-    beat,
     expansion_clips,
     finish_epoch,
     get_epoch,
     record_clip,
+    record_heartbeat,
     record_plan,
     running_epoch,
     running_epoch_ids,
@@ -182,7 +182,7 @@ def resend_epoch(session: Session, epoch_id: int) -> EpochPlan | None:
 
 
 def _resent(session: Session, epoch: GrowthEpoch) -> EpochPlan:
-    beat(session, epoch.id)  # the re-send is progress: the backstop waits again
+    record_heartbeat(session, epoch.id)  # the re-send is progress: the backstop waits again
     plan = [(int(e), int(c)) for e, c in epoch.plan or []]
     return EpochPlan(epoch.id, epoch.graph_id, plan, epoch.relinks, resent=True)
 
@@ -260,7 +260,7 @@ def integrate_step(
     )
     save_graph(session, row.id, graph, loaded.bank, loaded.artifacts)
     _canonical_descriptors(loaded, first_clip)
-    beat(session, epoch_id)
+    record_heartbeat(session, epoch_id)
     finished = _finish_if_complete(session, loaded, epoch, plan)
     keep_graph(session, loaded)
     return Integration(epoch_id, position, "integrated", expansion.vertex, finished)

@@ -14,8 +14,8 @@ from app.core.errors import Conflict
 from app.core.refinement import GrowthBudget
 from app.core.strategies import parse_strategy
 from app.db.sessions import Scope
-from app.services.animations import Progress
 from app.services.epochs import plan_epoch, run_epoch
+from app.services.progress import Advance
 from app.store.epochs import get_epoch, running_epoch
 from app.store.graph_catalogue import get_graph_row, size_frames
 
@@ -48,7 +48,7 @@ def grow_graph(
     to_frames: int | None = None,
     renders: bool | None = None,
     batch_size: int | None = None,
-    progress: Progress | None = None,
+    progress: Advance | None = None,
 ) -> GrowResult:
     """Grow in-process by a budget (frames, expansions, or up to a size), epoch by epoch.
 

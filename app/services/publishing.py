@@ -12,8 +12,9 @@ from sqlalchemy.orm import Session
 
 from app.config import Settings
 from app.core.growth import relink_all
-from app.services.animations import Progress, render_missing_animations, reuse_error_limit
+from app.services.animations import render_missing_animations, reuse_error_limit
 from app.services.loading import LoadedGraph, open_graph
+from app.services.progress import Advance
 from app.store.graph_persistence import save_graph
 from app.store.publications import get_publication, publish
 
@@ -42,7 +43,7 @@ def publish_graph(
     *,
     name: str | int,
     render: bool = True,
-    progress: Progress | None = None,
+    progress: Advance | None = None,
 ) -> PublishResult:
     """Pre-publish relinking, animations for every edge, then a frozen publication.
 

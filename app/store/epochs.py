@@ -156,7 +156,7 @@ def record_plan(
     return row
 
 
-def beat(session: Session, epoch_id: int) -> None:
+def record_heartbeat(session: Session, epoch_id: int) -> None:
     """The epoch made progress now (what tells a stalled epoch from a slow one)."""
     session.execute(
         update(GrowthEpoch).where(GrowthEpoch.id == epoch_id).values(heartbeat=time.time())
@@ -200,4 +200,4 @@ def record_clip(session: Session, epoch_id: int, position: int, control: int, cl
         ExpansionClip,
         [{"epoch_id": epoch_id, "position": position, "control": control, "clip": clip}],
     )
-    beat(session, epoch_id)
+    record_heartbeat(session, epoch_id)

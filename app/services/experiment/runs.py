@@ -21,7 +21,6 @@ from typing import Any
 
 from app.config import Settings
 from app.db.sessions import transaction
-from app.services.animations import Progress
 from app.services.creation import init_graph
 from app.services.experiment.checkpoint import checkpoint_figures
 from app.services.experiment.plan import (
@@ -32,6 +31,7 @@ from app.services.experiment.plan import (
 from app.services.experiment.results import collect
 from app.services.growing import grow_graph
 from app.services.loading import artifact_store
+from app.services.progress import Advance
 from app.store.experiments import add_checkpoint, done_checkpoints, frames_of_graphs
 from app.store.graph_catalogue import graph_exists
 
@@ -41,11 +41,11 @@ PROGRESS_POLL = 1.0
 PARENT_POLL = 0.5
 
 #: grows the stored graph ``name`` to at least ``to_frames`` frames, ``batch`` blends an epoch
-Grower = Callable[[str, int, int, Progress | None], None]
+Grower = Callable[[str, int, int, Advance | None], None]
 
 
 def grow_in_process(
-    settings: Settings, name: str, to_frames: int, batch: int, progress: Progress | None
+    settings: Settings, name: str, to_frames: int, batch: int, progress: Advance | None
 ) -> None:
     """Grow in this process, every step its own transaction, without renders.
 
@@ -69,7 +69,7 @@ def run_experiment(
     grower: Grower,
     *,
     jobs: int = 1,
-    progress: Progress | None = None,
+    progress: Advance | None = None,
     through: int | None = None,
 ) -> dict[str, Any]:
     """Run (or finish) every run of a stored experiment, through checkpoint index
@@ -98,7 +98,7 @@ def _run_in_processes(
     plan: ExperimentPlan,
     grower: Grower,
     jobs: int,
-    progress: Progress | None,
+    progress: Advance | None,
     last: int,
     reported: int,
 ) -> int:
@@ -152,7 +152,7 @@ def run_one(
     name: str,
     run_index: int,
     grower: Grower,
-    progress: Progress | None = None,
+    progress: Advance | None = None,
     last: int | None = None,
 ) -> None:
     """The plan's run ``run_index`` through its checkpoints (up to index ``last``, all
