@@ -44,13 +44,13 @@ def init(
     if player_model is not None:  # '' too: it names no model, not the default
         parse_player_model(player_model)
     require_intact()
-    total = initial_tree_clips(control_count(dynamics), max(depth, 0))
     shown: Advance | None = None
     with ExitStack() as bar, transaction() as session:
 
         def advance(n: int) -> None:  # the bar shows once the first clip is simulated,
-            nonlocal shown  # after every check: a refusal stays one line
+            nonlocal shown  # after every check (the depth's too): a refusal stays one line
             if shown is None:
+                total = initial_tree_clips(control_count(dynamics), depth)
                 shown = bar.enter_context(progress_bar(total, "clips of the initial tree"))
             shown(n)
 
