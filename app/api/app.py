@@ -35,7 +35,7 @@ from app.config import Settings, get_settings
 from app.core.publication import Publication
 from app.db.engines import make_engine
 from app.db.sessions import session_factory
-from app.store.artifacts import ArtifactStore
+from app.services.loading import artifact_store
 
 if TYPE_CHECKING:
     from app.tasks.broker_health import BrokerProbe
@@ -81,7 +81,7 @@ def create_app(settings: Settings | None = None) -> FastAPI:
     )
     app.state.settings = settings
     app.state.session_factory = session_factory(engine)
-    app.state.artifacts = ArtifactStore(settings.resolved_artifact_dir)
+    app.state.artifacts = artifact_store(settings)
     app.state.rate_limits = RateLimits(settings)
     app.state.publications = FrozenCache[Publication](PUBLICATIONS_CACHED)
     app.state.publication_json = FrozenCache[EncodedJson](PUBLICATION_JSON_CACHED)

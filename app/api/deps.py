@@ -5,10 +5,10 @@ The two bearer tokens (a player's, the admin's) are declared as the OpenAPI secu
 schemes ``playerToken`` and ``adminToken``; their absence is answered here, in the API's
 error shape (401 with ``WWW-Authenticate: Bearer``), not by FastAPI's own.
 
-Routes own their transaction (docs/play.md, "Trace upload, check by check"): a route that
-writes does so in one :func:`~app.store.transactions.in_transaction` (on SQLite: the
-write lock first, and a retry on its lock error); any exception rolls the session back
-here, so a rejected request writes nothing.
+A route that writes does so through a service that writes in one transaction of the
+request's session (docs/play.md, "Trace upload, check by check"; on SQLite: the write
+lock first, and a retry on its lock error); any exception rolls the session back here,
+so a rejected request writes nothing.
 """
 
 from __future__ import annotations
@@ -23,7 +23,7 @@ from sqlalchemy.orm import Session
 from app.api.errors import ApiError
 from app.config import Settings
 from app.db.sessions import Scope, transaction
-from app.store.traces import player_for_token
+from app.services.players import player_for_token
 
 BEARER_CHALLENGE = {"WWW-Authenticate": "Bearer"}
 ADMIN_ROUTES_OFF = "admin routes are off: set SRG_ADMIN_TOKEN"

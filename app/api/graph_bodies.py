@@ -1,28 +1,24 @@
 """The bodies of the graph routes (:mod:`app.api.routes.graphs`): what clients download,
 the graph list and a publication.
 
-The rows come from :mod:`app.store.publications`; here they become the schemas, with
+The rows come from :mod:`app.services.catalogue`; here they become the schemas, with
 the figures a player reads beside the game (the graph's size when published, how much
 of it is blends and how far those blends are from the simulation).
 """
 
 from __future__ import annotations
 
-from typing import Any
-
 from sqlalchemy.orm import Session
 
 from app.api.schemas import EdgeOut, GraphSummary, PublicationOut
 from app.core.graph import EdgeKind
-from app.models import Graph
-from app.store.publications import (
+from app.services.catalogue import (
+    GraphEntry,
     PublishedEdge,
     get_publication,
     graph_listings,
     published_edges,
 )
-
-DEFAULT_FPS = 30.0
 
 
 def list_graphs(session: Session) -> list[GraphSummary]:
@@ -37,7 +33,7 @@ def blend_figures(edges: list[PublishedEdge]) -> tuple[float, float]:
     return len(errors) / len(edges), sum(errors) / len(errors)
 
 
-def publication_out(session: Session, graph: Graph, publication_id: int) -> PublicationOut:
+def publication_out(session: Session, graph: GraphEntry, publication_id: int) -> PublicationOut:
     """Every edge of the publication, grouped per vertex in control order."""
     row = get_publication(session, publication_id)
     edges = published_edges(session, publication_id)
@@ -56,7 +52,6 @@ def publication_out(session: Session, graph: Graph, publication_id: int) -> Publ
         for edge in edges
     ]
     blend_share, mean_blend_error = blend_figures(edges)
-    scene: dict[str, Any] = graph.scene or {}
     return PublicationOut(
         graph=graph.name,
         publication_id=row.id,
@@ -64,7 +59,7 @@ def publication_out(session: Session, graph: Graph, publication_id: int) -> Publ
         start=row.start,
         n_controls=n,
         frames_per_clip=graph.frames_per_clip,
-        fps=float(scene.get("fps", DEFAULT_FPS)),
+        fps=graph.fps,
         size_frames=row.size_frames,
         blend_share=blend_share,
         mean_blend_error=mean_blend_error,

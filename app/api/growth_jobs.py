@@ -17,7 +17,7 @@ import threading
 
 from app.config import Settings
 from app.db.sessions import Scope
-from app.store.growth_requests import end_request, failure_reason, start_request
+from app.services.growth_tracking import end_request, failure_reason, start_request
 
 log = logging.getLogger(__name__)
 

@@ -79,8 +79,8 @@ def grow(
     """Grow a graph in-process (eagerly) by a budget of frames or expansions."""
     from app.config import get_settings
     from app.core.strategies import parse_strategy
+    from app.services.catalogue import MAX_ROW_ID
     from app.services.growing import grow_graph
-    from app.store.graph_catalogue import MAX_ROW_ID
 
     if frames is not None and expansions is not None:
         raise InvalidInput("give --frames or --expansions, not both")
@@ -120,13 +120,12 @@ def publish(
 ) -> None:
     """Relink every blend, render what is missing, freeze a publication for players."""
     from app.config import get_settings
+    from app.services.catalogue import missing_animations
     from app.services.publishing import publish_graph
-    from app.store.animations import count_missing_animations
-    from app.store.graph_catalogue import get_graph_row
 
     require_intact()
     with transaction() as session:
-        missing = count_missing_animations(session, get_graph_row(session, name).id)
+        missing = missing_animations(session, name)
         with progress_bar(missing if render else 0, "animations") as advance:
             result = publish_graph(
                 session, get_settings(), name=name, render=render, progress=advance
@@ -182,8 +181,8 @@ def status(
     json_output: bool = typer.Option(False, "--json", help=JSON_HELP),
 ) -> None:
     """Sizes, publications, epochs and play (traces, players, last upload) of one graph or all."""
+    from app.services.catalogue import graph_ids
     from app.services.status import graph_summary
-    from app.store.graph_catalogue import graph_ids
 
     with transaction() as session:
         graphs = [name] if name is not None else graph_ids(session)
@@ -217,15 +216,13 @@ def gc(
     ``srg beat`` also runs it every SRG_ARTIFACT_GC_INTERVAL seconds.
     """
     from app.config import get_settings
-    from app.services.artifact_gc import collect_artifacts, grace_seconds
-    from app.services.loading import artifact_store
-    from app.store.artifact_gc import count_fanout_directories
+    from app.services.artifact_gc import collect_artifacts, count_fanout_directories, grace_seconds
 
     settings = get_settings()
     grace = grace_seconds(settings, older_than)  # refused before the bar shows
     if not dry_run:
         require_intact()
-    directories = count_fanout_directories(artifact_store(settings))
+    directories = count_fanout_directories(settings)
     with progress_bar(directories, "artifact directories") as advance:
         result = collect_artifacts(settings, older_than=grace, dry_run=dry_run, progress=advance)
     emit(result, json_output)

@@ -90,14 +90,14 @@ def grow_epoch(name: str = typer.Argument(..., help="graph name or id")) -> None
     """Send one grow_epoch task now (what beat sends); prints its task id."""
     from app.config import get_settings
     from app.db.sessions import transaction
-    from app.store.graph_catalogue import get_graph_row
+    from app.services.catalogue import find_graph
     from app.tasks.celery_app import require_broker
     from app.tasks.growth import grow_epoch as task
 
     _require_broker()
     require_broker(get_settings())
     with transaction() as session:
-        graph_id = get_graph_row(session, name).id
+        graph_id = find_graph(session, name).id
     typer.echo(task.delay(graph_id).id)
 
 

@@ -10,6 +10,7 @@ from __future__ import annotations
 
 from collections.abc import Callable, Mapping
 from functools import partial
+from pathlib import Path
 
 import numpy as np
 from sqlalchemy.orm import Session
@@ -23,13 +24,14 @@ from app.services.dynamics import threshold_in_force
 from app.services.loading import LoadedGraph
 from app.services.progress import Advance
 from app.store.animations import (
+    animation_media_type,
     clip_animations,
     edges_without_animation,
     rendered_clip_features,
     rendered_clips,
     set_animations,
 )
-from app.store.artifacts import ArtifactStore
+from app.store.artifacts import ArtifactNotFound, ArtifactStore
 
 
 def reuse_error_limit(settings: Settings, dynamics: Dynamics) -> float:
@@ -204,3 +206,19 @@ def render_missing_animations(
             progress(1)
     set_animations(session, graph_id, clips=new_clips, edges=edges)
     return len(edges)
+
+
+def animation_file(session: Session, store: ArtifactStore, digest: str) -> tuple[Path, str] | None:
+    """The file, checked against its hash, and media type of a stored animation; None when
+    no edge's animation has that digest or its file is gone.
+
+    A file whose bytes no longer match the digest is moved aside by the store, which
+    raises :class:`~app.store.artifacts.ArtifactCorrupt`: it is never served under it.
+    """
+    media_type = animation_media_type(session, digest)
+    if media_type is None:
+        return None
+    try:
+        return store.verified_path(digest), media_type
+    except ArtifactNotFound:
+        return None

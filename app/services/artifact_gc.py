@@ -10,10 +10,8 @@ import math
 from collections.abc import Callable
 from dataclasses import dataclass
 
-from sqlalchemy.exc import IntegrityError
-
 from app.config import Settings
-from app.core.errors import Conflict, InvalidInput
+from app.core.errors import InvalidInput
 from app.db.sessions import transaction
 from app.services.loading import artifact_store
 from app.store.artifact_gc import (
@@ -21,6 +19,7 @@ from app.store.artifact_gc import (
     remove_collected_files,
     scan_artifact_files,
 )
+from app.store.artifact_gc import count_fanout_directories as _count_fanout_directories
 
 
 @dataclass(frozen=True)
@@ -32,6 +31,11 @@ class ArtifactGcResult:
     #: files removed (or, dry, that would be)
     files: int
     bytes_freed: int
+
+
+def count_fanout_directories(settings: Settings) -> int:
+    """The directories a collection walks: the total of its progress bar."""
+    return _count_fanout_directories(artifact_store(settings))
 
 
 def grace_seconds(settings: Settings, older_than: float | None) -> float:
@@ -56,11 +60,8 @@ def collect_artifacts(
     """
     grace = grace_seconds(settings, older_than)
     scan = scan_artifact_files(artifact_store(settings), older_than=grace, progress=progress)
-    try:
-        with transaction() as session:
-            collection = collect_orphaned_artifacts(session, scan, dry_run=dry_run)
-    except IntegrityError as exc:  # a step referenced one of them meanwhile (PostgreSQL)
-        raise Conflict("an artifact came into use while collecting; collect again") from exc
+    with transaction() as session:
+        collection = collect_orphaned_artifacts(session, scan, dry_run=dry_run)
     remove_collected_files(collection)  # only once the rows' deletion is committed
     return ArtifactGcResult(
         dry_run=dry_run,

@@ -2,12 +2,11 @@
 
 from __future__ import annotations
 
-from sqlalchemy.exc import IntegrityError
 from sqlalchemy.orm import Session
 
 from app.config import Settings
 from app.core.clipbank import MemoryClipBank
-from app.core.errors import Conflict, InvalidInput
+from app.core.errors import InvalidInput
 from app.core.growth import initial_tree
 from app.core.names import check_name
 from app.core.player_models import parse_player_model
@@ -17,16 +16,12 @@ from app.services.dynamics import make_dynamics
 from app.services.loading import artifact_store
 from app.services.progress import Advance
 from app.services.status import graph_summary
-from app.store.graph_catalogue import create_graph, graph_exists, graph_name_length
+from app.store.graph_catalogue import GraphExists, create_graph, graph_exists, graph_name_length
 from app.store.graph_persistence import save_graph
 
 #: the most simulated clips ``srg init --depth`` may ask of the initial tree; past it the
 #: tree grows as N^depth and a typo would run for ever (growth refines from there)
 MAX_INITIAL_CLIPS = 1_000
-
-
-class GraphExists(Conflict):
-    """A graph of that name is already stored."""
 
 
 def check_initial_depth(depth: int, n_controls: int) -> None:
@@ -88,19 +83,16 @@ def init_graph(
         scene["preset"] = preset
     if fluid is not None:
         scene["fluid"] = fluid
-    try:
-        graph_id = create_graph(
-            session,
-            name=name,
-            dynamics=dynamics,
-            n_controls=model.n_controls,
-            frames_per_clip=model.frames_per_clip,
-            scene=scene,
-            seed=seed,
-            strategy=chosen.value,
-            player_model=crowd_model.value,
-        )
-    except IntegrityError:
-        raise GraphExists(f"a graph named {name!r} already exists") from None
+    graph_id = create_graph(
+        session,
+        name=name,
+        dynamics=dynamics,
+        n_controls=model.n_controls,
+        frames_per_clip=model.frames_per_clip,
+        scene=scene,
+        seed=seed,
+        strategy=chosen.value,
+        player_model=crowd_model.value,
+    )
     save_graph(session, graph_id, graph, bank, artifacts)
     return graph_summary(session, graph_id)

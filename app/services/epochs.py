@@ -60,7 +60,9 @@ from app.store.epochs import (
     start_epoch,
     stored_clips,
 )
+from app.store.epochs import EpochTaken as EpochTaken  # a racing tick: nothing to do
 from app.store.graph_catalogue import get_graph_row, stored_edge_kind
+from app.store.graph_persistence import StaleGraph as StaleGraph  # a racing writer: retry
 from app.store.graph_persistence import save_graph
 from app.store.locks import lock_epoch_graph, lock_graph
 

@@ -17,6 +17,7 @@ from app.services.loading import LoadedGraph, open_graph
 from app.services.progress import Advance
 from app.store.graph_persistence import save_graph
 from app.store.publications import get_publication, publish
+from app.store.transactions import in_transaction
 
 
 @dataclass
@@ -65,3 +66,10 @@ def publish_graph(
         rendered=rendered,
         size_frames=loaded.graph.size_frames,
     )
+
+
+def publish_in_transaction(session: Session, settings: Settings, name: str | int) -> PublishResult:
+    """:func:`publish_graph` with renders in one write transaction of ``session`` (on
+    SQLite: the write lock first, since background growth commits between its reads and
+    its writes)."""
+    return in_transaction(session, lambda: publish_graph(session, settings, name=name))

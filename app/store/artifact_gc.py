@@ -34,8 +34,10 @@ from datetime import UTC, datetime, timedelta
 from pathlib import Path
 
 from sqlalchemy import Column, delete, select, union
+from sqlalchemy.exc import IntegrityError
 from sqlalchemy.orm import Session
 
+from app.core.errors import Conflict
 from app.models import Artifact, Base
 from app.store.artifacts import ArtifactStore
 
@@ -157,7 +159,12 @@ def collect_orphaned_artifacts(
                 .where(Artifact.hash.in_(batch), orphaned)  # re-checked as it deletes
                 .returning(Artifact.hash)
             )
-            deleted += session.scalars(statement).all()
+            try:
+                deleted += session.scalars(statement).all()
+            except IntegrityError:  # a step referenced one of them meanwhile (PostgreSQL)
+                raise Conflict(
+                    "an artifact came into use while collecting; collect again"
+                ) from None
     collection.rows = len(deleted)
     # a row's file, and a file with no row at all (its step never committed)
     deleted_set = set(deleted)

@@ -1,7 +1,7 @@
 """Growth epoch rows: one per ``grow_epoch`` run, numbered per graph.
 
 The unique ``(graph_id, number)`` makes a second concurrent start of the same epoch fail
-in the database, a backstop behind the per-graph growth lock.
+in the database (:class:`EpochTaken`), a backstop behind the per-graph growth lock.
 """
 
 from __future__ import annotations
@@ -10,9 +10,10 @@ import time
 from enum import StrEnum
 
 from sqlalchemy import func, select, update
+from sqlalchemy.exc import IntegrityError
 from sqlalchemy.orm import Session
 
-from app.core.errors import NotFound
+from app.core.errors import Conflict, NotFound
 from app.models import ExpansionClip, GrowthEpoch
 from app.store._sql import insert_ignoring_duplicates
 
@@ -23,8 +24,13 @@ class EpochStatus(StrEnum):
     FAILED = "failed"
 
 
+class EpochTaken(Conflict):
+    """Another writer opened the graph's next epoch first."""
+
+
 def start_epoch(session: Session, graph_id: int, strategy: str, *, renders: bool = True) -> int:
-    """Open the graph's next epoch; return its id."""
+    """Open the graph's next epoch; return its id (:class:`EpochTaken` if another writer
+    opened that number first)."""
     last = session.scalar(
         select(func.max(GrowthEpoch.number)).where(GrowthEpoch.graph_id == graph_id)
     )
@@ -39,7 +45,12 @@ def start_epoch(session: Session, graph_id: int, strategy: str, *, renders: bool
         size_frames=0,
     )
     session.add(row)
-    session.flush()
+    try:
+        session.flush()
+    except IntegrityError:
+        raise EpochTaken(
+            f"epoch {row.number} of graph {graph_id} was opened by another writer"
+        ) from None
     return row.id
 
 

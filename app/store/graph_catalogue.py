@@ -13,14 +13,19 @@ from collections.abc import Mapping
 from typing import Any
 
 from sqlalchemy import String, func, select
+from sqlalchemy.exc import IntegrityError
 from sqlalchemy.orm import Session
 
-from app.core.errors import NotFound
+from app.core.errors import Conflict, NotFound
 from app.models import Clip, Edge, Graph
 
 
 class GraphNotFound(NotFound):
     """No graph with that name or id."""
+
+
+class GraphExists(Conflict):
+    """A graph of that name is already stored."""
 
 
 def create_graph(
@@ -35,7 +40,11 @@ def create_graph(
     strategy: str = "sr-crowd",
     player_model: str = "eq2",
 ) -> int:
-    """Add an empty graph row and return its id; :func:`save_graph` fills it."""
+    """Add an empty graph row and return its id; :func:`save_graph` fills it.
+
+    :class:`GraphExists` when the name is taken, also by a writer that committed it
+    after the caller checked (the unique name is the last word).
+    """
     row = Graph(
         name=name,
         dynamics=dynamics,
@@ -49,7 +58,10 @@ def create_graph(
         revision=0,
     )
     session.add(row)
-    session.flush()
+    try:
+        session.flush()
+    except IntegrityError:
+        raise GraphExists(f"a graph named {name!r} already exists") from None
     return row.id
 
 

@@ -25,16 +25,19 @@ from typing import Any
 from celery import chain, chord, group
 from celery.canvas import Signature
 from celery.utils.log import get_task_logger
-from sqlalchemy.exc import IntegrityError, OperationalError
+from sqlalchemy.exc import OperationalError
 
 from app.config import get_settings
 from app.core.refinement import GrowthBudget
 from app.db.sessions import transaction
 from app.services import clips, epochs, rank_relink_publish
-from app.store.epochs import running_epoch
-from app.store.graph_catalogue import get_graph_row, size_frames
-from app.store.graph_persistence import StaleGraph
-from app.store.growth_requests import end_request, failure_reason, start_request
+from app.services.catalogue import find_graph, size_frames
+from app.services.growth_tracking import (
+    end_request,
+    failure_reason,
+    running_epoch_state,
+    start_request,
+)
 from app.tasks.celery_app import celery_app
 
 log = get_task_logger(__name__)
@@ -85,7 +88,7 @@ def integrate(self: Any, epoch_id: int, position: int, renders: bool | None = No
         raise self.retry(
             exc=exc, countdown=NOT_READY_DELAY, max_retries=settings.task_max_retries
         ) from exc
-    except (StaleGraph, OperationalError) as exc:  # a racing writer, a dropped connection
+    except (epochs.StaleGraph, OperationalError) as exc:  # a racing writer, a dropped connection
         raise self.retry(exc=exc, countdown=0.5, max_retries=settings.task_max_retries) from exc
     log.info(
         "epoch %d: expansion %d %s (vertex %s)%s",
@@ -170,7 +173,7 @@ def _plan_and_send(graph_id: int, count: int | None, renders: bool | None) -> in
     try:
         with transaction() as session:
             plan = epochs.plan_epoch(session, settings, graph_id, count=count, renders=renders)
-    except IntegrityError:  # another tick opened the same epoch number first
+    except epochs.EpochTaken:  # another tick opened the same epoch number first
         return None
     if plan is None:
         log.info("graph %d: an epoch is running; this tick does nothing", graph_id)
@@ -252,8 +255,8 @@ def grow_on_workers(
     """
     settings = get_settings()
     with transaction() as session:
-        row = get_graph_row(session, name)
-        graph_id, per_expansion = row.id, row.n_controls * row.frames_per_clip
+        graph = find_graph(session, name)
+    graph_id, per_expansion = graph.id, graph.frames_per_expansion
     size = _size_frames(graph_id)
     budget = GrowthBudget.of(size, to_frames=to_frames)
     while (left := budget.left(size, 0, per_expansion)) > 0:
@@ -281,8 +284,7 @@ def _wait_for_epochs(graph_id: int, resend_after: float) -> None:
     seen: tuple[int, float | None] | None = None
     while True:
         with transaction() as session:
-            running = running_epoch(session, graph_id)
-            state = None if running is None else (running.id, running.heartbeat)
+            state = running_epoch_state(session, graph_id)
         if state is None:
             return
         if state != seen:

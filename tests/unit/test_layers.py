@@ -2,8 +2,9 @@
 
 The contracts live in ``pyproject.toml`` (``[tool.importlinter]``): the core imports
 nothing of ``app``, the learned player models import no bot's policy, nothing imports the
-CLI, services import neither the shells nor the benchmarks, no import circles at any depth,
-and the layers from the CLI down to the core.
+CLI, services import neither the shells nor the benchmarks, the API, the tasks and the CLI
+reach the store only through services, no import circles at any depth, and the layers
+from the CLI down to the core.
 Function-level imports count: an arrow hidden inside a function is still an arrow.
 
 Import-linter sees packages, not statements, so one rule is checked here by reading the
@@ -20,7 +21,7 @@ from pathlib import Path
 
 ROOT = Path(__file__).resolve().parents[2]
 LINT_IMPORTS = Path(sys.executable).with_name("lint-imports")
-CONTRACTS = 6
+CONTRACTS = 7
 #: where SQL may be written: the store, the tables, the engines, and the benchmarks'
 #: throwaway databases (``CREATE DATABASE`` on a scratch server)
 SQL_HOMES = ("app/store/", "app/models/", "app/db/", "app/bench/scratch.py")
@@ -52,7 +53,8 @@ def test_the_code_keeps_every_contract() -> None:
 
 def test_an_arrow_back_up_breaks_the_contracts(tmp_path: Path) -> None:
     # a copy of the package's modules, with the core importing the CLI (which imports the
-    # core: a circle too), a service importing the tasks and a player model the bots
+    # core: a circle too), a service importing the tasks, a player model the bots and a
+    # route the store
     shutil.copytree(
         ROOT / "app",
         tmp_path / "app",
@@ -64,12 +66,14 @@ def test_an_arrow_back_up_breaks_the_contracts(tmp_path: Path) -> None:
     (tmp_path / "app" / "services" / "upward.py").write_text("import app.tasks\n")
     model = tmp_path / "app" / "core" / "neighbour_model.py"
     model.write_text(model.read_text() + "\nimport app.core.bots\n")
+    (tmp_path / "app" / "api" / "routes" / "upward.py").write_text("import app.store.traces\n")
     done = lint_imports(tmp_path)
     assert done.returncode == 1, done.stdout + done.stderr
     assert f"Contracts: 0 kept, {CONTRACTS} broken." in done.stdout, done.stdout
     assert "app.core.upward -> app.cli.main" in done.stdout
     assert "app.services.upward -> app.tasks" in done.stdout
     assert "app.core.neighbour_model -> app.core.bots" in done.stdout
+    assert "app.api.routes.upward -> app.store.traces" in done.stdout
 
 
 def sql_outside_the_store(root: Path) -> list[str]:

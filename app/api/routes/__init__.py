@@ -1,2 +1,2 @@
-"""HTTP routes, one module per resource; each route is thin: parse, call the store, and
-write (if it writes) in one :func:`~app.store.transactions.in_transaction`."""
+"""HTTP routes, one module per resource; each route is thin: parse, call a service (which
+writes, if it writes, in one transaction of the request's session), answer."""

@@ -1,9 +1,8 @@
 """Admin actions on a graph: publish the current version, queue growth, follow its epochs.
 
 All need ``Authorization: Bearer <admin_token>`` and are off (403) while no token is
-configured. Publishing is done by the graph service the CLI calls too, in the write
-transaction of every route that writes (:func:`~app.store.transactions.in_transaction`:
-on SQLite, background growth commits between its reads and its writes); growth is only
+configured. Publishing is done by the graph service the CLI calls too, in one write
+transaction (:func:`~app.services.publishing.publish_in_transaction`); growth is only
 queued here (:mod:`app.api.growth_jobs`) and answered with 202 and the epochs to poll.
 """
 
@@ -30,10 +29,16 @@ from app.api.schemas import (
 )
 from app.config import Settings
 from app.db.sessions import Scope
-from app.store.epochs import epochs_after, last_epoch_number
-from app.store.graph_catalogue import get_graph_row
-from app.store.growth_requests import RequestState, RequestView, add_request, latest_request
-from app.store.transactions import in_transaction
+from app.services.catalogue import find_graph
+from app.services.growth_tracking import (
+    RequestState,
+    RequestView,
+    epochs_after,
+    last_epoch_number,
+    latest_request,
+    queue_request,
+    running_epoch_number,
+)
 
 router = APIRouter(
     prefix="/api/graphs",
@@ -53,10 +58,9 @@ EPOCHS_LISTED = 100
     responses=error_responses(404, 413, s404="no such graph", s413="a body over max_body_bytes"),
 )
 def publish(name: str, request: Request, session: Session = Depends(get_session)) -> AdminResult:
-    from app.services.publishing import publish_graph
+    from app.services.publishing import publish_in_transaction
 
-    settings = request.app.state.settings
-    result = in_transaction(session, lambda: publish_graph(session, settings, name=name))
+    result = publish_in_transaction(session, request.app.state.settings, name)
     return AdminResult(graph=name, result=_as_dict(result))
 
 
@@ -90,10 +94,10 @@ def grow(
     expansions = (body or GrowRequest()).expansions
     settings: Settings = request.app.state.settings
     jobs: GrowthJobs = request.app.state.growth_jobs
-    row = get_graph_row(session, name)
-    graph_id, graph_name = row.id, row.name
+    graph = find_graph(session, name)
+    graph_id, graph_name = graph.id, graph.name
     after = last_epoch_number(session, graph_id)
-    running = _running_epoch(session, graph_id)
+    running = running_epoch_number(session, graph_id)
     session.commit()  # only reads: end them before queueing
     poll = f"{router.prefix}/{quote(graph_name, safe='')}/epochs?after={after}"
     runs_on: Literal["workers", "server"] = "server" if settings.eager else "workers"
@@ -109,9 +113,7 @@ def grow(
             409, f"graph {graph_name!r} is already growing in this server", details={"poll": poll}
         )
     try:
-        request_id = in_transaction(
-            session, lambda: add_request(session, graph_id, expansions, runs_on)
-        )
+        request_id = queue_request(session, graph_id, expansions, runs_on)
     except BaseException:
         if settings.eager:
             jobs.release(graph_id)
@@ -140,14 +142,14 @@ def epochs(
     session: Session = Depends(get_session),
 ) -> GraphEpochs:
     """The graph's growth epochs numbered above ``after``, oldest first: a grow's progress."""
-    row = get_graph_row(session, name)
+    graph = find_graph(session, name)
     jobs: GrowthJobs = request.app.state.growth_jobs
-    listed = epochs_after(session, row.id, after, EPOCHS_LISTED)
-    running = jobs.running(row.id) or _running_epoch(session, row.id) is not None
+    listed = epochs_after(session, graph.id, after, EPOCHS_LISTED)
+    running = jobs.running(graph.id) or running_epoch_number(session, graph.id) is not None
     return GraphEpochs(
-        graph=row.name,
+        graph=graph.name,
         running=running,
-        growth=_growth_out(latest_request(session, row.id), jobs.running(row.id)),
+        growth=_growth_out(latest_request(session, graph.id), jobs.running(graph.id)),
         epochs=[
             EpochOut(
                 id=epoch.id,
@@ -181,14 +183,6 @@ def _growth_out(view: RequestView | None, job_running: bool) -> GrowthOut | None
         request=view.id, expansions=view.expansions, runs_on=view.runs_on, state=state,
         reason=reason,
     )  # fmt: skip
-
-
-def _running_epoch(session: Session, graph_id: int) -> int | None:
-    """The number of the graph's running epoch, if one runs."""
-    from app.store.epochs import running_epoch
-
-    running = running_epoch(session, graph_id)
-    return None if running is None else running.number
 
 
 def _as_dict(result: object) -> dict[str, object]:

@@ -31,8 +31,7 @@ from app.render.animation import (
     encode_poster,
     phone_strip,
 )
-from app.store.animations import animation_media_type
-from app.store.artifacts import ArtifactNotFound, ArtifactStore
+from app.services.animations import animation_file
 
 router = APIRouter(prefix="/api/animations", tags=["animations"])
 
@@ -48,14 +47,14 @@ def _stored(session: Session, request: Request, digest: str) -> tuple[Path, str]
     served under it (its ETag would be a lie, cached for a year): the store moves it
     aside and :class:`~app.store.artifacts.ArtifactCorrupt` answers 503.
     """
-    media_type = animation_media_type(session, digest) if SHA256_HEX.fullmatch(digest) else None
-    if media_type is None:
+    found = (
+        animation_file(session, request.app.state.artifacts, digest)
+        if SHA256_HEX.fullmatch(digest)
+        else None
+    )
+    if found is None:
         raise ApiError(404, f"no animation {digest}")
-    store: ArtifactStore = request.app.state.artifacts
-    try:
-        return store.verified_path(digest), media_type
-    except ArtifactNotFound:
-        raise ApiError(404, f"no animation {digest}") from None
+    return found
 
 
 def _not_modified(request: Request, etag: str) -> Response | None:
@@ -134,7 +133,7 @@ def _derived(
     cut once per process and kept (``app.state.derived``): the stored clip never changes.
     """
     _stored(session, request, digest)
-    store: ArtifactStore = request.app.state.artifacts
+    store = request.app.state.artifacts
     etag = f'"{digest}-{kind}-{frames}"'
     cached = _not_modified(request, etag)
     if cached is not None:

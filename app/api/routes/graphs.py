@@ -11,8 +11,7 @@ from app.api.encoding import EncodedJson, accepts_gzip, etag_matches
 from app.api.errors import error_responses
 from app.api.graph_bodies import list_graphs, publication_out
 from app.api.schemas import GraphSummary, PublicationOut
-from app.store.graph_catalogue import get_graph_row
-from app.store.publications import latest_publication_id
+from app.services.catalogue import find_graph, latest_publication_id
 
 router = APIRouter(prefix="/api/graphs", tags=["graphs"])
 
@@ -41,7 +40,7 @@ def latest_publication(
     ``no-cache``: browsers revalidate (``If-None-Match``, answered 304 while the
     publication is still the latest), because a newer one may appear any time.
     """
-    graph = get_graph_row(session, name)
+    graph = find_graph(session, name)
     publication_id = latest_publication_id(session, graph.id)
     rendered: FrozenCache[EncodedJson] = request.app.state.publication_json
     encoded = rendered.get_or_load(

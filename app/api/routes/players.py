@@ -9,8 +9,6 @@ grow the players table without bound. A player is a person unless the body says 
 
 from __future__ import annotations
 
-import secrets
-
 from fastapi import APIRouter, Depends
 from sqlalchemy.orm import Session
 
@@ -19,8 +17,7 @@ from app.api.errors import error_responses
 from app.api.ratelimit import limited_registration
 from app.api.schemas import PlayerCreated, PlayerRequest
 from app.core.players import PlayerKind
-from app.store.traces import get_or_create_player
-from app.store.transactions import in_transaction
+from app.services.players import register_player as register
 
 router = APIRouter(prefix="/api/players", tags=["players"])
 
@@ -34,7 +31,7 @@ router = APIRouter(prefix="/api/players", tags=["players"])
 def register_player(
     body: PlayerRequest | None = None, session: Session = Depends(get_session)
 ) -> PlayerCreated:
-    kind = body.kind if body else PlayerKind.PERSON
-    name = f"{kind}-{secrets.token_hex(8)}"
-    player_id, token = in_transaction(session, lambda: get_or_create_player(session, name, kind))
-    return PlayerCreated(player_id=player_id, name=name, kind=kind, token=token)
+    player = register(session, body.kind if body else PlayerKind.PERSON)
+    return PlayerCreated(
+        player_id=player.id, name=player.name, kind=player.kind, token=player.token
+    )

@@ -22,9 +22,7 @@ from app.api.errors import ApiError, error_responses, validation_details
 from app.api.ratelimit import limited_uploader
 from app.api.schemas import TraceStored, TraceUpload
 from app.core.publication import Publication
-from app.store.publications import load_publication
-from app.store.traces import record_trace
-from app.store.transactions import in_transaction
+from app.services.trace_upload import load_publication, store_trace
 
 router = APIRouter(prefix="/api/traces", tags=["traces"])
 
@@ -83,16 +81,8 @@ def upload_trace(
     steps = np.asarray(upload.steps, dtype=np.int64).reshape(len(upload.steps), 2)
     # a step off the edges (422, naming it) or a reused key with other steps (409): the
     # store's SrgErrors
-    trace_id, created = in_transaction(
-        session,
-        lambda: record_trace(
-            session,
-            upload.publication_id,
-            player_id,
-            upload.idempotency_key,
-            steps,
-            publication=publication,
-        ),
+    trace_id, created = store_trace(
+        session, publication, upload.publication_id, player_id, upload.idempotency_key, steps
     )
     response.status_code = 201 if created else 200
     return TraceStored(
