@@ -64,11 +64,11 @@ def bench_dedup(
     """
     with transaction() as session:
         loaded = open_graph(session, settings, name)
-        strips = clip_animations(session, loaded.row.id)
-        stored = graph_animations(session, loaded.row.id)
+        strips = clip_animations(session, loaded.entry.id)
+        stored = graph_animations(session, loaded.entry.id)
     graph, artifacts = loaded.graph, loaded.artifacts
     threshold = threshold_in_force(settings, loaded.dynamics)
-    k = loaded.row.frames_per_clip
+    k = loaded.entry.frames_per_clip
     size = {digest: len(artifacts.get_bytes(digest)) for digest in stored}
     frames = max(graph.size_frames, 1)
 
@@ -131,7 +131,7 @@ def bench_dedup(
             )
             tiles.append(Tile(images(strips[found.clip])[middle].astype(np.uint8), caption))
         title = (
-            f"{loaded.row.name}: worst substitutions at {fractions[-1]} x the high-error "
+            f"{loaded.entry.name}: worst substitutions at {fractions[-1]} x the high-error "
             f"threshold, frame {k // 2 + 1} of {k}"
         )
         picture = Image.fromarray(contact_sheet(title, tiles, columns=4))
@@ -146,7 +146,7 @@ def bench_dedup(
         nearest.note(clip, strips[clip], rendered=True)
     motion = [float(np.abs(np.diff(images(strips[clip]), axis=0)).mean()) for clip in clips[:64]]
     return {
-        "graph": loaded.row.name,
+        "graph": loaded.entry.name,
         "size_frames": graph.size_frames,
         "clips": graph.n_clips,
         "clips_with_strips": len(strips),

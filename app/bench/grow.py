@@ -35,6 +35,7 @@ from app.config import Settings
 from app.core.clipbank import MemoryClipBank
 from app.core.dynamics import Dynamics
 from app.core.graph import EdgeKind, StateGraph
+from app.core.graph_entry import GraphScene
 from app.core.growth import expand_blend_edge, initial_tree
 from app.db.engines import make_engine
 from app.db.sessions import session_factory
@@ -226,9 +227,6 @@ def _integration(
     start = time.perf_counter()
     graph = _grown_graph(dynamics, bank, edges=edges, frames=frames)
     build = time.perf_counter() - start
-    scene: dict[str, object] = {"fps": dynamics.fps}
-    if preset is not None:
-        scene["preset"] = preset
     with tempfile.TemporaryDirectory() as tmp, scratch_database(settings.test_postgres_url) as url:
         fields: dict[str, Any] = {
             "database_url": url,
@@ -247,7 +245,7 @@ def _integration(
                 dynamics=dynamics_name,
                 n_controls=dynamics.n_controls,
                 frames_per_clip=dynamics.frames_per_clip,
-                scene=scene,
+                scene=GraphScene(fps=dynamics.fps, preset=preset),
                 strategy="max-error",
             )
             save_graph(

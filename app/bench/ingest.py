@@ -30,6 +30,7 @@ from app.core.bots import BotKind, play_sessions
 from app.core.clipbank import MemoryClipBank
 from app.core.errors import InvalidInput
 from app.core.graph import StateGraph
+from app.core.graph_entry import GraphScene
 from app.core.growth import expand_blend_edge, initial_tree
 from app.core.toy import ToyDynamics
 from app.db.engines import make_engine
@@ -67,7 +68,7 @@ def build_toy_graph(
         dynamics=dynamics.name,
         n_controls=dynamics.n_controls,
         frames_per_clip=dynamics.frames_per_clip,
-        scene={"fps": dynamics.fps},
+        scene=GraphScene(fps=dynamics.fps),
     )
     save_graph(session, graph_id, graph, bank, artifacts)
     return ToyGraph(graph_id, graph, bank, dynamics)

@@ -27,7 +27,7 @@ from app.services.loading import artifact_store, graph_dynamics
 from app.store.animations import clip_animations
 from app.store.array_codec import decode_arrays
 from app.store.artifacts import ArtifactStore
-from app.store.graph_catalogue import clip_bundle_digest, get_graph_row
+from app.store.graph_catalogue import clip_bundle_digest, graph_entry
 
 #: a frame with more near-black pixels than this share counts as showing shards
 SHARD_FRAME = 0.005
@@ -52,12 +52,12 @@ def _inside_silhouette(
 
 def bench_look(settings: Settings, name: str) -> dict[str, Any]:
     with session_factory()() as session:
-        row = get_graph_row(session, name)
-        strips = clip_animations(session, row.id)
-        frames_per_clip = row.frames_per_clip
+        entry = graph_entry(session, name)
+        strips = clip_animations(session, entry.id)
+        frames_per_clip = entry.frames_per_clip
         source = {digest: clip for clip, digest in sorted(strips.items(), reverse=True)}
-        bundles = {clip: clip_bundle_digest(session, row.id, clip) for clip in source.values()}
-        dyn = graph_dynamics(row, settings)
+        bundles = {clip: clip_bundle_digest(session, entry.id, clip) for clip in source.values()}
+        dyn = graph_dynamics(entry, settings)
     if not strips:
         raise NotFound(f"graph {name!r} has no rendered clips: run srg publish {name}")
     store = artifact_store(settings)

@@ -20,7 +20,7 @@ from app.services.dynamics import threshold_in_force
 from app.services.loading import graph_dynamics
 from app.services.prediction import latest_play_prediction
 from app.store.analytics import graph_analytics
-from app.store.graph_catalogue import get_graph_row
+from app.store.graph_catalogue import graph_entry
 
 
 def played_graph_analytics(
@@ -40,12 +40,12 @@ def played_graph_analytics(
     """
     if player_model is not None:  # '' names no model either
         parse_player_model(player_model)
-    row = get_graph_row(session, graph)
+    entry = graph_entry(session, graph)
     if threshold is None:
-        threshold = threshold_in_force(settings, graph_dynamics(row, settings))
+        threshold = threshold_in_force(settings, graph_dynamics(entry, settings))
     report: dict[str, Any] = {
         "graph": graph,
-        **graph_analytics(session, row.id, threshold, players),
+        **graph_analytics(session, entry.id, threshold, players),
     }
     report["prediction"] = latest_play_prediction(session, settings, graph, player_model, players)
     report["warnings"] = [

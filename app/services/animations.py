@@ -187,7 +187,7 @@ def render_missing_animations(
     eq. 8's blend of its dead-end clip into its target's clip. SIM edges go in clip
     order, so a strip's owner is the first clip holding it (:mod:`app.core.dedup`).
     """
-    graph_id, graph = loaded.row.id, loaded.graph
+    graph_id, graph = loaded.entry.id, loaded.graph
     missing = edges_without_animation(session, graph_id, graph.n_controls)
     reuse = AnimationReuse.of_graph(loaded, clip_animations(session, graph_id), max_reuse_error)
     new_clips: dict[int, str] = {}

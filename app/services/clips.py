@@ -20,14 +20,14 @@ from sqlalchemy.orm import Session
 from app.config import Settings
 from app.core.dynamics import ClipFeatures, Dynamics, SimClip
 from app.core.errors import NotFound
-from app.models import Graph
+from app.core.graph_entry import GraphEntry
 from app.services.animations import AnimationReuse, frames_strip, reuse_error_limit
 from app.services.loading import artifact_store, graph_dynamics
 from app.store.animations import clip_features, set_animations, stored_clip
 from app.store.array_codec import ARRAYS_MEDIA_TYPE
 from app.store.artifacts import ArtifactCorrupt, ArtifactNotFound
 from app.store.epochs import expansion_clip, get_epoch, record_clip
-from app.store.graph_catalogue import clip_bundle_digest, get_graph_row
+from app.store.graph_catalogue import clip_bundle_digest, graph_entry
 from app.store.simulated_clips import record_simulated_clip, simulated_clip
 
 
@@ -58,14 +58,14 @@ class ClipJob:
     control: int
 
 
-def planned_clip(session: Session, epoch_id: int, position: int) -> tuple[Graph, int]:
+def planned_clip(session: Session, epoch_id: int, position: int) -> tuple[GraphEntry, int]:
     """The graph of the epoch and the dead-end clip its expansion ``position`` starts from."""
     epoch = get_epoch(session, epoch_id)
-    row = get_graph_row(session, epoch.graph_id)
+    entry = graph_entry(session, epoch.graph_id)
     plan = epoch.plan or []
     if not 0 <= position < len(plan):
         raise NotFound(f"epoch {epoch_id} plans no expansion {position}")
-    return row, int(plan[position][1])
+    return entry, int(plan[position][1])
 
 
 def clip_job(
@@ -80,12 +80,12 @@ def clip_job(
 def _planned_job(
     session: Session, settings: Settings, epoch_id: int, position: int, control: int
 ) -> ClipJob:
-    row, dead_end = planned_clip(session, epoch_id, position)
-    bundle = clip_bundle_digest(session, row.id, dead_end)
+    entry, dead_end = planned_clip(session, epoch_id, position)
+    bundle = clip_bundle_digest(session, entry.id, dead_end)
     if bundle is None:
-        raise NotFound(f"graph {row.id} has no clip {dead_end}")
+        raise NotFound(f"graph {entry.id} has no clip {dead_end}")
     state = artifact_store(settings).get_arrays(bundle, ("end_state",))["end_state"]
-    return ClipJob(graph_dynamics(row, settings), state, control)
+    return ClipJob(graph_dynamics(entry, settings), state, control)
 
 
 def simulation_key(job: ClipJob) -> str | None:
@@ -238,21 +238,21 @@ def render_step(
         raise NotFound(f"epoch {epoch_id} has no clip {control} of expansion {position}")
     if control != 0:
         return clip
-    row, dead_end = planned_clip(session, epoch_id, position)
-    stored = stored_clip(session, row.id, dead_end)
+    entry, dead_end = planned_clip(session, epoch_id, position)
+    stored = stored_clip(session, entry.id, dead_end)
     if stored.animation is not None:
         return clip
     artifacts = artifact_store(settings)
-    dynamics = graph_dynamics(row, settings)
+    dynamics = graph_dynamics(entry, settings)
     frames = artifacts.get_arrays(stored.bundle, ("frames",))["frames"]
     features = clip_features(stored, dynamics.shape(frames))
     limit = reuse_error_limit(settings, dynamics)
-    reuse = AnimationReuse.of_stored(session, artifacts, dynamics, row.id, stored.control, limit)
+    reuse = AnimationReuse.of_stored(session, artifacts, dynamics, entry.id, stored.control, limit)
     found = reuse.substitute(features, before=dead_end)
     strip = (
         frames_strip(session, artifacts, dynamics, frames)
         if found is None
         else reuse.animations[found.clip]
     )
-    set_animations(session, row.id, clips={dead_end: strip})
+    set_animations(session, entry.id, clips={dead_end: strip})
     return clip

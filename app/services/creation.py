@@ -7,6 +7,7 @@ from sqlalchemy.orm import Session
 from app.config import Settings
 from app.core.clipbank import MemoryClipBank
 from app.core.errors import InvalidInput
+from app.core.graph_entry import GraphScene
 from app.core.growth import initial_tree
 from app.core.names import check_name
 from app.core.player_models import parse_player_model
@@ -78,18 +79,13 @@ def init_graph(
     graph = initial_tree(
         model, bank, depth=depth, prefilter_k=settings.prefilter_k, progress=progress
     )
-    scene: dict[str, object] = {"fps": model.fps}
-    if preset is not None:
-        scene["preset"] = preset
-    if fluid is not None:
-        scene["fluid"] = fluid
     graph_id = create_graph(
         session,
         name=name,
         dynamics=dynamics,
         n_controls=model.n_controls,
         frames_per_clip=model.frames_per_clip,
-        scene=scene,
+        scene=GraphScene(fps=model.fps, preset=preset, fluid=fluid),
         seed=seed,
         strategy=chosen.value,
         player_model=crowd_model.value,

@@ -43,7 +43,7 @@ from app.store.animations import (
     count_missing_animations,
     publication_animations,
 )
-from app.store.graph_catalogue import get_graph_row, graph_exists
+from app.store.graph_catalogue import graph_entry, graph_exists
 
 #: graph sizes (frames) where bots play: on `tiny` the two strategies part by 1,500
 DEMO_CHECKPOINTS = (300, 600, 1_000, 1_500)
@@ -123,7 +123,7 @@ def unrendered_edges(name: str, plan: ExperimentPlan) -> int:
     with transaction() as session:
         if not graph_exists(session, graph):
             return 0
-        return count_missing_animations(session, get_graph_row(session, graph).id)
+        return count_missing_animations(session, graph_entry(session, graph).id)
 
 
 def demo_rows(result: dict[str, Any]) -> list[DemoRow]:
@@ -171,11 +171,11 @@ def visited_frames(
     from app.store.analytics import visit_counts
     from app.store.publications import latest_publication
 
-    row = get_graph_row(session, name)
-    latest = latest_publication(session, row.id)
+    entry = graph_entry(session, name)
+    latest = latest_publication(session, entry.id)
     if latest is None:
         return None
-    visits = {int(v["vertex"]): int(v["visits"]) for v in visit_counts(session, row.id)}
+    visits = {int(v["vertex"]): int(v["visits"]) for v in visit_counts(session, entry.id)}
     by_vertex: dict[int, PublishedStrip] = {}
     for strip in publication_animations(session, latest.id):
         by_vertex.setdefault(strip.vertex, strip)
@@ -185,7 +185,7 @@ def visited_frames(
     if not chosen:
         return None
     store = artifact_store(settings)
-    k = row.frames_per_clip
+    k = entry.frames_per_clip
     tiles = [
         Tile(
             decode_strip(store.get_bytes(strip.animation), k)[k // 2],

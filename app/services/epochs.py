@@ -30,10 +30,11 @@ from sqlalchemy.orm import Session
 
 from app.config import Settings
 from app.core.graph import EdgeKind, edge_index
+from app.core.graph_entry import GraphEntry
 from app.core.growth import integrate_expansion, select_for_expansion
 from app.core.strategies import Strategy
 from app.db.sessions import Scope
-from app.models import Graph, GrowthEpoch
+from app.models import GrowthEpoch
 from app.services.animations import blend_strip
 from app.services.clips import (
     clip_from_arrays,
@@ -61,7 +62,7 @@ from app.store.epochs import (
     stored_clips,
 )
 from app.store.epochs import EpochTaken as EpochTaken  # a racing tick: nothing to do
-from app.store.graph_catalogue import get_graph_row, stored_edge_kind
+from app.store.graph_catalogue import graph_entry, stored_edge_kind
 from app.store.graph_persistence import StaleGraph as StaleGraph  # a racing writer: retry
 from app.store.graph_persistence import save_graph
 from app.store.locks import lock_epoch_graph, lock_graph
@@ -134,13 +135,13 @@ def plan_epoch(
     that hangs. Two concurrent calls are serialised by the graph's lock, and the unique
     (graph, number) of epochs is the backstop, so epochs of one graph never overlap.
     """
-    row = lock_graph(session, graph_id)
+    entry = lock_graph(session, graph_id)
     running = running_epoch(session, graph_id)
     if running is not None:
         if time.time() - (running.heartbeat or 0.0) < settings.epoch_resend_after:
             return None
         return _resent(session, running)
-    loaded = loaded_graph(session, settings, row)
+    loaded = loaded_graph(session, settings, entry)
     refiner = refiner_for(session, settings, loaded, strategy)
     ranked = rank_stored(session, loaded, refiner)
     outcome = select_for_expansion(
@@ -197,18 +198,18 @@ def running_work(session: Session) -> list[EpochWork]:
 def epoch_work(session: Session, epoch_id: int) -> EpochWork:
     """The clips not yet stored and the expansions not yet integrated, of one epoch."""
     epoch = get_epoch(session, epoch_id)
-    row = get_graph_row(session, epoch.graph_id)
+    entry = graph_entry(session, epoch.graph_id)
     plan = epoch.plan or []
     stored = stored_clips(session, epoch_id)
-    pending = [p for p in range(len(plan)) if not _integrated(session, row, plan[p])]
-    missing = [(p, c) for p in pending for c in range(row.n_controls) if (p, c) not in stored]
+    pending = [p for p in range(len(plan)) if not _integrated(session, entry, plan[p])]
+    missing = [(p, c) for p in pending for c in range(entry.n_controls) if (p, c) not in stored]
     return EpochWork(epoch_id, missing, pending, epoch.renders)
 
 
-def _integrated(session: Session, row: Graph, planned: list[int]) -> bool:
+def _integrated(session: Session, graph: GraphEntry, planned: list[int]) -> bool:
     """Whether planned (edge, dead-end clip) has been swapped in: the edge is now SIM."""
     edge, _ = planned
-    return stored_edge_kind(session, row, edge) == EdgeKind.SIM
+    return stored_edge_kind(session, graph, edge) == EdgeKind.SIM
 
 
 # ---- 3. integrate -------------------------------------------------------------------------
@@ -224,10 +225,10 @@ def integrate_step(
     recorded - and raises :class:`ExpansionNotReady` if not. The last expansion of the
     plan also finishes the epoch.
     """
-    epoch, row = lock_epoch_graph(session, epoch_id)
+    epoch, entry = lock_epoch_graph(session, epoch_id)
     plan = [(int(e), int(c)) for e, c in epoch.plan or []]
     edge, dead_end = plan[position]
-    loaded = loaded_graph(session, settings, row)
+    loaded = loaded_graph(session, settings, entry)
     graph = loaded.graph
     if not (graph.edge_kind[edge] == EdgeKind.BLEND and graph.edge_clip[edge] == dead_end):
         finished = _finish_if_complete(session, loaded, epoch, plan)
@@ -260,7 +261,7 @@ def integrate_step(
     expansion = integrate_expansion(
         graph, loaded.bank, loaded.dynamics, edge, clips, prefilter_k=settings.prefilter_k
     )
-    save_graph(session, row.id, graph, loaded.bank, loaded.artifacts)
+    save_graph(session, entry.id, graph, loaded.bank, loaded.artifacts)
     _canonical_descriptors(loaded, first_clip)
     record_heartbeat(session, epoch_id)
     finished = _finish_if_complete(session, loaded, epoch, plan)
@@ -302,9 +303,9 @@ def _finish_if_complete(
 def blend_step(session: Session, settings: Settings, epoch_id: int) -> int:
     """Render eq. 8's blend for the epoch's new BLEND edges still without an animation."""
     epoch = get_epoch(session, epoch_id)
-    row = get_graph_row(session, epoch.graph_id)
-    n = row.n_controls
-    loaded = loaded_graph(session, settings, row)
+    entry = graph_entry(session, epoch.graph_id)
+    n = entry.n_controls
+    loaded = loaded_graph(session, settings, entry)
     graph = loaded.graph
     vertices = [
         graph.edge_dst[e]
@@ -313,10 +314,10 @@ def blend_step(session: Session, settings: Settings, epoch_id: int) -> int:
     ]
     wanted = {edge_index(v, c, n) for v in vertices for c in range(n)}
     unrendered = set(
-        edges_without_animation(session, row.id, n, vertices=vertices, kind=EdgeKind.BLEND)
+        edges_without_animation(session, entry.id, n, vertices=vertices, kind=EdgeKind.BLEND)
     )
     edges = {edge: blend_strip(session, loaded, edge) for edge in sorted(wanted & unrendered)}
-    set_animations(session, row.id, edges=edges)
+    set_animations(session, entry.id, edges=edges)
     keep_graph(session, loaded)
     return len(edges)
 
@@ -343,7 +344,7 @@ def run_epoch(
     """
     with scope() as session:
         work = epoch_work(session, epoch_id)
-        controls = range(get_graph_row(session, get_epoch(session, epoch_id).graph_id).n_controls)
+        controls = range(graph_entry(session, get_epoch(session, epoch_id).graph_id).n_controls)
     missing = set(work.missing_clips)
     done = []
     for position in work.pending:

@@ -27,7 +27,6 @@ from sqlalchemy.orm import Session
 from app.config import Settings
 from app.core.dynamics import Dynamics
 from app.db.sessions import session_factory, transaction
-from app.models import Graph
 from app.services.clips import ClipJob, finish_clip, planned_clip, simulate_job
 from app.services.loading import artifact_store, graph_dynamics
 from app.store.array_codec import ARRAYS_MEDIA_TYPE, encode_arrays
@@ -41,7 +40,7 @@ from app.store.fsck import (
     expansion_clip_with,
     sqlite_integrity,
 )
-from app.store.graph_catalogue import clip_bundle_digest
+from app.store.graph_catalogue import clip_bundle_digest, graph_entry
 
 
 @dataclass
@@ -132,14 +131,16 @@ def _recomputed(
     with session_factory()() as session:
         if (clip := clip_with_bundle(session, digest)) is not None:
             graph_id, idx = clip
-            row = session.get_one(Graph, graph_id)
+            entry = graph_entry(session, graph_id)
             before, control = clip_start(session, graph_id, idx)
         elif (recorded := expansion_clip_with(session, digest)) is not None:
             epoch_id, position, control = recorded
-            row, before = planned_clip(session, epoch_id, position)
+            entry, before = planned_clip(session, epoch_id, position)
         else:
             return None
-        return _recompute(session, store, graph_dynamics(row, settings), row.id, before, control)
+        return _recompute(
+            session, store, graph_dynamics(entry, settings), entry.id, before, control
+        )
 
 
 def _recompute(

@@ -17,7 +17,7 @@ from app.db.sessions import Scope
 from app.services.epochs import plan_epoch, run_epoch
 from app.services.progress import Advance
 from app.store.epochs import get_epoch, running_epoch
-from app.store.graph_catalogue import get_graph_row, size_frames
+from app.store.graph_catalogue import graph_entry, size_frames
 
 
 @dataclass
@@ -66,13 +66,13 @@ def grow_graph(
     renders = settings.growth_renders if renders is None else renders
     batch = batch_size or settings.batch_size
     with scope() as session:
-        row = get_graph_row(session, name)
-        graph_id, n_controls, frames_per_clip = row.id, row.n_controls, row.frames_per_clip
-        chosen = parse_strategy(strategy) if strategy else parse_strategy(row.strategy)
+        entry = graph_entry(session, name)
+        graph_id, n_controls, frames_per_clip = entry.id, entry.n_controls, entry.frames_per_clip
+        chosen = parse_strategy(strategy) if strategy else parse_strategy(entry.strategy)
         size = size_frames(session, graph_id)
         interrupted = running_epoch(session, graph_id) if settings.eager else None
         interrupted_id = None if interrupted is None else interrupted.id
-    result = GrowResult(graph=str(row.name), strategy=chosen.value)
+    result = GrowResult(graph=str(entry.name), strategy=chosen.value)
     per_expansion = n_controls * frames_per_clip
 
     def advance(_: object) -> None:

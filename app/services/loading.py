@@ -19,12 +19,12 @@ from app.core.clipbank import ClipBank
 from app.core.dynamics import Dynamics
 from app.core.errors import InvalidInput
 from app.core.graph import StateGraph
+from app.core.graph_entry import GraphEntry
 from app.liquid.devices import LiquidDevices
-from app.models import Graph
 from app.services.dynamics import make_dynamics
 from app.services.graph_cache import graph_cache
 from app.store.artifacts import ArtifactStore
-from app.store.graph_catalogue import get_graph_row
+from app.store.graph_catalogue import graph_entry
 from app.store.graph_persistence import load_graph
 from app.store.occupancy_cache import RedisShapeCache
 
@@ -40,7 +40,7 @@ class ArtifactDirectoryError(InvalidInput):
 class LoadedGraph:
     """A stored graph in memory with what growing it needs."""
 
-    row: Graph
+    entry: GraphEntry
     graph: StateGraph
     bank: ClipBank
     dynamics: Dynamics
@@ -68,10 +68,11 @@ def cached_dynamics(
     return make_dynamics(name, preset, fluid, devices=devices)
 
 
-def graph_dynamics(row: Graph, settings: Settings) -> Dynamics:
+def graph_dynamics(entry: GraphEntry, settings: Settings) -> Dynamics:
     """The dynamics a stored graph was grown with (its scene names preset and fluid)."""
     devices = LiquidDevices.from_settings(settings)
-    return cached_dynamics(row.dynamics, row.scene.get("preset"), row.scene.get("fluid"), devices)
+    scene = entry.scene
+    return cached_dynamics(entry.dynamics, scene.preset, scene.fluid, devices)
 
 
 @lru_cache(maxsize=4)
@@ -79,32 +80,32 @@ def _shape_cache(url: str, ttl: int) -> RedisShapeCache:
     return RedisShapeCache.from_url(url, ttl)
 
 
-def loaded_graph(session: Session, settings: Settings, row: Graph) -> LoadedGraph:
+def loaded_graph(session: Session, settings: Settings, entry: GraphEntry) -> LoadedGraph:
     """The graph at its current revision: the process's cached copy, or a fresh load.
 
     The caller owns the returned object until :func:`keep_graph`; on any failure it is
     simply not given back, and the next caller reloads.
     """
-    cached = graph_cache.take(session, row.id, CACHE_SCOPE)
+    cached = graph_cache.take(session, entry.id, CACHE_SCOPE)
     if isinstance(cached, LoadedGraph):
-        cached.row = row
+        cached.entry = entry
         return cached
     artifacts = artifact_store(settings)
-    dynamics = graph_dynamics(row, settings)
+    dynamics = graph_dynamics(entry, settings)
     graph, bank = load_graph(
-        session, row.id, artifacts, dynamics.shape, settings.clip_cache_mb * 2**20
+        session, entry.id, artifacts, dynamics.shape, settings.clip_cache_mb * 2**20
     )
     if settings.resolved_redis_url:
         cache = _shape_cache(settings.resolved_redis_url, settings.occupancy_cache_ttl)
         bank.use_shape_cache(cache)
-    return LoadedGraph(row, graph, bank, dynamics, artifacts)
+    return LoadedGraph(entry, graph, bank, dynamics, artifacts)
 
 
 def keep_graph(session: Session, loaded: LoadedGraph) -> None:
     """Give the graph back to the process's cache, at the revision ``session`` sees."""
-    graph_cache.put(session, loaded.row.id, CACHE_SCOPE, loaded)
+    graph_cache.put(session, loaded.entry.id, CACHE_SCOPE, loaded)
 
 
 def open_graph(session: Session, settings: Settings, name: str | int) -> LoadedGraph:
     """The graph by name or id, loaded the one way (cache, Redis shapes)."""
-    return loaded_graph(session, settings, get_graph_row(session, name))
+    return loaded_graph(session, settings, graph_entry(session, name))

@@ -25,7 +25,7 @@ from app.core.metrics import high_error_fraction, observed_mean_error
 from app.core.publication import Publication
 from app.services.dynamics import threshold_in_force
 from app.services.loading import graph_dynamics
-from app.store.graph_catalogue import get_graph_row
+from app.store.graph_catalogue import graph_entry
 from app.store.publications import latest_publication_id, load_publication
 from app.store.traces import bot_player, record_trace
 
@@ -62,8 +62,8 @@ def play_graph(
     kind = parse_bot(bot)
     if sessions <= 0 or mean_steps < 2:
         raise InvalidInput("sessions must be positive and mean steps at least 2")
-    row = get_graph_row(session, name)
-    publication_id = latest_publication_id(session, row.id)
+    entry = graph_entry(session, name)
+    publication_id = latest_publication_id(session, entry.id)
     publication = load_publication(session, publication_id)
     traces = bots_play(
         session,
@@ -76,16 +76,16 @@ def play_graph(
         mean_steps=mean_steps,
         seed=seed,
     )
-    threshold = threshold_in_force(settings, graph_dynamics(row, settings))
+    threshold = threshold_in_force(settings, graph_dynamics(entry, settings))
     return PlayResult(
-        graph=row.name,
+        graph=entry.name,
         publication_id=publication_id,
         seed=seed,
         traces=len(traces),
         steps=sum(len(trace) for trace in traces),
-        observed_mean_error=observed_mean_error(traces, publication.edge_err, row.n_controls),
+        observed_mean_error=observed_mean_error(traces, publication.edge_err, entry.n_controls),
         high_error_fraction=high_error_fraction(
-            traces, publication.edge_err, row.n_controls, threshold
+            traces, publication.edge_err, entry.n_controls, threshold
         ),
         mean_score_per_step=publication.mean_score_per_step(traces),
     )

@@ -96,10 +96,10 @@ def latest_play_prediction(
     latest one's, predicts the latest one's; None before ``players`` played two
     publications. Only their sessions teach the model and are predicted."""
     loaded = open_graph(session, settings, name)
-    played = graph_play(session, loaded.row.id, players)
+    played = graph_play(session, loaded.entry.id, players)
     if len(played) < 2:
         return None
-    chosen = parse_player_model(model or loaded.row.player_model)
+    chosen = parse_player_model(model or loaded.entry.player_model)
     refiner = crowd_refiner(settings, loaded, chosen)
     for publication, traces in played[:-1]:
         refiner.learn(traces, publication)

@@ -34,7 +34,7 @@ def relink_blends(session: Session, settings: Settings, loaded: LoadedGraph) -> 
     """Relink every BLEND edge to its best target now and save what moved; how many."""
     moved = relink_all(loaded.graph, loaded.bank, loaded.dynamics, prefilter_k=settings.prefilter_k)
     if moved:
-        save_graph(session, loaded.row.id, loaded.graph, loaded.bank, loaded.artifacts)
+        save_graph(session, loaded.entry.id, loaded.graph, loaded.bank, loaded.artifacts)
     return len(moved)
 
 
@@ -57,9 +57,9 @@ def publish_graph(
     if render:
         limit = reuse_error_limit(settings, loaded.dynamics)
         rendered = render_missing_animations(session, loaded, limit, progress)
-    publication_id = publish(session, loaded.row.id, loaded.graph)
+    publication_id = publish(session, loaded.entry.id, loaded.graph)
     return PublishResult(
-        graph=loaded.row.name,
+        graph=loaded.entry.name,
         publication_id=publication_id,
         number=get_publication(session, publication_id).number,
         relinked=relinked,

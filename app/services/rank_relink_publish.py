@@ -13,12 +13,12 @@ from sqlalchemy.orm import Session
 
 from app.config import Settings
 from app.core.errors import Conflict
-from app.models import Graph
+from app.core.graph_entry import GraphEntry
 from app.services.loading import keep_graph, loaded_graph
 from app.services.publishing import publish_graph, relink_blends
 from app.services.refining import rank_stored, refiner_for
 from app.store.epochs import running_epoch
-from app.store.graph_catalogue import get_graph_row, growing_graph_ids, mark_growing, size_frames
+from app.store.graph_catalogue import graph_entry, growing_graph_ids, mark_growing, size_frames
 from app.store.locks import lock_graph, lock_graph_if_free
 from app.store.publications import latest_publication
 
@@ -27,11 +27,11 @@ class EpochRunning(Conflict):
     """An epoch of the graph is running: wait for it before changing the graph."""
 
 
-def _between_epochs(session: Session, graph_id: int) -> Graph:
-    row = lock_graph(session, graph_id)
+def _between_epochs(session: Session, graph_id: int) -> GraphEntry:
+    graph = lock_graph(session, graph_id)
     if running_epoch(session, graph_id) is not None:
         raise EpochRunning(f"graph {graph_id} has an epoch running")
-    return row
+    return graph
 
 
 def rank_graph(session: Session, settings: Settings, graph_id: int) -> str | None:
@@ -40,7 +40,7 @@ def rank_graph(session: Session, settings: Settings, graph_id: int) -> str | Non
     None for strategies that do not rank. The stored pi is what planning an epoch
     computes too; this exists to look at the ranking without growing.
     """
-    loaded = loaded_graph(session, settings, get_graph_row(session, graph_id))
+    loaded = loaded_graph(session, settings, graph_entry(session, graph_id))
     ranked = rank_stored(session, loaded, refiner_for(session, settings, loaded))
     keep_graph(session, loaded)
     if ranked.rank is None:
@@ -50,8 +50,7 @@ def rank_graph(session: Session, settings: Settings, graph_id: int) -> str | Non
 
 def relink_graph(session: Session, settings: Settings, graph_id: int) -> int:
     """Pre-publish relinking of every BLEND edge, between epochs; how many moved."""
-    row = _between_epochs(session, graph_id)
-    loaded = loaded_graph(session, settings, row)
+    loaded = loaded_graph(session, settings, _between_epochs(session, graph_id))
     moved = relink_blends(session, settings, loaded)
     keep_graph(session, loaded)
     return moved
@@ -118,5 +117,5 @@ def publish_if_due(session: Session, settings: Settings, graph_id: int) -> int |
 
 def set_growing(session: Session, name: str | int, growing: bool) -> dict[str, object]:
     """Mark a graph for (or take it off) beat's periodic growth."""
-    row = mark_growing(session, name, growing)
-    return {"id": row.id, "name": row.name, "growing": row.growing}
+    graph = mark_growing(session, name, growing)
+    return {"id": graph.id, "name": graph.name, "growing": graph.growing}

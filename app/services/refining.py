@@ -59,19 +59,19 @@ def refiner_for(
     session: Session, settings: Settings, loaded: LoadedGraph, strategy: Strategy | None = None
 ) -> Refiner:
     """The graph's refiner, with the crowd's traces when its strategy learns from them."""
-    strategy = strategy or parse_strategy(loaded.row.strategy)
+    strategy = strategy or parse_strategy(loaded.entry.strategy)
     refiner = Refiner(
         loaded.graph,
         loaded.bank,
         loaded.dynamics,
         strategy,
-        refiner_config(settings, loaded.dynamics, parse_player_model(loaded.row.player_model)),
+        refiner_config(settings, loaded.dynamics, parse_player_model(loaded.entry.player_model)),
     )
     if strategy.learns_from_traces and refiner.config.player_model is PlayerModelKind.LOGIT:
-        for publication, traces in graph_play(session, loaded.row.id):
+        for publication, traces in graph_play(session, loaded.entry.id):
             refiner.learn(traces, publication)
     elif strategy.learns_from_traces:  # eq. 2 reads no publication: one query for all traces
-        refiner.learn(load_traces(session, played_publications(session, loaded.row.id)))
+        refiner.learn(load_traces(session, played_publications(session, loaded.entry.id)))
     return refiner
 
 
@@ -89,7 +89,7 @@ def rank_stored(session: Session, loaded: LoadedGraph, refiner: Refiner) -> Edge
 
 
 def _warm_start(session: Session, loaded: LoadedGraph) -> np.ndarray | None:
-    digest = latest_warm_start(session, loaded.row.id)
+    digest = latest_warm_start(session, loaded.entry.id)
     if digest is None:
         return None
     pi = loaded.artifacts.get_arrays(digest, ("pi",))["pi"]

@@ -1,6 +1,7 @@
 """The catalogue of stored graphs: their rows, and what is read of a graph without loading it.
 
-A graph row is found by name or id (:func:`get_graph_row`), made empty
+A graph row is found by name or id (:func:`get_graph_row`; :func:`graph_entry` hands it
+out as a value for the layers above), made empty
 (:func:`create_graph`) and marked for beat's growth; its size, revision, edge kinds and a
 clip's bundle are single queries. Loading and saving the graph itself, its vertices,
 clips and edges, is :mod:`app.store.graph_persistence`.
@@ -9,14 +10,14 @@ clips and edges, is :mod:`app.store.graph_persistence`.
 from __future__ import annotations
 
 import re
-from collections.abc import Mapping
-from typing import Any
 
 from sqlalchemy import String, func, select
 from sqlalchemy.exc import IntegrityError
 from sqlalchemy.orm import Session
 
 from app.core.errors import Conflict, NotFound
+from app.core.graph import edge_vertex_control
+from app.core.graph_entry import GraphEntry, GraphScene
 from app.models import Clip, Edge, Graph
 
 
@@ -35,7 +36,7 @@ def create_graph(
     dynamics: str,
     n_controls: int,
     frames_per_clip: int,
-    scene: Mapping[str, Any] | None = None,
+    scene: GraphScene | None = None,
     seed: int = 0,
     strategy: str = "sr-crowd",
     player_model: str = "eq2",
@@ -48,7 +49,7 @@ def create_graph(
     row = Graph(
         name=name,
         dynamics=dynamics,
-        scene=dict(scene or {}),
+        scene=(scene or GraphScene()).to_json(),
         n_controls=n_controls,
         frames_per_clip=frames_per_clip,
         seed=seed,
@@ -94,6 +95,26 @@ def get_graph_row(session: Session, name_or_id: str | int) -> Graph:
     return row
 
 
+def entry_of(row: Graph) -> GraphEntry:
+    """The row as a value (its scene typed)."""
+    return GraphEntry(
+        id=row.id,
+        name=row.name,
+        dynamics=row.dynamics,
+        n_controls=row.n_controls,
+        frames_per_clip=row.frames_per_clip,
+        scene=GraphScene.from_json(row.scene),
+        strategy=row.strategy,
+        player_model=row.player_model,
+        growing=row.growing,
+    )
+
+
+def graph_entry(session: Session, name_or_id: str | int) -> GraphEntry:
+    """:func:`get_graph_row` as a value."""
+    return entry_of(get_graph_row(session, name_or_id))
+
+
 def graph_name_length() -> int:
     """The length of the graphs' name column: the longest name every backend stores."""
     column = Graph.__table__.c.name.type
@@ -121,11 +142,11 @@ def growing_graph_ids(session: Session) -> list[int]:
     return list(session.scalars(select(Graph.id).where(Graph.growing.is_(True))))
 
 
-def mark_growing(session: Session, name_or_id: str | int, growing: bool) -> Graph:
+def mark_growing(session: Session, name_or_id: str | int, growing: bool) -> GraphEntry:
     row = get_graph_row(session, name_or_id)
     row.growing = growing
     session.flush()
-    return row
+    return entry_of(row)
 
 
 def graph_revision(session: Session, graph_id: int) -> int | None:
@@ -143,13 +164,12 @@ def edge_kind_counts(session: Session, graph_id: int) -> dict[int, int]:
     }
 
 
-def stored_edge_kind(session: Session, row: Graph, edge: int) -> int | None:
+def stored_edge_kind(session: Session, graph: GraphEntry, edge: int) -> int | None:
     """The stored kind of one edge (by index), read without loading the graph."""
+    vertex, control = edge_vertex_control(edge, graph.n_controls)
     return session.scalar(
         select(Edge.kind).where(
-            Edge.graph_id == row.id,
-            Edge.vertex == edge // row.n_controls,
-            Edge.control == edge % row.n_controls,
+            Edge.graph_id == graph.id, Edge.vertex == vertex, Edge.control == control
         )
     )
 

@@ -10,14 +10,15 @@ from __future__ import annotations
 from sqlalchemy import select
 from sqlalchemy.orm import Session
 
+from app.core.graph_entry import GraphEntry
 from app.db.engines import begin_immediate
 from app.models import Graph, GrowthEpoch
 from app.store.epochs import get_epoch
-from app.store.graph_catalogue import GraphNotFound
+from app.store.graph_catalogue import GraphNotFound, entry_of
 
 
-def lock_graph(session: Session, graph_id: int) -> Graph:
-    """The graph row, locked until the transaction ends.
+def lock_graph(session: Session, graph_id: int) -> GraphEntry:
+    """The graph, its row locked until the transaction ends.
 
     PostgreSQL: ``SELECT ... FOR UPDATE``. SQLite has no row locks: the transaction is
     begun IMMEDIATE (the database's write lock), which must happen before any statement
@@ -26,18 +27,19 @@ def lock_graph(session: Session, graph_id: int) -> Graph:
     row = _locked_row(session, graph_id, skip_locked=False)
     if row is None:
         raise GraphNotFound(f"no graph {graph_id!r}")
-    return row
+    return entry_of(row)
 
 
-def lock_graph_if_free(session: Session, graph_id: int) -> Graph | None:
-    """The graph row locked as :func:`lock_graph` locks it, or None at once where another
+def lock_graph_if_free(session: Session, graph_id: int) -> GraphEntry | None:
+    """The graph locked as :func:`lock_graph` locks it, or None at once where another
     transaction holds it (PostgreSQL's ``SKIP LOCKED``; SQLite waits for its write lock).
 
     For work that a later attempt does as well, so that a worker does not sit blocked
     behind a long writer (a publication rendering its animations) only to find the work
     done.
     """
-    return _locked_row(session, graph_id, skip_locked=True)
+    row = _locked_row(session, graph_id, skip_locked=True)
+    return None if row is None else entry_of(row)
 
 
 def _locked_row(session: Session, graph_id: int, *, skip_locked: bool) -> Graph | None:
@@ -48,14 +50,14 @@ def _locked_row(session: Session, graph_id: int, *, skip_locked: bool) -> Graph 
     return session.scalars(stmt).one_or_none()
 
 
-def lock_epoch_graph(session: Session, epoch_id: int) -> tuple[GrowthEpoch, Graph]:
-    """The epoch, read again under its graph's lock, and the locked graph row.
+def lock_epoch_graph(session: Session, epoch_id: int) -> tuple[GrowthEpoch, GraphEntry]:
+    """The epoch, read again under its graph's lock, and the locked graph.
 
     The epoch is refreshed once the lock is held: a writer that held the lock before
     may have finished it meanwhile.
     """
     begin_immediate(session)  # before the first statement: see lock_graph
     epoch = get_epoch(session, epoch_id)
-    row = lock_graph(session, epoch.graph_id)
+    graph = lock_graph(session, epoch.graph_id)
     session.refresh(epoch)
-    return epoch, row
+    return epoch, graph

@@ -60,7 +60,7 @@ def test_a_near_copy_shows_the_first_clips_strip_unless_disabled(
 
     monkeypatch.setattr(ToyDynamics, "render", counted)
     render_missing_animations(session, graph, max_error)
-    strips = clip_animations(session, graph.row.id)
+    strips = clip_animations(session, graph.entry.id)
     copy, distinct = (graph.graph.edge_clip[e] for e in (COPY_EDGE, DISTINCT_EDGE))
     assert sorted(strips) == [0, 1, 2, copy, distinct]
     assert (strips[copy] == strips[0]) == (max_error > 0)
@@ -74,12 +74,12 @@ def test_a_step_without_the_graph_finds_the_stored_strip(
 ) -> None:
     graph = loaded(session, artifacts)
     strip = artifacts.put_bytes(b"clip 0", media_type="image/webp", session=session)
-    set_animations(session, graph.row.id, clips={0: strip})
+    set_animations(session, graph.entry.id, clips={0: strip})
     copy = graph.graph.edge_clip[COPY_EDGE]
     features = graph.bank.features(copy)
     for max_error, expected in ((0.05, strip), (0.0, None)):
         reuse = AnimationReuse.of_stored(
-            session, artifacts, graph.dynamics, graph.row.id, features.control, max_error
+            session, artifacts, graph.dynamics, graph.entry.id, features.control, max_error
         )
         digest, found = reuse.strip(session, artifacts, features, lambda: graph.bank.frames(copy))
         assert (digest == strip) == (expected is not None)
@@ -87,7 +87,9 @@ def test_a_step_without_the_graph_finds_the_stored_strip(
         if found is not None:
             assert found.clip == 0 and found.error <= max_error
     other = (features.control + 1) % graph.graph.n_controls
-    reuse = AnimationReuse.of_stored(session, artifacts, graph.dynamics, graph.row.id, other, 0.05)
+    reuse = AnimationReuse.of_stored(
+        session, artifacts, graph.dynamics, graph.entry.id, other, 0.05
+    )
     assert reuse.animations == {}  # another control's clips are not even read
     assert reuse.substitute(features) is None
 
@@ -96,7 +98,7 @@ def test_a_clip_never_shows_a_later_clips_strip(session: Session, artifacts: Art
     graph = loaded(session, artifacts)
     copy = graph.graph.edge_clip[COPY_EDGE]
     later = artifacts.put_bytes(b"clip 3", media_type="image/webp", session=session)
-    set_animations(session, graph.row.id, clips={copy: later})
+    set_animations(session, graph.entry.id, clips={copy: later})
     render_missing_animations(session, graph, 0.05)
-    strips = clip_animations(session, graph.row.id)
+    strips = clip_animations(session, graph.entry.id)
     assert strips[copy] == later and strips[0] != later

@@ -12,6 +12,7 @@ from sqlalchemy.orm import Session
 from app.bench.store import synthetic_graph, synthetic_shape
 from app.core.clipbank import ClipBank, MemoryClipBank
 from app.core.graph import EdgeKind, StateGraph
+from app.core.graph_entry import GraphScene
 from app.core.growth import best_target, expand_blend_edge, relink_all
 from app.core.toy import ToyDynamics
 from app.models import Clip, Edge, Graph
@@ -31,7 +32,7 @@ def new_graph(session: Session, graph: StateGraph, name: str = "tank") -> int:
         dynamics="toy",
         n_controls=graph.n_controls,
         frames_per_clip=graph.frames_per_clip,
-        scene={"preset": "small"},
+        scene=GraphScene(preset="small"),
     )
 
 

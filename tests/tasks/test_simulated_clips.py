@@ -19,6 +19,7 @@ from app.services import clips, epochs, growing
 from app.services.clips import ClipJob, simulation_key
 from app.services.creation import init_graph
 from app.services.loading import graph_dynamics
+from app.store.graph_catalogue import graph_entry
 from app.store.simulated_clips import reuse_counts
 
 #: expansions grown per graph: two expansions of three controls, six clips
@@ -40,8 +41,7 @@ def _grow(settings: Settings, name: str) -> int:
 def _substeps(settings: Settings, name: str) -> int:
     """Substeps run so far by this process's simulator of the graph's dynamics."""
     with transaction() as session:
-        row = session.scalars(select(Graph).where(Graph.name == name)).one()
-        dynamics = graph_dynamics(row, settings)
+        dynamics = graph_dynamics(graph_entry(session, name), settings)
     assert isinstance(dynamics, LiquidDynamics)
     return dynamics.simulator.stats.substeps
 

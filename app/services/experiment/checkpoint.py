@@ -143,7 +143,7 @@ def _crowd_figures(
         "vertices": publication.n_vertices,
         "relinked_before_publish": published.relinked,
         "publication_id": published.publication_id,
-        "graph_id": loaded.row.id,
+        "graph_id": loaded.entry.id,
         "mean_score_per_step": publication.mean_score_per_step(traces),
         "observed_session_steps": mean_session_length(traces),
         **on.context,
