@@ -1,13 +1,14 @@
 """Write transactions that survive SQLite's "database is locked" under concurrency.
 
-The store begins SQLite transactions deferred: a request reads (the replay check, the
-player lookup) and then writes. When another connection committed a write in between,
-SQLite cannot upgrade the read snapshot and fails at once, without waiting out its busy
-timeout (SQLITE_BUSY_SNAPSHOT). So on SQLite a write transaction first takes the write
-lock with a statement that writes nothing (what ``BEGIN IMMEDIATE`` would do; the busy
-timeout applies to it), and a lock error that still gets through rolls back and runs the
-transaction again on a fresh snapshot, as for a serialization failure on a server
-database. PostgreSQL needs neither: there the work runs once, as it is.
+On SQLite a transaction that reads and then writes fails at once, without waiting out
+the busy timeout, when another connection committed a write after its first read
+(SQLITE_BUSY_SNAPSHOT). So a write transaction here begins as a writer, the one way srg
+takes SQLite's write lock everywhere (:func:`app.db.engines.begin_immediate`, which a
+Celery task's and a CLI command's transactions use too): whatever the session had open,
+its reads, is committed first, then the work runs in a transaction begun IMMEDIATE (the
+busy timeout applies to taking the lock). A lock error that still gets through rolls
+back and runs the work again, as for a serialization failure on a server database.
+PostgreSQL needs neither: there the work runs once, as it is.
 
 Within one process, SQLite writers also queue on a lock: SQLite lets one writer in at a
 time anyway, and a waiter woken by a lock release starts at once, where SQLite's busy
@@ -21,7 +22,6 @@ from collections.abc import Callable
 from contextlib import nullcontext
 from typing import TypeVar
 
-from sqlalchemy import text
 from sqlalchemy.exc import OperationalError
 from sqlalchemy.orm import Session
 from tenacity import (
@@ -31,11 +31,11 @@ from tenacity import (
     wait_random_exponential,
 )
 
+from app.db.engines import begin_immediate
+
 T = TypeVar("T")
 ATTEMPTS = 8
 FIRST_BACKOFF_S = 0.005
-#: a write to no row: it makes SQLite take the write lock, waiting for it if need be
-TAKE_SQLITE_WRITE_LOCK = text("UPDATE players SET id = id WHERE 0 = 1")
 _sqlite_writer = threading.Lock()
 
 
@@ -44,14 +44,16 @@ def _locked(exc: BaseException) -> bool:
 
 
 def in_transaction(session: Session, work: Callable[[], T]) -> T:
-    """``work()`` then commit; on SQLite's lock error roll back and run it again."""
+    """``work()`` in a write transaction of its own, then commit; on SQLite's lock error
+    roll back and run it again. What the session had open before is committed first."""
     sqlite = session.get_bind().dialect.name == "sqlite"
+    if session.in_transaction():
+        session.commit()
 
     def attempt() -> T:
         try:
             with _sqlite_writer if sqlite else nullcontext():
-                if sqlite:
-                    session.execute(TAKE_SQLITE_WRITE_LOCK)
+                begin_immediate(session)
                 result = work()
                 session.commit()
             return result
