@@ -11,6 +11,12 @@ derived from the frames when read, so they cost no stored bytes) and its animati
 as the render layer encodes it. The poster is made
 from the strip when it is served, so it is reported apart and not counted as stored.
 
+Each stage is timed in wall seconds and in the CPU seconds of this process (every thread
+of it: PoCL's and Dr.Jit's included), so ``per_expansion`` can say what a simulated clip
+costs a growing graph in CPU time, renders included, and the frames that buys per
+CPU-hour: the figure to compare across thread counts (``POCL_MAX_PTHREAD_COUNT``) and
+machines, where wall seconds depend on how many cores a stage kept busy.
+
 For the large presets a whole measurement takes long: ``settle`` shortens the settling
 and ``frames`` simulates only that many frames of each clip; the simulation's seconds
 are then scaled to a clip of k frames, and the other stages run on a full clip made of
@@ -24,6 +30,7 @@ import hashlib
 import tempfile
 import time
 from collections.abc import Callable
+from dataclasses import dataclass
 from pathlib import Path
 from typing import TypeVar
 
@@ -48,10 +55,41 @@ PLACEHOLDER_CALIBRATION = LiquidCalibration(
 T = TypeVar("T")
 
 
-def _timed(fn: Callable[[], T]) -> tuple[T, float]:
-    start = time.perf_counter()
+@dataclass(frozen=True)
+class Spent:
+    """Wall and CPU seconds of one stage (CPU: this process, all its threads)."""
+
+    wall: float
+    cpu: float
+
+    def scaled(self, factor: float) -> Spent:
+        return Spent(self.wall * factor, self.cpu * factor)
+
+
+def _spent(fn: Callable[[], T]) -> tuple[T, Spent]:
+    wall, cpu = time.perf_counter(), time.process_time()
     result = fn()
-    return result, time.perf_counter() - start
+    return result, Spent(time.perf_counter() - wall, time.process_time() - cpu)
+
+
+#: stages an expanded clip passes once, and the ones it passes twice: its own strip and
+#: the strip of the blend edge that ends in it (docs/runtime.md, "Clip cost at the paper
+#: preset")
+ONCE = ("simulate", "sdf", "features", "dist", "blend")
+TWICE = ("render", "encode")
+
+
+def per_expansion(stages: dict[str, Spent], frames_per_clip: int) -> dict[str, float]:
+    """What one simulated clip costs a growing graph, renders included, and the simulated
+    frames that buys per CPU-hour."""
+    wall = sum(stages[s].wall for s in ONCE) + 2 * sum(stages[s].wall for s in TWICE)
+    cpu = sum(stages[s].cpu for s in ONCE) + 2 * sum(stages[s].cpu for s in TWICE)
+    return {
+        "wall_seconds_per_clip": wall,
+        "cpu_seconds_per_clip": cpu,
+        "busy_cores": cpu / wall if wall > 0 else 0.0,
+        "frames_per_cpu_hour": frames_per_clip * 3600.0 / cpu if cpu > 0 else 0.0,
+    }
 
 
 def _dynamics(preset: str, fluid: str, devices: LiquidDevices) -> tuple[LiquidDynamics, str]:
@@ -63,7 +101,7 @@ def _dynamics(preset: str, fluid: str, devices: LiquidDevices) -> tuple[LiquidDy
 
 
 def _median_seconds(fn: Callable[[], object], repeats: int = 21) -> float:
-    times = [_timed(fn)[1] for _ in range(repeats)]
+    times = [_spent(fn)[1].wall for _ in range(repeats)]
     return float(np.median(times))
 
 
@@ -132,7 +170,9 @@ def bench_clip(
     Returns
     -------
     dict
-        ``seconds`` per clip by stage, ``bytes_per_frame`` by stored kind and in total,
+        ``seconds`` (wall) and ``cpu_seconds`` per clip by stage, ``per_expansion`` (a
+        simulated clip's cost to growth and its frames per CPU-hour),
+        ``bytes_per_frame`` by stored kind and in total,
         ``served_bytes_per_frame`` (made when served, not stored), and the sizes that
         explain them (particles, voxels, image size).
     """
@@ -143,22 +183,22 @@ def bench_clip(
     state = sim.settle(seconds=settle, damped_seconds=settle / 2)
     sim.run(state, 0, 1)  # warm up kernels and buffers
     iterations_before, substeps_before = _iterations(sim)
-    (positions, end), t_sph = _timed(lambda: sim.run(state, 1, n))
+    (positions, end), sph = _spent(lambda: sim.run(state, 1, n))
     end = snap_state(end, dyn.lattice)  # as the liquid returns it: the stored state
     iterations, substeps = _iterations(sim)
     mean_iterations = (iterations - iterations_before) / max(substeps - substeps_before, 1)
     positions = _full_clip(positions, k)
-    frames_sdf, t_sdf = _timed(lambda: dyn.surface_frames(positions))
+    frames_sdf, sdf = _spent(lambda: dyn.surface_frames(positions))
     clip = SimClip(control=1, frames=frames_sdf, end_state=end)
-    features, t_features = _timed(lambda: dyn.features(clip))
+    features, feature = _spent(lambda: dyn.features(clip))
     other_positions, other_end = sim.run(end, 2, n)
     other = SimClip(2, dyn.surface_frames(_full_clip(other_positions, k)), other_end)
     other_features = dyn.features(other)
-    _, t_dist = _timed(lambda: dyn.dist(features, other_features, 2))
-    _, t_blend = _timed(lambda: dyn.blend(clip.frames, other.frames))
+    _, dist = _spent(lambda: dyn.dist(features, other_features, 2))
+    _, blend = _spent(lambda: dyn.blend(clip.frames, other.frames))
     dyn.renderer.frame(np.full(dyn.grid.shape, dyn.grid.far_value, np.float32))  # load scene
-    images, t_render = _timed(lambda: dyn.render(clip.frames))
-    strip, t_encode = _timed(lambda: encode_strip(images))
+    images, render = _spent(lambda: dyn.render(clip.frames))
+    strip, encode = _spent(lambda: encode_strip(images))
     settings = dyn.render_settings
     camera = tank_camera(dyn.scene.tank, settings.width, settings.height)
     water = silhouettes(
@@ -167,7 +207,15 @@ def bench_clip(
     bundle = {"frames": clip.frames, "end_state": end}
     writer = _writer_seconds(dyn, features, other_features, bundle)
 
-    k = dyn.frames_per_clip
+    stages = {
+        "simulate": sph.scaled(k / n),
+        "sdf": sdf,
+        "features": feature,
+        "dist": dist,
+        "blend": blend,
+        "render": render,
+        "encode": encode,
+    }
     encoded = encode_arrays(bundle)
     members = member_sizes(encoded)
     per_frame = {
@@ -189,16 +237,10 @@ def bench_clip(
         "settle_seconds": settle,
         "calibration": calibration,
         "mean_pressure_iterations": mean_iterations,
-        "seconds": {
-            "simulate": t_sph * k / n,
-            "sdf": t_sdf,
-            "features": t_features,
-            "dist": t_dist,
-            "blend": t_blend,
-            "render": t_render,
-            "encode": t_encode,
-        },
-        "render_seconds_per_frame": t_render / k,
+        "seconds": {stage: spent.wall for stage, spent in stages.items()},
+        "cpu_seconds": {stage: spent.cpu for stage, spent in stages.items()},
+        "per_expansion": per_expansion(stages, k),
+        "render_seconds_per_frame": render.wall / k,
         "dark_fraction": fraction_percentiles(dark_fractions(images)),
         "dark_pixels_inside_water": int(dark_inside(images, water).sum()),
         "writer_seconds_per_new_clip": writer,

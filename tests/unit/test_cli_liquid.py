@@ -233,3 +233,12 @@ def test_bench_clip_tiny_reports_the_rendered_clips_dark_pixels(cli: typer.Typer
     assert 0.0 <= dark["median"] <= dark["p90"] <= dark["p99"] <= dark["max"] <= 0.003
     assert report["dark_pixels_inside_water"] >= 0
     assert report["image"] == [480, 360] and report["render_seconds_per_frame"] > 0
+    # the CPU seconds of each stage, and what a simulated clip costs growth in them
+    assert set(report["cpu_seconds"]) == set(report["seconds"])
+    cost = report["per_expansion"]
+    stages = report["cpu_seconds"]
+    twice = stages["render"] + stages["encode"]
+    assert cost["cpu_seconds_per_clip"] == pytest.approx(sum(stages.values()) + twice)
+    assert cost["frames_per_cpu_hour"] == pytest.approx(
+        report["frames_per_clip"] * 3600 / cost["cpu_seconds_per_clip"]
+    )
