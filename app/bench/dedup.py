@@ -28,7 +28,6 @@ from app.db.sessions import transaction
 from app.render.animation import decode_strip
 from app.reports.contact_sheet import Tile, contact_sheet
 from app.services.animations import AnimationReuse
-from app.services.dynamics import threshold_in_force
 from app.services.loading import open_graph
 from app.store.animations import clip_animations, graph_animations
 
@@ -67,7 +66,7 @@ def bench_dedup(
         strips = clip_animations(session, loaded.entry.id)
         stored = graph_animations(session, loaded.entry.id)
     graph, artifacts = loaded.graph, loaded.artifacts
-    threshold = threshold_in_force(settings, loaded.dynamics)
+    threshold = loaded.context.threshold
     k = loaded.entry.frames_per_clip
     size = {digest: len(artifacts.get_bytes(digest)) for digest in stored}
     frames = max(graph.size_frames, 1)

@@ -16,8 +16,7 @@ from app.config import Settings
 from app.core.player_models import parse_player_model
 from app.core.players import PlayerSelection
 from app.core.session_figures import MAX_RELATIVE_SE, MIN_SESSIONS, SessionFigure
-from app.services.dynamics import threshold_in_force
-from app.services.loading import graph_dynamics
+from app.services.loading import graph_context
 from app.services.prediction import latest_play_prediction
 from app.store.analytics import graph_analytics
 from app.store.graph_catalogue import graph_entry
@@ -42,7 +41,7 @@ def played_graph_analytics(
         parse_player_model(player_model)
     entry = graph_entry(session, graph)
     if threshold is None:
-        threshold = threshold_in_force(settings, graph_dynamics(entry, settings))
+        threshold = graph_context(entry, settings).threshold
     report: dict[str, Any] = {
         "graph": graph,
         **graph_analytics(session, entry.id, threshold, players),

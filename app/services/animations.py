@@ -20,8 +20,7 @@ from app.core.dedup import Substitute, animation_owners, find_substitute
 from app.core.dynamics import ClipFeatures, Dynamics
 from app.core.graph import EdgeKind
 from app.render.animation import STRIP_MEDIA_TYPE, encode_strip
-from app.services.dynamics import threshold_in_force
-from app.services.loading import LoadedGraph
+from app.services.loading import GraphContext, LoadedGraph
 from app.services.progress import Advance
 from app.store.animations import (
     animation_media_type,
@@ -34,9 +33,9 @@ from app.store.animations import (
 from app.store.artifacts import ArtifactNotFound, ArtifactStore
 
 
-def reuse_error_limit(settings: Settings, dynamics: Dynamics) -> float:
+def reuse_error_limit(settings: Settings, context: GraphContext) -> float:
     """The largest substitution error at which a clip reuses another's strip (0: never)."""
-    return settings.dedup_error_fraction * threshold_in_force(settings, dynamics)
+    return settings.dedup_error_fraction * context.threshold
 
 
 ClipColumns = Callable[[int], tuple[int, np.ndarray]]

@@ -22,7 +22,7 @@ from app.core.dynamics import ClipFeatures, Dynamics, SimClip
 from app.core.errors import NotFound
 from app.core.graph_entry import GraphEntry
 from app.services.animations import AnimationReuse, frames_strip, reuse_error_limit
-from app.services.loading import artifact_store, graph_dynamics
+from app.services.loading import artifact_store, graph_context, graph_dynamics
 from app.store.animations import clip_features, set_animations, stored_clip
 from app.store.array_codec import ARRAYS_MEDIA_TYPE
 from app.store.artifacts import ArtifactCorrupt, ArtifactNotFound
@@ -243,10 +243,11 @@ def render_step(
     if stored.animation is not None:
         return clip
     artifacts = artifact_store(settings)
-    dynamics = graph_dynamics(entry, settings)
+    context = graph_context(entry, settings)
+    dynamics = context.dynamics
     frames = artifacts.get_arrays(stored.bundle, ("frames",))["frames"]
     features = clip_features(stored, dynamics.shape(frames))
-    limit = reuse_error_limit(settings, dynamics)
+    limit = reuse_error_limit(settings, context)
     reuse = AnimationReuse.of_stored(session, artifacts, dynamics, entry.id, stored.control, limit)
     found = reuse.substitute(features, before=dead_end)
     strip = (

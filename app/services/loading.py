@@ -9,7 +9,7 @@ the workers when a Redis URL is configured.
 
 from __future__ import annotations
 
-from dataclasses import dataclass
+from dataclasses import dataclass, replace
 from functools import lru_cache
 
 from sqlalchemy.orm import Session
@@ -21,7 +21,7 @@ from app.core.errors import InvalidInput
 from app.core.graph import StateGraph
 from app.core.graph_entry import GraphEntry
 from app.liquid.devices import LiquidDevices
-from app.services.dynamics import make_dynamics
+from app.services.dynamics import make_dynamics, threshold_in_force
 from app.services.graph_cache import graph_cache
 from app.store.artifacts import ArtifactStore
 from app.store.graph_catalogue import graph_entry
@@ -36,15 +36,33 @@ class ArtifactDirectoryError(InvalidInput):
     """The artifact directory (SRG_ARTIFACT_DIR, else SRG_VAR_DIR/data) cannot be one."""
 
 
+@dataclass(frozen=True)
+class GraphContext:
+    """What every use case of a stored graph derives from it and the settings, built in
+    one place (:func:`graph_context`): the graph's entry, its dynamics on the settings'
+    devices, and the high-error threshold in force for it."""
+
+    entry: GraphEntry
+    dynamics: Dynamics
+    threshold: float
+
+
 @dataclass
 class LoadedGraph:
     """A stored graph in memory with what growing it needs."""
 
-    entry: GraphEntry
+    context: GraphContext
     graph: StateGraph
     bank: ClipBank
-    dynamics: Dynamics
     artifacts: ArtifactStore
+
+    @property
+    def entry(self) -> GraphEntry:
+        return self.context.entry
+
+    @property
+    def dynamics(self) -> Dynamics:
+        return self.context.dynamics
 
 
 def artifact_store(settings: Settings) -> ArtifactStore:
@@ -80,6 +98,12 @@ def _shape_cache(url: str, ttl: int) -> RedisShapeCache:
     return RedisShapeCache.from_url(url, ttl)
 
 
+def graph_context(entry: GraphEntry, settings: Settings) -> GraphContext:
+    """The graph's dynamics and threshold in force, from its entry and the settings."""
+    dynamics = graph_dynamics(entry, settings)
+    return GraphContext(entry, dynamics, threshold_in_force(settings, dynamics))
+
+
 def loaded_graph(session: Session, settings: Settings, entry: GraphEntry) -> LoadedGraph:
     """The graph at its current revision: the process's cached copy, or a fresh load.
 
@@ -88,17 +112,17 @@ def loaded_graph(session: Session, settings: Settings, entry: GraphEntry) -> Loa
     """
     cached = graph_cache.take(session, entry.id, CACHE_SCOPE)
     if isinstance(cached, LoadedGraph):
-        cached.entry = entry
+        cached.context = replace(cached.context, entry=entry)
         return cached
     artifacts = artifact_store(settings)
-    dynamics = graph_dynamics(entry, settings)
+    context = graph_context(entry, settings)
     graph, bank = load_graph(
-        session, entry.id, artifacts, dynamics.shape, settings.clip_cache_mb * 2**20
+        session, entry.id, artifacts, context.dynamics.shape, settings.clip_cache_mb * 2**20
     )
     if settings.resolved_redis_url:
         cache = _shape_cache(settings.resolved_redis_url, settings.occupancy_cache_ttl)
         bank.use_shape_cache(cache)
-    return LoadedGraph(entry, graph, bank, dynamics, artifacts)
+    return LoadedGraph(context, graph, bank, artifacts)
 
 
 def keep_graph(session: Session, loaded: LoadedGraph) -> None:

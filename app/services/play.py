@@ -23,8 +23,7 @@ from app.core.bots import BotKind, parse_bot, play_sessions
 from app.core.errors import InvalidInput
 from app.core.metrics import high_error_fraction, observed_mean_error
 from app.core.publication import Publication
-from app.services.dynamics import threshold_in_force
-from app.services.loading import graph_dynamics
+from app.services.loading import graph_context
 from app.store.graph_catalogue import graph_entry
 from app.store.publications import latest_publication_id, load_publication
 from app.store.traces import bot_player, record_trace
@@ -76,7 +75,7 @@ def play_graph(
         mean_steps=mean_steps,
         seed=seed,
     )
-    threshold = threshold_in_force(settings, graph_dynamics(entry, settings))
+    threshold = graph_context(entry, settings).threshold
     return PlayResult(
         graph=entry.name,
         publication_id=publication_id,

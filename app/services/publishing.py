@@ -55,7 +55,7 @@ def publish_graph(
     relinked = relink_blends(session, settings, loaded)
     rendered = 0
     if render:
-        limit = reuse_error_limit(settings, loaded.dynamics)
+        limit = reuse_error_limit(settings, loaded.context)
         rendered = render_missing_animations(session, loaded, limit, progress)
     publication_id = publish(session, loaded.entry.id, loaded.graph)
     return PublishResult(

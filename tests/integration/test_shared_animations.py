@@ -12,10 +12,10 @@ from app.core.graph import StateGraph
 from app.core.growth import expand_blend_edge, initial_tree
 from app.core.toy import ToyDynamics
 from app.services.animations import AnimationReuse, render_missing_animations
-from app.services.loading import LoadedGraph
+from app.services.loading import GraphContext, LoadedGraph
 from app.store.animations import clip_animations, set_animations
 from app.store.artifacts import ArtifactStore
-from app.store.graph_catalogue import create_graph, get_graph_row
+from app.store.graph_catalogue import create_graph, graph_entry
 from app.store.graph_persistence import save_graph
 
 #: edge 3 (after clip 0, control 0 again) repeats clip 0; edge 6 is a clip of its own
@@ -43,7 +43,8 @@ def loaded(session: Session, artifacts: ArtifactStore) -> LoadedGraph:
     graph, bank = near_copy_graph(dynamics)
     graph_id = create_graph(session, name="near", dynamics="toy", n_controls=3, frames_per_clip=10)
     save_graph(session, graph_id, graph, bank, artifacts)
-    return LoadedGraph(get_graph_row(session, graph_id), graph, bank, dynamics, artifacts)
+    context = GraphContext(graph_entry(session, graph_id), dynamics, dynamics.high_error_threshold)
+    return LoadedGraph(context, graph, bank, artifacts)
 
 
 @pytest.mark.parametrize("max_error", [0.05, 0.0])
