@@ -22,7 +22,7 @@ from sqlalchemy.orm import Session
 
 from app.api.errors import ApiError
 from app.config import Settings
-from app.db.sessions import Scope, transaction
+from app.db.sessions import Scope, unit_of_work
 from app.services.players import player_for_token
 
 BEARER_CHALLENGE = {"WWW-Authenticate": "Bearer"}
@@ -100,7 +100,7 @@ def growth_scope(request: Request) -> Scope:
     """The unit of work of growth run off the request: a transaction per step, on the
     app's database, so each finished step is kept whatever happens to the server."""
     factory = request.app.state.session_factory
-    return lambda: transaction(factory)
+    return lambda: unit_of_work(factory)
 
 
 async def raw_body(request: Request) -> bytes:

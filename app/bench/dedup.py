@@ -61,7 +61,7 @@ def bench_dedup(
     ``sheet``: a PNG of the largest limit's worst substitutions, to look at: each clip's
     own middle frame beside the one shown instead.
     """
-    with transaction() as session:
+    with transaction(settings) as session:
         loaded = open_graph(session, settings, name)
         strips = clip_animations(session, loaded.entry.id)
         stored = graph_animations(session, loaded.entry.id)

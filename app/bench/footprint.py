@@ -30,7 +30,7 @@ def bench_bytes(settings: Settings, name: str) -> dict[str, Any]:
     older bundles' occupancy and descriptor), read from each bundle's header; bundles
     written before the arrays codec (npz) are counted under ``npz``.
     """
-    with transaction() as session:
+    with transaction(settings) as session:
         row = get_graph_row(session, name)
         footprint = graph_footprint(session, row.id)
         bundles = graph_bundles(session, row.id)

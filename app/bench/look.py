@@ -19,7 +19,7 @@ from app.config import Settings
 from app.core.errors import NotFound
 from app.core.silhouette import silhouette_projector, silhouettes, tank_camera
 from app.core.surface import dequantise_sdf
-from app.db.sessions import session_factory
+from app.db.sessions import database_sessions
 from app.liquid.adapter import LiquidDynamics
 from app.render.animation import decode_strip
 from app.render.look import DARK_LEVEL, dark_fractions, dark_inside, fraction_percentiles
@@ -51,7 +51,7 @@ def _inside_silhouette(
 
 
 def bench_look(settings: Settings, name: str) -> dict[str, Any]:
-    with session_factory()() as session:
+    with database_sessions(settings)() as session:
         entry = graph_entry(session, name)
         strips = clip_animations(session, entry.id)
         frames_per_clip = entry.frames_per_clip

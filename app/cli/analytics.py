@@ -28,16 +28,17 @@ def analytics(
     """
     from app.config import get_settings
     from app.core.players import parse_player_selection
-    from app.db.sessions import session_factory
+    from app.db.sessions import database_sessions
     from app.services.analytics import played_graph_analytics
 
     if top < 1:
         raise InvalidInput(f"--top must be at least 1, got {top}")
     chosen = parse_player_selection(players)
-    with session_factory()() as session:
+    settings = get_settings()
+    with database_sessions(settings)() as session:
         report = played_graph_analytics(
             session,
-            get_settings(),
+            settings,
             graph,
             players=chosen,
             threshold=threshold,

@@ -52,7 +52,7 @@ def demo(
     from app.services.loading import artifact_store
 
     settings = get_settings()
-    require_intact()
+    require_intact(settings)
     plan = demo_plan(
         dynamics,
         preset,
@@ -70,7 +70,7 @@ def demo(
         result = run_demo(
             settings, name, plan, partial(grow_in_process, settings), jobs=jobs, progress=advance
         )
-    with progress_bar(unrendered_edges(name, plan), "animations rendered") as rendered:
+    with progress_bar(unrendered_edges(settings, name, plan), "animations rendered") as rendered:
         graph, published = publish_playable(settings, name, plan, rendered)
     table = Table(title=f"{name}: what goal-directed bots saw at each graph size")
     for column in (

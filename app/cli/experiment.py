@@ -84,14 +84,14 @@ def experiment(
     model_options = (player_model, bots, fixed_graph_sessions)
     name = name or "-".join(x for x in ("experiment", dynamics or "toy", preset, fluid) if x)
     settings = get_settings()
-    require_intact()
+    require_intact(settings)
     if resume:
         if quick or any(option is not None for option in (*options, *model_options)):
             raise InvalidInput(
                 "--resume runs the stored plan: give only --name, --jobs, --through, --json, "
                 "--result, --out"
             )
-        plan = stored_plan(name)
+        plan = stored_plan(settings, name)
     else:
         plan = _experiment_plan(
             dynamics or "toy",

@@ -8,6 +8,7 @@ damaged SQLite file first (:func:`app.db.engines.require_intact`).
 from __future__ import annotations
 
 from contextlib import ExitStack
+from functools import partial
 
 import typer
 
@@ -43,9 +44,10 @@ def init(
         check_fluid(fluid)
     if player_model is not None:  # '' too: it names no model, not the default
         parse_player_model(player_model)
-    require_intact()
+    settings = get_settings()
+    require_intact(settings)
     shown: Advance | None = None
-    with ExitStack() as bar, transaction() as session:
+    with ExitStack() as bar, transaction(settings) as session:
 
         def advance(n: int) -> None:  # the bar shows once the first clip is simulated,
             nonlocal shown  # after every check (the depth's too): a refusal stays one line
@@ -56,7 +58,7 @@ def init(
 
         summary = init_graph(
             session,
-            get_settings(),
+            settings,
             name=name,
             dynamics=dynamics,
             preset=preset,
@@ -92,12 +94,12 @@ def grow(
     if strategy is not None:
         parse_strategy(strategy)
     settings = get_settings()
-    require_intact()
+    require_intact(settings)
     total = frames if frames is not None else expansions or settings.batch_size
     label = "frames" if frames is not None else "expansions"
     with progress_bar(total, label) as advance:
         result = grow_graph(
-            transaction,
+            partial(transaction, settings),
             settings,
             name=name,
             strategy=strategy,
@@ -123,13 +125,12 @@ def publish(
     from app.services.catalogue import missing_animations
     from app.services.publishing import publish_graph
 
-    require_intact()
-    with transaction() as session:
+    settings = get_settings()
+    require_intact(settings)
+    with transaction(settings) as session:
         missing = missing_animations(session, name)
         with progress_bar(missing if render else 0, "animations") as advance:
-            result = publish_graph(
-                session, get_settings(), name=name, render=render, progress=advance
-            )
+            result = publish_graph(session, settings, name=name, render=render, progress=advance)
     emit(result, json_output)
 
 
@@ -162,11 +163,12 @@ def play(
             json_output,
         )
         return
-    require_intact()
-    with transaction() as session:
+    settings = get_settings()
+    require_intact(settings)
+    with transaction(settings) as session:
         result = play_graph(
             session,
-            get_settings(),
+            settings,
             name=name,
             bot=bot,
             sessions=sessions,
@@ -181,10 +183,11 @@ def status(
     json_output: bool = typer.Option(False, "--json", help=JSON_HELP),
 ) -> None:
     """Sizes, publications, epochs and play (traces, players, last upload) of one graph or all."""
+    from app.config import get_settings
     from app.services.catalogue import graph_ids
     from app.services.status import graph_summary
 
-    with transaction() as session:
+    with transaction(get_settings()) as session:
         graphs = [name] if name is not None else graph_ids(session)
         rows = [graph_summary(session, graph) for graph in graphs]
     if json_output:
@@ -221,7 +224,7 @@ def gc(
     settings = get_settings()
     grace = grace_seconds(settings, older_than)  # refused before the bar shows
     if not dry_run:
-        require_intact()
+        require_intact(settings)
     directories = count_fanout_directories(settings)
     with progress_bar(directories, "artifact directories") as advance:
         result = collect_artifacts(settings, older_than=grace, dry_run=dry_run, progress=advance)
@@ -247,7 +250,7 @@ def fsck(
     from app.services.fsck import fsck as check
 
     settings = get_settings()
-    with progress_bar(count_to_scan(), "artifacts") as advance:
+    with progress_bar(count_to_scan(settings), "artifacts") as advance:
         result = check(settings, repair=repair, progress=advance)
     emit(result, json_output)
     if not result.sound:

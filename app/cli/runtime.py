@@ -77,12 +77,14 @@ def set_growing(
     on: bool = typer.Option(..., "--on/--off", help="grow it on every beat tick, or stop"),
 ) -> None:
     """Mark a graph for beat's periodic growth (or take it off)."""
+    from app.config import get_settings
     from app.db.engines import require_intact
     from app.db.sessions import transaction
     from app.services.rank_relink_publish import set_growing as mark
 
-    require_intact()
-    with transaction() as session:
+    settings = get_settings()
+    require_intact(settings)
+    with transaction(settings) as session:
         emit(mark(session, name, on), as_json=False)
 
 
@@ -95,8 +97,9 @@ def grow_epoch(name: str = typer.Argument(..., help="graph name or id")) -> None
     from app.tasks.growth import grow_epoch as task
 
     _require_broker()
-    require_broker(get_settings())
-    with transaction() as session:
+    settings = get_settings()
+    require_broker(settings)
+    with transaction(settings) as session:
         graph_id = find_graph(session, name).id
     typer.echo(task.delay(graph_id).id)
 

@@ -18,13 +18,14 @@ def serve(
 
     from app.api.app import create_app
     from app.api.serving import UVICORN_OPTIONS, require_listenable
-    from app.db.engines import get_engine, require_intact
+    from app.config import get_settings
+    from app.db.engines import database_engine, require_intact
     from app.db.migrations import require_current_schema
 
     # refused here in one line, rather than served as a 503 to every request: a database
     # unreachable, not a database, damaged or not migrated (the embedded default migrates)
-    engine = get_engine()
-    require_current_schema(engine)
-    require_intact(engine)
+    settings = get_settings()
+    require_current_schema(database_engine(settings))
+    require_intact(settings)
     require_listenable(host, port)
-    uvicorn.run(create_app(), host=host, port=port, **UVICORN_OPTIONS)
+    uvicorn.run(create_app(settings), host=host, port=port, **UVICORN_OPTIONS)

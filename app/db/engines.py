@@ -5,7 +5,11 @@ database as far as the store needs: foreign keys on, WAL so readers do not block
 writer, a busy timeout instead of instant "database is locked", and transactions that
 SQLAlchemy (not the pysqlite driver) begins, so SAVEPOINTs work.
 
-The embedded default is also migrated on first use (:func:`get_engine`), as a user of an
+Every layer gets the engine of the :class:`~app.config.Settings` it was handed
+(:func:`database_engine`, one engine per database and process), never one looked up in
+the environment, so a test or a tool points a service at a database by its settings alone.
+
+The embedded default is also migrated on first use (:func:`database_engine`), as a user of an
 embedded database expects; a configured database is the operator's, so for one that does
 not exist or has no tables the CLI says to run ``srg db upgrade`` instead, and nothing
 (not even an empty SQLite file) is made.
@@ -16,7 +20,8 @@ SQLite notices a damaged page only when a statement reads it.
 
 from __future__ import annotations
 
-from functools import lru_cache
+import threading
+from collections import OrderedDict
 from pathlib import Path
 from typing import Any
 
@@ -25,7 +30,7 @@ from sqlalchemy.engine import URL, make_url
 from sqlalchemy.exc import ArgumentError, NoSuchModuleError
 from sqlalchemy.orm import Session
 
-from app.config import get_settings
+from app.config import Settings
 from app.core.errors import InvalidInput
 from app.db.errors import (
     UPGRADE_HINT,
@@ -109,9 +114,16 @@ def begin_immediate(session: Session) -> None:
         session.connection(execution_options={SQLITE_BEGIN: "IMMEDIATE"})
 
 
-@lru_cache(maxsize=1)
-def get_engine() -> Engine:
-    """The engine of the configured database, made ready for use where that is ours to do.
+#: engines kept per process, most recently used last; the one pushed out is disposed
+#: (a process uses one database; tests and tools that visit many close what they leave)
+ENGINES_KEPT = 4
+_engines: OrderedDict[tuple[str, bool], Engine] = OrderedDict()
+_engines_lock = threading.Lock()
+
+
+def database_engine(settings: Settings) -> Engine:
+    """The engine of the settings' database, made ready for use where that is ours to do;
+    one per database and process, so its connection pool is shared.
 
     The embedded default (no ``SRG_DATABASE_URL``) is migrated to the latest schema on
     first use: a fresh checkout needs no ``srg db upgrade``. A configured SQLite file
@@ -119,19 +131,37 @@ def get_engine() -> Engine:
     command): :class:`DatabaseNotReady` says to run ``srg db upgrade``, as the CLI does
     for a configured database without tables.
     """
-    settings = get_settings()
-    url = settings.resolved_database_url
+    key = (settings.resolved_database_url, bool(settings.database_url))
+    with _engines_lock:
+        engine = _engines.get(key)
+        if engine is None:
+            engine = _ready_engine(*key)
+            _engines[key] = engine
+            if len(_engines) > ENGINES_KEPT:
+                _engines.popitem(last=False)[1].dispose()
+        _engines.move_to_end(key)
+        return engine
+
+
+def _ready_engine(url: str, configured: bool) -> Engine:
     file = sqlite_file(url)
-    if settings.database_url and file is not None and not file.exists():
+    if configured and file is not None and not file.exists():
         raise DatabaseNotReady(f"no database file at {file}: {UPGRADE_HINT} to create it")
     engine = make_engine(url)
-    if not settings.database_url:
+    if not configured:
         try:
             create_embedded_schema(engine)
         except BaseException:
             engine.dispose()
             raise
     return engine
+
+
+def dispose_engines() -> None:
+    """Close every kept engine's connections (a process about to end, or to fork)."""
+    with _engines_lock:
+        while _engines:
+            _engines.popitem()[1].dispose()
 
 
 def sqlite_file(url: str) -> Path | None:
@@ -161,7 +191,7 @@ def create_embedded_schema(engine: Engine) -> bool:
     return True
 
 
-def require_intact(engine: Engine | None = None) -> None:
+def require_intact(settings: Settings) -> None:
     """Refuse a SQLite file that ``PRAGMA quick_check`` finds damaged, before writing to it.
 
     SQLite notices a damaged page only when a statement reads it, so a command whose
@@ -173,7 +203,7 @@ def require_intact(engine: Engine | None = None) -> None:
     once at their start, and neither reads nor each transaction do. A database server
     checks its own pages: there it only connects.
     """
-    engine = engine or get_engine()
+    engine = database_engine(settings)
     with unavailable_raised(engine), engine.connect() as connection:
         if connection.dialect.name != "sqlite":
             return

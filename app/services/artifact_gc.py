@@ -60,7 +60,7 @@ def collect_artifacts(
     """
     grace = grace_seconds(settings, older_than)
     scan = scan_artifact_files(artifact_store(settings), older_than=grace, progress=progress)
-    with transaction() as session:
+    with transaction(settings) as session:
         collection = collect_orphaned_artifacts(session, scan, dry_run=dry_run)
     remove_collected_files(collection)  # only once the rows' deletion is committed
     return ArtifactGcResult(

@@ -50,13 +50,13 @@ VARIANTS = (
 def eq2_ingredients(settings: Settings, name: str) -> list[dict[str, Any]]:
     """One row per (crowd, seed, checkpoint, variant) of the experiment's sr-crowd runs."""
     rows: list[dict[str, Any]] = []
-    plan = stored_plan(name)
+    plan = stored_plan(settings, name)
     graphs = {
         (run.crowds[0].value, run.seeds[0]): plan.run_graph(name, run)
         for run in plan.runs
         if run.strategy is Strategy.SR_CROWD
     }
-    with transaction() as session:
+    with transaction(settings) as session:
         stored = stored_experiment_id(session, name)
         checkpoints = checkpoint_rows(session, stored, strategy=Strategy.SR_CROWD.value)
         for checkpoint in checkpoints:

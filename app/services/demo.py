@@ -97,7 +97,7 @@ def run_demo(
 ) -> dict[str, Any]:
     """Grow, play and measure both graphs (resuming a stored demo): the result."""
     try:
-        stored = stored_plan(name)
+        stored = stored_plan(settings, name)
     except NothingToResume:
         create_experiment(settings, name, plan)
     else:
@@ -113,14 +113,14 @@ def publish_playable(
 ) -> tuple[str, PublishResult]:
     """Publish the demo's SR-CROWD graph with every animation rendered; its name too."""
     graph = run_graph_name(name, PLAYABLE, plan.seeds[0])
-    with transaction() as session:
+    with transaction(settings) as session:
         return graph, publish_graph(session, settings, name=graph, progress=progress)
 
 
-def unrendered_edges(name: str, plan: ExperimentPlan) -> int:
+def unrendered_edges(settings: Settings, name: str, plan: ExperimentPlan) -> int:
     """Edges of the playable graph without an animation yet (what publishing renders)."""
     graph = run_graph_name(name, PLAYABLE, plan.seeds[0])
-    with transaction() as session:
+    with transaction(settings) as session:
         if not graph_exists(session, graph):
             return 0
         return count_missing_animations(session, graph_entry(session, graph).id)
@@ -148,7 +148,7 @@ def write_demo_report(
 ) -> Path:
     """The experiment's report, with a contact sheet of the playable graph and how to play."""
     report = write_report(result, out, load_arrays)
-    with transaction() as session:
+    with transaction(settings) as session:
         frames = visited_frames(session, settings, graph)
     lines = ["", "## Play it", ""]
     if frames is not None:

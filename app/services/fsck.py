@@ -26,7 +26,7 @@ from sqlalchemy.orm import Session
 
 from app.config import Settings
 from app.core.dynamics import Dynamics
-from app.db.sessions import session_factory, transaction
+from app.db.sessions import database_sessions, transaction
 from app.services.clips import ClipJob, finish_clip, planned_clip, simulate_job
 from app.services.loading import artifact_store, graph_dynamics
 from app.store.array_codec import ARRAYS_MEDIA_TYPE, encode_arrays
@@ -64,9 +64,9 @@ class FsckResult:
         return self.database == ["ok"] and broken <= set(self.repaired)
 
 
-def count_to_scan() -> int:
+def count_to_scan(settings: Settings) -> int:
     """Artifacts :func:`fsck` hashes (for a progress bar)."""
-    with session_factory()() as session:
+    with database_sessions(settings)() as session:
         return count_artifacts(session)
 
 
@@ -79,7 +79,7 @@ def fsck(
     transaction, so growth and play go on while it scans.
     """
     store = artifact_store(settings)
-    with session_factory()() as session:
+    with database_sessions(settings)() as session:
         result = FsckResult(database=_database_check(session))
         for digest, _ in artifact_rows(session):
             result.artifacts += 1
@@ -112,13 +112,13 @@ def _repair(settings: Settings, store: ArtifactStore, digest: str) -> str | None
     """Recompute and store ``digest``; None when done, else why not."""
     arrays = _recomputed(settings, store, digest)
     if arrays is None:
-        with transaction() as session:
+        with transaction(settings) as session:
             if drop_warm_starts(session, digest):
                 return None
         return "not recomputable (a rendered strip, a checkpoint's arrays or a trace)"
     for data in _encodings(arrays):
         if hashlib.sha256(data).hexdigest() == digest:
-            with transaction() as session:
+            with transaction(settings) as session:
                 store.put_bytes(data, media_type=ARRAYS_MEDIA_TYPE, session=session)
             return None
     return "recomputed, but the clip's bytes differ from its hash: left aside"
@@ -128,7 +128,7 @@ def _recomputed(
     settings: Settings, store: ArtifactStore, digest: str
 ) -> dict[str, np.ndarray] | None:
     """The arrays of the clip stored as ``digest``, simulated again; None if no clip is."""
-    with session_factory()() as session:
+    with database_sessions(settings)() as session:
         if (clip := clip_with_bundle(session, digest)) is not None:
             graph_id, idx = clip
             entry = graph_entry(session, graph_id)

@@ -52,7 +52,7 @@ def simulate(epoch_id: int, position: int, control: int) -> str:
 
     Toy: the whole clip. Liquid: PCISPH only (particle positions and end state).
     """
-    with transaction() as session:
+    with transaction(get_settings()) as session:
         return clips.simulate_step(session, get_settings(), epoch_id, position, control)
 
 
@@ -62,14 +62,14 @@ def sdf(stage: str, epoch_id: int, position: int, control: int) -> str:
 
     Records the clip on ``expansion_clips``; returns the clip artifact's digest.
     """
-    with transaction() as session:
+    with transaction(get_settings()) as session:
         return clips.sdf_step(session, get_settings(), stage, epoch_id, position, control)
 
 
 @celery_app.task(name="srg.render")
 def render(clip: str, epoch_id: int, position: int, control: int) -> str:
     """Render the clip's animation strip (stored, attached at integration)."""
-    with transaction() as session:
+    with transaction(get_settings()) as session:
         return clips.render_step(session, get_settings(), clip, epoch_id, position, control)
 
 
@@ -79,7 +79,7 @@ def integrate(self: Any, epoch_id: int, position: int, renders: bool | None = No
     settings = get_settings()
     renders = settings.growth_renders if renders is None else renders
     try:
-        with transaction() as session:
+        with transaction(get_settings()) as session:
             outcome = epochs.integrate_step(session, settings, epoch_id, position)
     except epochs.ExpansionNotReady as exc:
         if exc.missing:
@@ -104,14 +104,14 @@ def integrate(self: Any, epoch_id: int, position: int, renders: bool | None = No
 @celery_app.task(name="srg.blend")
 def blend(epoch_id: int) -> int:
     """Render eq. 8's blend of the epoch's new BLEND edges; how many were rendered."""
-    with transaction() as session:
+    with transaction(get_settings()) as session:
         return epochs.blend_step(session, get_settings(), epoch_id)
 
 
 @celery_app.task(name="srg.rank")
 def rank(graph_id: int) -> str | None:
     """STATERANK of the graph now (warm-started), stored: the ``pi`` artifact's digest."""
-    with transaction() as session:
+    with transaction(get_settings()) as session:
         return rank_relink_publish.rank_graph(session, get_settings(), graph_id)
 
 
@@ -120,7 +120,7 @@ def relink(self: Any, graph_id: int) -> int:
     """Relink every BLEND edge to its best target now (between epochs); how many moved."""
     settings = get_settings()
     try:
-        with transaction() as session:
+        with transaction(get_settings()) as session:
             return rank_relink_publish.relink_graph(session, settings, graph_id)
     except rank_relink_publish.EpochRunning as exc:
         raise self.retry(exc=exc, countdown=settings.beat_interval) from exc
@@ -131,7 +131,7 @@ def publish(self: Any, graph_id: int) -> int:
     """Pre-publish relinking, missing animations, a frozen publication; its id."""
     settings = get_settings()
     try:
-        with transaction() as session:
+        with transaction(get_settings()) as session:
             return rank_relink_publish.publish_between_epochs(session, settings, graph_id)
     except rank_relink_publish.EpochRunning as exc:
         raise self.retry(exc=exc, countdown=settings.beat_interval) from exc
@@ -155,11 +155,11 @@ def grow_epoch(
         epoch_id = _plan_and_send(graph_id, count, renders)
     except Exception as exc:
         if request is not None:
-            with transaction() as session:
+            with transaction(get_settings()) as session:
                 end_request(session, request, failure=failure_reason(exc))
         raise
     if request is not None:
-        with transaction() as session:
+        with transaction(get_settings()) as session:
             if epoch_id is None:
                 end_request(session, request, failure="an epoch of the graph was running")
             else:
@@ -171,7 +171,7 @@ def _plan_and_send(graph_id: int, count: int | None, renders: bool | None) -> in
     settings = get_settings()
     renders = settings.growth_renders if renders is None else renders
     try:
-        with transaction() as session:
+        with transaction(get_settings()) as session:
             plan = epochs.plan_epoch(session, settings, graph_id, count=count, renders=renders)
     except epochs.EpochTaken:  # another tick opened the same epoch number first
         return None
@@ -187,7 +187,7 @@ def _plan_and_send(graph_id: int, count: int | None, renders: bool | None) -> in
         plan.relinks,
     )
     if plan.expansions:
-        with transaction() as session:
+        with transaction(get_settings()) as session:
             work = epochs.epoch_work(session, plan.epoch_id)
         epoch_canvas(work).apply_async()
     return plan.epoch_id
@@ -197,7 +197,7 @@ def _plan_and_send(graph_id: int, count: int | None, renders: bool | None) -> in
 def publish_if_due(graph_id: int) -> int | None:
     """Beat's publication of a growing graph due one; its id, or None (not due after all,
     or another writer holds the graph: the next tick asks again)."""
-    with transaction() as session:
+    with transaction(get_settings()) as session:
         return rank_relink_publish.publish_if_due(session, get_settings(), graph_id)
 
 
@@ -205,7 +205,7 @@ def publish_if_due(graph_id: int) -> int | None:
 def schedule_growth() -> dict[str, list[int]]:
     """Beat's tick: for each graph with ``growing = true`` its publication when one is due
     (``SRG_PUBLISH_EVERY``), else a ``grow_epoch``; the ids of each."""
-    with transaction() as session:
+    with transaction(get_settings()) as session:
         tick = rank_relink_publish.beat_tick(session, get_settings())
     for graph_id in tick.publish:
         publish_if_due.delay(graph_id)
@@ -254,7 +254,7 @@ def grow_on_workers(
     to ``grow_epoch`` again.
     """
     settings = get_settings()
-    with transaction() as session:
+    with transaction(get_settings()) as session:
         graph = find_graph(session, name)
     graph_id, per_expansion = graph.id, graph.frames_per_expansion
     size = _size_frames(graph_id)
@@ -273,7 +273,7 @@ def grow_on_workers(
 
 
 def _size_frames(graph_id: int) -> int:
-    with transaction() as session:
+    with transaction(get_settings()) as session:
         return size_frames(session, graph_id)
 
 
@@ -283,7 +283,7 @@ def _wait_for_epochs(graph_id: int, resend_after: float) -> None:
     last_change = time.monotonic()
     seen: tuple[int, float | None] | None = None
     while True:
-        with transaction() as session:
+        with transaction(get_settings()) as session:
             state = running_epoch_state(session, graph_id)
         if state is None:
             return

@@ -34,7 +34,7 @@ from sqlalchemy.pool import NullPool
 
 from app.config import Settings, get_settings
 from app.db.engines import make_engine
-from app.db.sessions import session_factory, transaction
+from app.db.sessions import session_factory, unit_of_work
 from app.services import epochs
 from app.tasks.celery_app import celery_app
 from app.tasks.growth import epoch_canvas
@@ -102,14 +102,14 @@ def _look(factory: sessionmaker[Session], settings: Settings, hostname: str) -> 
 
 
 def _running_work(factory: sessionmaker[Session]) -> list[epochs.EpochWork]:
-    with transaction(factory) as session:
+    with unit_of_work(factory) as session:
         return epochs.running_work(session)
 
 
 def _resend(factory: sessionmaker[Session], epoch_id: int, lost: list[str]) -> bool:
     """Send what is left of a running epoch again (rendering as the epoch was planned
     to); whether it still ran."""
-    with transaction(factory) as session:
+    with unit_of_work(factory) as session:
         plan = epochs.resend_epoch(session, epoch_id)
         if plan is None:
             return False

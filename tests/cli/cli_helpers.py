@@ -12,7 +12,7 @@ import pytest
 
 from app.cli.main import main
 from app.config import get_settings
-from app.db.engines import get_engine
+from app.db.engines import dispose_engines
 
 SRG = Path(sys.executable).with_name("srg")
 
@@ -25,7 +25,6 @@ def srg(var: Path, *args: str, **env: str) -> subprocess.CompletedProcess[str]:
             patch.setenv(key, value)
         patch.setattr(sys, "argv", ["srg", *args])
         get_settings.cache_clear()
-        get_engine.cache_clear()
         out, err = io.StringIO(), io.StringIO()
         code = 0
         try:
@@ -34,10 +33,8 @@ def srg(var: Path, *args: str, **env: str) -> subprocess.CompletedProcess[str]:
         except SystemExit as exit_:
             code = exit_.code if isinstance(exit_.code, int) else 1
         finally:
-            if get_engine.cache_info().currsize:  # made by the command: not made here
-                get_engine().dispose()
+            dispose_engines()  # the command's: its database file goes with the test
             get_settings.cache_clear()
-            get_engine.cache_clear()
     return subprocess.CompletedProcess(args, code, out.getvalue(), err.getvalue())
 
 

@@ -17,7 +17,7 @@ from database_helpers import migrate, postgres_base_url, postgres_database
 from tasks_cluster import ROOT, Cluster, RedisServer, free_port
 
 from app.config import Settings, get_settings
-from app.db.engines import get_engine
+from app.db.engines import dispose_engines
 from app.services.graph_cache import graph_cache
 
 
@@ -90,8 +90,6 @@ def settings(tmp_path: Path, monkeypatch: pytest.MonkeyPatch) -> Iterator[Settin
     }.items():
         monkeypatch.setenv(name, value)
     get_settings.cache_clear()
-    get_engine.cache_clear()
     yield get_settings()
-    get_engine().dispose()
+    dispose_engines()
     get_settings.cache_clear()
-    get_engine.cache_clear()

@@ -6,6 +6,7 @@ import logging
 import os
 import time
 from dataclasses import replace
+from functools import partial
 from pathlib import Path
 
 import numpy as np
@@ -23,7 +24,7 @@ from app.core.player_models import PlayerModelKind
 from app.core.refinement import RefinerConfig
 from app.core.toy import ToyDynamics
 from app.db.engines import make_engine
-from app.db.sessions import session_factory, transaction
+from app.db.sessions import database_sessions, session_factory, transaction
 from app.models import Clip, Graph, GrowthEpoch, GrowthRequest, Publication, PublicationEdge
 from app.services import clips, epochs, growing, rank_relink_publish, refining
 from app.services.loading import open_graph
@@ -59,7 +60,7 @@ def test_grow_epoch_task_grows_what_grow_graph_grows(settings: Settings, tmp_pat
     graph_id = seed_graph(settings)
     for _ in range(2):
         assert grow_epoch.delay(graph_id).get() is not None
-    with session_factory()() as session:
+    with database_sessions(get_settings())() as session:
         grown = snapshot(session, settings, graph_id)
     assert len(grown["vertex_control"]) == 4 + 8
     assert grown == eager_reference(tmp_path / "ref", 2)
@@ -69,18 +70,18 @@ def test_grow_epoch_tells_its_request_which_epoch_serves_it_or_why_none_does(
     settings: Settings,
 ) -> None:
     graph_id = seed_graph(settings)
-    with transaction() as session:
+    with transaction(get_settings()) as session:
         served, refused = (add_request(session, graph_id, 2, "workers") for _ in range(2))
         start_epoch(session, graph_id, "baseline")  # another epoch is running, not stalled
         session.execute(update(GrowthEpoch).values(heartbeat=time.time()))
     assert grow_epoch.delay(graph_id, 2, False, refused).get() is None
-    with transaction() as session:
+    with transaction(get_settings()) as session:
         view = latest_request(session, graph_id)
         assert view is not None and view.id == refused
         assert (view.state, view.reason) == ("failed", "an epoch of the graph was running")
         session.execute(update(GrowthEpoch).values(status="finished"))
     epoch_id = grow_epoch.delay(graph_id, 2, False, served).get()
-    with transaction() as session:
+    with transaction(get_settings()) as session:
         row = session.get_one(GrowthRequest, served)
         assert (row.state, row.epoch_id) == ("running", epoch_id)
         view = latest_request(session, graph_id)  # the request after the refused one: none
@@ -91,7 +92,7 @@ def test_an_epoch_remembers_whether_it_renders_for_a_resend(settings: Settings) 
     graph_id = seed_graph(settings)
     quiet = grow_epoch.delay(graph_id, 2, False).get()
     loud = grow_epoch.delay(graph_id, 2, True).get()
-    with transaction() as session:
+    with transaction(get_settings()) as session:
         assert session.get_one(GrowthEpoch, quiet).renders is False
         assert session.get_one(GrowthEpoch, loud).renders is True
         assert epochs.epoch_work(session, quiet).renders is False
@@ -100,51 +101,57 @@ def test_an_epoch_remembers_whether_it_renders_for_a_resend(settings: Settings) 
 def test_integrating_twice_changes_nothing(settings: Settings) -> None:
     graph_id = seed_graph(settings)
     epoch_id = grow_epoch.delay(graph_id).get()
-    with session_factory()() as session:
+    with database_sessions(get_settings())() as session:
         revision = session.get_one(Graph, graph_id).revision
         before = snapshot(session, settings, graph_id)
     vertices = [integrate.delay(epoch_id, p).get() for p in range(4)]
     assert vertices == [4, 5, 6, 7]
-    with session_factory()() as session:
+    with database_sessions(get_settings())() as session:
         assert session.get_one(Graph, graph_id).revision == revision
         assert snapshot(session, settings, graph_id) == before
 
 
 def test_integration_waits_for_clips_and_for_plan_order(settings: Settings) -> None:
     graph_id = seed_graph(settings)
-    with session_factory()() as session:
+    with database_sessions(get_settings())() as session:
         plan = epochs.plan_epoch(session, settings, graph_id)
         session.commit()
     assert plan is not None and len(plan.expansions) == 4
-    with session_factory()() as session, pytest.raises(epochs.ExpansionNotReady) as missing:
+    with (
+        database_sessions(get_settings())() as session,
+        pytest.raises(epochs.ExpansionNotReady) as missing,
+    ):
         epochs.integrate_step(session, settings, plan.epoch_id, 0)
     assert missing.value.missing == [0, 1, 2]
-    with session_factory()() as session:
+    with database_sessions(get_settings())() as session:
         for control in range(3):
             stage = clips.simulate_step(session, settings, plan.epoch_id, 1, control)
             clips.sdf_step(session, settings, stage, plan.epoch_id, 1, control)
         session.commit()
-    with session_factory()() as session, pytest.raises(epochs.ExpansionNotReady) as early:
+    with (
+        database_sessions(get_settings())() as session,
+        pytest.raises(epochs.ExpansionNotReady) as early,
+    ):
         epochs.integrate_step(session, settings, plan.epoch_id, 1)
     assert early.value.waiting_for == 0
 
 
 def test_a_running_epoch_blocks_a_second_until_it_stalls(settings: Settings) -> None:
     graph_id = seed_graph(settings)
-    with session_factory()() as session:
+    with database_sessions(get_settings())() as session:
         first = epochs.plan_epoch(session, settings, graph_id)
         session.commit()
     assert first is not None
-    with session_factory()() as session:
+    with database_sessions(get_settings())() as session:
         assert epochs.plan_epoch(session, settings, graph_id) is None
     stalled = settings.model_copy(update={"epoch_resend_after": 0.0})
-    with session_factory()() as session:
+    with database_sessions(get_settings())() as session:
         again = epochs.plan_epoch(session, stalled, graph_id)
         session.commit()
         assert again is not None and again.resent and again.epoch_id == first.epoch_id
         work = epochs.epoch_work(session, first.epoch_id)
     assert work.pending == [0, 1, 2, 3] and len(work.missing_clips) == 12
-    with session_factory()() as session:
+    with database_sessions(get_settings())() as session:
         numbers = session.scalars(select(GrowthEpoch.number)).all()
     assert numbers == [1]
 
@@ -163,7 +170,9 @@ def test_growth_goes_on_when_staterank_fails_and_says_so(
 
     monkeypatch.setattr(refining, "refiner_config", one_iteration)
     with caplog.at_level(logging.WARNING, logger="app.services.epochs"):
-        result = growing.grow_graph(transaction, settings, name=graph_id, expansions=8)
+        result = growing.grow_graph(
+            partial(transaction, settings), settings, name=graph_id, expansions=8
+        )
     assert (result.epochs, result.expansions) == (2, 8)
     assert len(result.ranking_fallbacks) == 2
     assert all("did not converge in 1 iterations" in f for f in result.ranking_fallbacks)
@@ -172,7 +181,7 @@ def test_growth_goes_on_when_staterank_fails_and_says_so(
     assert len(warnings) == 2 and all("baseline ordering" in w for w in warnings)
     # the workers' path plans its epochs the same way
     assert grow_epoch.delay(graph_id).get() is not None
-    with session_factory()() as session:
+    with database_sessions(get_settings())() as session:
         statuses = session.scalars(select(GrowthEpoch.status)).all()
     assert statuses == ["finished"] * 3
 
@@ -185,7 +194,7 @@ def test_a_loaded_graph_orders_equal_energies_like_the_grown_one(
     for _ in range(12):
         expand_blend_edge(graph, bank, dynamics, int(graph.blend_edges()[-1]))
     artifacts = ArtifactStore(tmp_path / "a")
-    with session_factory()() as session:
+    with database_sessions(get_settings())() as session:
         graph_id = create_graph(
             session, name="ties", dynamics="toy", n_controls=3, frames_per_clip=10
         )
@@ -240,7 +249,7 @@ def test_the_collect_artifacts_task_removes_old_orphans_only(settings: Settings)
     freed = collect_artifacts.delay().get()
     assert (freed["rows"], freed["files"]) == (0, 1) and not orphan.exists()
     assert {path for path in store.root.rglob("*") if path.is_file()} == kept
-    with session_factory()() as session:
+    with database_sessions(get_settings())() as session:
         load_graph(
             session, graph_id, store, ToyDynamics().shape
         )  # every bundle it uses is still there
@@ -250,11 +259,13 @@ def test_an_epoch_renders_the_strips_its_expansions_show(settings: Settings) -> 
     """The dead-end clip of each expansion gets its strip, new blend edges their blends;
     the new clips, which end on blend edges and show in no edge yet, get none."""
     graph_id = seed_graph(settings)
-    with session_factory()() as session:
+    with database_sessions(get_settings())() as session:
         clips_before = session.scalar(select(func.count()).select_from(Clip))
-    result = growing.grow_graph(transaction, settings, name=graph_id, expansions=4, renders=True)
+    result = growing.grow_graph(
+        partial(transaction, settings), settings, name=graph_id, expansions=4, renders=True
+    )
     assert result.expansions == 4
-    with session_factory()() as session:
+    with database_sessions(get_settings())() as session:
         plan = session.scalars(select(GrowthEpoch.plan)).one()
         strips = clip_animations(session, graph_id)
         loaded = open_graph(session, settings, graph_id)
@@ -269,7 +280,7 @@ def test_an_epoch_renders_the_strips_its_expansions_show(settings: Settings) -> 
 
 def _publications(graph_id: int) -> list[tuple[int, int]]:
     """The graph's publications as (number, size in frames), oldest first."""
-    with session_factory()() as session:
+    with database_sessions(get_settings())() as session:
         return [
             (row.number, row.size_frames)
             for row in session.scalars(
@@ -289,7 +300,7 @@ def test_beat_publishes_a_growing_graph_when_due_and_grows_it_otherwise(
     get_settings.cache_clear()
     graph_id = seed_graph(settings)
     idle = seed_graph(settings, "not-growing")
-    with transaction() as session:
+    with transaction(get_settings()) as session:
         rank_relink_publish.set_growing(session, graph_id, True)
     ticks = [schedule_growth.delay().get() for _ in range(5)]
     assert ticks == [
@@ -301,7 +312,7 @@ def test_beat_publishes_a_growing_graph_when_due_and_grows_it_otherwise(
     ]
     assert _publications(graph_id) == [(1, 120), (2, 360)]
     assert _publications(idle) == []
-    with session_factory()() as session:
+    with database_sessions(get_settings())() as session:
         latest = session.scalars(select(Publication.id).order_by(Publication.id.desc())).first()
         assert latest is not None
         unanimated = session.scalar(
@@ -316,13 +327,13 @@ def test_beat_never_publishes_with_publish_every_0_nor_while_an_epoch_runs(
     settings: Settings, monkeypatch: pytest.MonkeyPatch
 ) -> None:
     graph_id = seed_graph(settings)
-    with transaction() as session:
+    with transaction(get_settings()) as session:
         rank_relink_publish.set_growing(session, graph_id, True)
         start_epoch(session, graph_id, "baseline")  # running: the tick leaves it to grow_epoch
         session.execute(update(GrowthEpoch).values(heartbeat=time.time()))
     assert schedule_growth.delay().get() == {"grow": [graph_id], "publish": []}
     assert publish_if_due.delay(graph_id).get() is None
-    with transaction() as session:
+    with transaction(get_settings()) as session:
         session.execute(update(GrowthEpoch).values(status="finished"))
     monkeypatch.setenv("SRG_PUBLISH_EVERY", "0")
     get_settings.cache_clear()

@@ -3,6 +3,7 @@ is reused, in process and through the workers' steps, with the same bytes."""
 
 from __future__ import annotations
 
+from functools import partial
 from pathlib import Path
 
 import numpy as np
@@ -27,27 +28,27 @@ EXPANSIONS = 2
 
 
 def _new_graph(settings: Settings, name: str) -> None:
-    with transaction() as session:
+    with transaction(settings) as session:
         init_graph(session, settings, name=name, dynamics="liquid", preset="tiny")
 
 
 def _grow(settings: Settings, name: str) -> int:
     """Grow ``name`` by :data:`EXPANSIONS`; return the PCISPH substeps it ran."""
     before = _substeps(settings, name)
-    growing.grow_graph(transaction, settings, name=name, expansions=EXPANSIONS)
+    growing.grow_graph(partial(transaction, settings), settings, name=name, expansions=EXPANSIONS)
     return _substeps(settings, name) - before
 
 
 def _substeps(settings: Settings, name: str) -> int:
     """Substeps run so far by this process's simulator of the graph's dynamics."""
-    with transaction() as session:
+    with transaction(get_settings()) as session:
         dynamics = graph_dynamics(graph_entry(session, name), settings)
     assert isinstance(dynamics, LiquidDynamics)
     return dynamics.simulator.stats.substeps
 
 
 def _bundles(name: str) -> list[str]:
-    with transaction() as session:
+    with transaction(get_settings()) as session:
         graph = select(Graph.id).where(Graph.name == name).scalar_subquery()
         return list(
             session.scalars(select(Clip.bundle).where(Clip.graph_id == graph).order_by(Clip.idx))
@@ -55,7 +56,7 @@ def _bundles(name: str) -> list[str]:
 
 
 def _remembered() -> list[str]:
-    with transaction() as session:
+    with transaction(get_settings()) as session:
         return list(session.scalars(select(SimulatedClip.clip)))
 
 
@@ -69,7 +70,7 @@ def test_a_graph_grown_again_reuses_every_clip_and_with_reuse_off_simulates_the_
     _new_graph(settings, "again")
     assert _grow(settings, "again") == 0
     assert _bundles("again") == _bundles("first")
-    with transaction() as session:
+    with transaction(get_settings()) as session:
         assert reuse_counts(session) == (2 * EXPANSIONS * 3, EXPANSIONS * 3)
 
     monkeypatch.setenv("SRG_REUSE_SIMULATIONS", "false")
@@ -99,11 +100,11 @@ def test_the_workers_steps_reuse_a_remembered_clip_and_record_it(settings: Setti
     _grow(settings, "first")
     _new_graph(settings, "again")
     before = _substeps(settings, "again")
-    with transaction() as session:
+    with transaction(get_settings()) as session:
         graph_id = session.scalars(select(Graph.id).where(Graph.name == "again")).one()
         plan = epochs.plan_epoch(session, settings, graph_id)
     assert plan is not None
-    with transaction() as session:
+    with transaction(get_settings()) as session:
         stage = clips.simulate_step(session, settings, plan.epoch_id, 0, 1)
         assert stage in _remembered_in(session)
         assert clips.sdf_step(session, settings, stage, plan.epoch_id, 0, 1) == stage
@@ -129,8 +130,8 @@ def test_the_key_tells_apart_what_changes_a_clip_and_leaves_out_the_toy() -> Non
 
 
 def test_nothing_is_remembered_of_the_toy(settings: Settings) -> None:
-    with transaction() as session:
+    with transaction(settings) as session:
         init_graph(session, settings, name="toy")
-    growing.grow_graph(transaction, settings, name="toy", expansions=EXPANSIONS)
-    with transaction() as session:
+    growing.grow_graph(partial(transaction, settings), settings, name="toy", expansions=EXPANSIONS)
+    with transaction(get_settings()) as session:
         assert session.scalar(select(func.count()).select_from(SimulatedClip)) == 0

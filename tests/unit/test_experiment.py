@@ -17,7 +17,7 @@ from app.core.metrics import CheckpointReport, evaluate_checkpoint
 from app.core.player_models import PlayerModelKind, robust_session_length
 from app.core.publication import Publication
 from app.core.strategies import Strategy
-from app.db.engines import get_engine
+from app.db.engines import dispose_engines
 from app.services import play
 from app.services.experiment import checkpoint
 from app.services.experiment.plan import ExperimentPlan, create_experiment, parse_checkpoints
@@ -39,7 +39,6 @@ def test_prediction_is_for_the_publication_played_from_earlier_traces(
     monkeypatch.setenv("SRG_VAR_DIR", str(tmp_path))
     monkeypatch.delenv("SRG_DATABASE_URL", raising=False)
     get_settings.cache_clear()
-    get_engine.cache_clear()
     migrate(get_settings().resolved_database_url)
     played: list[Publication] = []
     sessions: list[list[np.ndarray]] = []
@@ -98,7 +97,6 @@ def test_every_run_reaches_a_checkpoint_before_any_grows_towards_the_next(
     monkeypatch.setenv("SRG_VAR_DIR", str(tmp_path))
     monkeypatch.delenv("SRG_DATABASE_URL", raising=False)
     get_settings.cache_clear()
-    get_engine.cache_clear()
     migrate(get_settings().resolved_database_url)
     settings = get_settings()
     plan = ExperimentPlan(
@@ -120,9 +118,8 @@ def test_every_run_reaches_a_checkpoint_before_any_grows_towards_the_next(
 @pytest.fixture(autouse=True)
 def _fresh_settings() -> Any:
     yield
-    get_engine().dispose()
+    dispose_engines()
     get_settings.cache_clear()
-    get_engine.cache_clear()
 
 
 # ---- the plan's player model, bots and fixed-graph setting --------------------------------

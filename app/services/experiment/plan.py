@@ -182,7 +182,7 @@ def create_experiment(settings: Settings, name: str, plan: ExperimentPlan) -> Ex
     dynamics = make_dynamics(plan.dynamics, plan.preset, plan.fluid, devices=devices)
     if plan.high_error_threshold is None:
         plan = replace(plan, high_error_threshold=threshold_in_force(settings, dynamics))
-    with transaction() as session:
+    with transaction(settings) as session:
         if experiment_id(session, name) is not None:
             raise ExperimentExists(
                 f"an experiment named {name!r} exists: add --resume, or choose another --name"
@@ -196,9 +196,9 @@ def create_experiment(settings: Settings, name: str, plan: ExperimentPlan) -> Ex
     return plan
 
 
-def stored_plan(name: str) -> ExperimentPlan:
+def stored_plan(settings: Settings, name: str) -> ExperimentPlan:
     """The plan of a stored experiment; :class:`NothingToResume` if there is none."""
-    with transaction() as session:
+    with transaction(settings) as session:
         plan = experiment_plan(session, name)
     if plan is None:
         raise NothingToResume(f"no experiment named {name!r} to resume")

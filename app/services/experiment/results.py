@@ -66,10 +66,10 @@ def collect(
     sr-crowd against baseline at every checkpoint, mean over seeds with its interval
     (:func:`compare_with_baseline`).
     """
-    plan = stored_plan(name)
+    plan = stored_plan(settings, name)
     if through is not None:
         plan = replace(plan, checkpoints=plan.checkpoints[: through + 1])
-    with transaction() as session:
+    with transaction(settings) as session:
         rows = checkpoint_rows(session, stored_experiment_id(session, name))
     rows = [row for row in rows if row.checkpoint < len(plan.checkpoints)]
     crowds: dict[str, dict[str, dict[str, list[dict[str, Any]]]]] = {

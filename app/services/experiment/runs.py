@@ -16,6 +16,7 @@ import resource
 import threading
 import time
 from collections.abc import Callable
+from functools import partial
 from multiprocessing import get_context
 from typing import Any
 
@@ -53,7 +54,7 @@ def grow_in_process(
     spawned run process can unpickle).
     """
     grow_graph(
-        transaction,
+        partial(transaction, settings),
         settings,
         name=name,
         to_frames=to_frames,
@@ -78,7 +79,7 @@ def run_experiment(
     ``jobs > 1`` runs that many (strategy, seed) runs at once in spawned processes
     (PyOpenCL contexts do not survive a fork); progress then comes from the database.
     """
-    plan = stored_plan(name)
+    plan = stored_plan(settings, name)
     started = time.perf_counter()
     reported = 0
     for last in range(len(plan.checkpoints) if through is None else through + 1):
@@ -119,7 +120,7 @@ def _run_in_processes(
                 finished.get()  # re-raises a run's error here
                 pending.remove(finished)
             if progress is not None:
-                grown = frames_grown(name, plan)
+                grown = frames_grown(settings, name, plan)
                 progress(grown - reported)
                 reported = grown
     return reported
@@ -141,9 +142,9 @@ def die_with_parent(parent: int) -> None:
     threading.Thread(target=watch, name="die-with-parent", daemon=True).start()
 
 
-def frames_grown(name: str, plan: ExperimentPlan) -> int:
+def frames_grown(settings: Settings, name: str, plan: ExperimentPlan) -> int:
     """Frames stored so far over every run's graph (what the progress bar counts)."""
-    with transaction() as session:
+    with transaction(settings) as session:
         return frames_of_graphs(session, [plan.run_graph(name, run) for run in plan.runs])
 
 
@@ -157,18 +158,18 @@ def run_one(
 ) -> None:
     """The plan's run ``run_index`` through its checkpoints (up to index ``last``, all
     when None), skipping those already stored (a resume)."""
-    plan = stored_plan(name)
+    plan = stored_plan(settings, name)
     run = plan.runs[run_index]
     strategy = run.strategy
     graph = plan.run_graph(name, run)
-    with transaction() as session:
+    with transaction(settings) as session:
         stored_id = stored_experiment_id(session, name)
         done = done_checkpoints(
             session, stored_id, strategy.value, run.seeds[0], run.crowds[0].value
         )
         exists = graph_exists(session, graph)
     if not exists:
-        with transaction() as session:
+        with transaction(settings) as session:
             summary = init_graph(
                 session,
                 settings,
@@ -188,7 +189,7 @@ def run_one(
         started = time.perf_counter()
         grower(graph, checkpoint, plan.batch_size, progress)
         grow_seconds = time.perf_counter() - started
-        with transaction() as session:
+        with transaction(settings) as session:
             crowds = checkpoint_figures(session, settings, plan, graph, run, index)
             seconds = round(time.perf_counter() - started, 3)
             for (seed, bot), figures, arrays in crowds:
