@@ -18,7 +18,8 @@ bundle writes add to each integration at the preset (measured apart, docs/runtim
 The writer keeps up while its share of the virtual time stays small: that share is the
 fraction of the workers' time lost waiting for it. One growth serves every worker count
 (the writer's seconds do not depend on W); each is reported whole and per tenth of the
-run.
+run. A run to 200,000 frames takes hours: interrupted (Ctrl-C), it reports the epochs it
+grew, marked ``interrupted``, and drops its scratch database as a finished one does.
 """
 
 from __future__ import annotations
@@ -31,6 +32,7 @@ from pathlib import Path
 from typing import Any
 
 import numpy as np
+from sqlalchemy.orm import Session, sessionmaker
 
 from app.bench.scratch import scratch_database
 from app.config import Settings
@@ -83,7 +85,6 @@ def bench_writer(
     progress: Callable[[int], None] | None = None,
 ) -> dict[str, Any]:
     """Grow a toy graph to ``frames`` with the real writer; the virtual-clock figures."""
-    from app.services import clips, epochs
     from app.services.creation import init_graph
 
     with tempfile.TemporaryDirectory() as tmp, scratch_database(settings.test_postgres_url) as url:
@@ -107,39 +108,29 @@ def bench_writer(
         records: list[tuple[int, float]] = []
         integration_seconds: list[float] = []
         started = time.perf_counter()
-        while size < frames:
-            t0 = time.perf_counter()
-            with sessions() as session:
-                plan = epochs.plan_epoch(session, settings, graph_id, renders=False)
-                session.commit()
-            plan_s = time.perf_counter() - t0
-            if plan is None or not plan.expansions:
-                break
-            with sessions() as session:  # the workers' part: not on the writer's clock
-                for position in range(len(plan.expansions)):
-                    for control in range(n_controls):
-                        stage = clips.simulate_step(
-                            session, settings, plan.epoch_id, position, control
-                        )
-                        clips.sdf_step(session, settings, stage, plan.epoch_id, position, control)
-                session.commit()
-            integrations = []
-            for position in range(len(plan.expansions)):
-                t0 = time.perf_counter()
-                with sessions() as session:
-                    epochs.integrate_step(session, settings, plan.epoch_id, position)
-                    session.commit()
-                integrations.append(time.perf_counter() - t0)
-            with sessions() as session:
-                grown = size_frames(session, graph_id) - size
-            size += grown
-            records.append((size, plan_s + sum(integrations)))
-            integration_seconds.extend(integrations)
-            if progress is not None:
-                progress(grown)
+        interrupted = False
+        try:
+            size = _grow(
+                sessions,
+                settings,
+                graph_id,
+                n_controls,
+                size,
+                frames,
+                records,
+                integration_seconds,
+                progress,
+            )
+        except KeyboardInterrupt:
+            if not records:
+                raise
+            interrupted = True
+            size = records[-1][0]
     t_int = np.asarray(integration_seconds)
     return {
         "frames": size,
+        "target_frames": frames,
+        "interrupted": interrupted,
         "epochs": len(records),
         "batch": batch,
         "bench_wall_seconds": round(time.perf_counter() - started, 1),
@@ -160,3 +151,49 @@ def bench_writer(
             for w in workers
         ],
     }
+
+
+def _grow(
+    sessions: sessionmaker[Session],
+    settings: Settings,
+    graph_id: int,
+    n_controls: int,
+    size: int,
+    frames: int,
+    records: list[tuple[int, float]],
+    integration_seconds: list[float],
+    progress: Callable[[int], None] | None,
+) -> int:
+    """Epochs until the graph holds ``frames``: the writer's part timed into ``records``
+    (size after the epoch, plan + integration seconds) as each epoch ends; the size."""
+    from app.services import clips, epochs
+
+    while size < frames:
+        t0 = time.perf_counter()
+        with sessions() as session:
+            plan = epochs.plan_epoch(session, settings, graph_id, renders=False)
+            session.commit()
+        plan_s = time.perf_counter() - t0
+        if plan is None or not plan.expansions:
+            break
+        with sessions() as session:  # the workers' part: not on the writer's clock
+            for position in range(len(plan.expansions)):
+                for control in range(n_controls):
+                    stage = clips.simulate_step(session, settings, plan.epoch_id, position, control)
+                    clips.sdf_step(session, settings, stage, plan.epoch_id, position, control)
+            session.commit()
+        integrations = []
+        for position in range(len(plan.expansions)):
+            t0 = time.perf_counter()
+            with sessions() as session:
+                epochs.integrate_step(session, settings, plan.epoch_id, position)
+                session.commit()
+            integrations.append(time.perf_counter() - t0)
+        with sessions() as session:
+            grown = size_frames(session, graph_id) - size
+        size += grown
+        records.append((size, plan_s + sum(integrations)))
+        integration_seconds.extend(integrations)
+        if progress is not None:
+            progress(grown)
+    return size

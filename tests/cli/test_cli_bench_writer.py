@@ -8,7 +8,8 @@ from pathlib import Path
 import pytest
 from cli_helpers import ok, one_line_error, srg
 
-from app.bench.writer import _virtual_clock
+from app.bench.writer import _virtual_clock, bench_writer
+from app.config import Settings
 
 
 def test_the_virtual_clock_adds_the_clips_rounds_and_the_writer() -> None:
@@ -46,3 +47,28 @@ def test_more_workers_leave_the_writer_a_larger_share(tmp_path: Path) -> None:
     assert 0 < few["writer_share"] < many["writer_share"] < 1
     assert many["virtual_hours"] < few["virtual_hours"]
     assert result["integration_median_ms_last_tenth"] > 0
+
+
+def test_an_interrupted_run_reports_the_epochs_it_grew(tmp_path: Path) -> None:
+    """Ctrl-C during a long run (here: raised by the progress callback after the second
+    epoch) ends the growth, not the bench: the report covers the epochs measured."""
+    epochs_seen = []
+
+    def interrupt_after_two(grown: int) -> None:
+        epochs_seen.append(grown)
+        if len(epochs_seen) == 2:
+            raise KeyboardInterrupt
+
+    result = bench_writer(
+        settings=Settings(var_dir=tmp_path),
+        frames=100_000,
+        batch=2,
+        workers=[4],
+        clip_seconds=1.0,
+        liquid_seconds=0.0,
+        progress=interrupt_after_two,
+    )
+    assert result["interrupted"] is True and result["target_frames"] == 100_000
+    assert result["epochs"] == 2
+    assert result["by_workers"][0]["slices"][-1]["up_to_frames"] == result["frames"]
+    assert result["frames"] > 120  # the toy's tree (120 frames) and two epochs more

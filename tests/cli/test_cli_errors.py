@@ -391,7 +391,7 @@ def test_only_srg_errors_and_the_mapped_library_errors_are_the_users() -> None:
 def test_a_bug_keeps_its_traceback(tmp_path: Path, monkeypatch: pytest.MonkeyPatch) -> None:
     import app.cli.graph
 
-    def broken() -> None:
+    def broken(settings: object) -> None:
         raise ValueError("a bug, not the user's")
 
     monkeypatch.setattr(app.cli.graph, "transaction", broken)
