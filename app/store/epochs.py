@@ -7,7 +7,9 @@ in the database (:class:`EpochTaken`), a backstop behind the per-graph growth lo
 from __future__ import annotations
 
 import time
+from datetime import datetime
 from enum import StrEnum
+from typing import NamedTuple
 
 from sqlalchemy import func, select, update
 from sqlalchemy.exc import IntegrityError
@@ -80,16 +82,44 @@ def last_epoch_number(session: Session, graph_id: int) -> int:
     return int(last or 0)
 
 
-def epochs_after(session: Session, graph_id: int, after: int, limit: int) -> list[GrowthEpoch]:
+class EpochSummary(NamedTuple):
+    """An epoch's row as a value: what its poll shows."""
+
+    id: int
+    number: int
+    strategy: str
+    status: str
+    planned: int
+    expansions: int
+    relinks: int
+    size_frames: int
+    started_at: datetime
+    finished_at: datetime | None
+
+
+def epochs_after(session: Session, graph_id: int, after: int, limit: int) -> list[EpochSummary]:
     """The graph's epochs numbered above ``after``, oldest first, at most ``limit``."""
-    return list(
-        session.scalars(
-            select(GrowthEpoch)
-            .where(GrowthEpoch.graph_id == graph_id, GrowthEpoch.number > after)
-            .order_by(GrowthEpoch.number)
-            .limit(limit)
-        )
+    rows = session.scalars(
+        select(GrowthEpoch)
+        .where(GrowthEpoch.graph_id == graph_id, GrowthEpoch.number > after)
+        .order_by(GrowthEpoch.number)
+        .limit(limit)
     )
+    return [
+        EpochSummary(
+            row.id,
+            row.number,
+            row.strategy,
+            row.status,
+            len(row.plan or []),
+            row.expansions,
+            row.relinks,
+            row.size_frames,
+            row.started_at,
+            row.finished_at,
+        )  # fmt: skip
+        for row in rows
+    ]
 
 
 class EpochNotFound(NotFound):

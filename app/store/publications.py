@@ -104,15 +104,33 @@ def publish(session: Session, graph_id: int, graph: StateGraph) -> int:
     return row.id
 
 
-def get_publication(session: Session, publication_id: int) -> PublicationRow:
+class PublicationSummary(NamedTuple):
+    """A publication's row as a value: what callers above the store read of it."""
+
+    id: int
+    graph_id: int
+    number: int
+    start: int
+    size_frames: int
+
+
+def _summary(row: PublicationRow) -> PublicationSummary:
+    return PublicationSummary(row.id, row.graph_id, row.number, row.start, row.size_frames)
+
+
+def _publication_row(session: Session, publication_id: int) -> PublicationRow:
     row = session.get(PublicationRow, publication_id)
     if row is None:
         raise PublicationNotFound(f"no publication {publication_id}")
     return row
 
 
+def get_publication(session: Session, publication_id: int) -> PublicationSummary:
+    return _summary(_publication_row(session, publication_id))
+
+
 def load_publication(session: Session, publication_id: int) -> Publication:
-    row = get_publication(session, publication_id)
+    row = _publication_row(session, publication_id)
     n_controls = get_graph_row(session, row.graph_id).n_controls
     edges = session.execute(
         select(
@@ -132,14 +150,15 @@ def load_publication(session: Session, publication_id: int) -> Publication:
     )
 
 
-def latest_publication(session: Session, graph_id: int) -> PublicationRow | None:
-    """The graph's most recent publication row, or None before the first."""
-    return session.scalars(
+def latest_publication(session: Session, graph_id: int) -> PublicationSummary | None:
+    """The graph's most recent publication, or None before the first."""
+    row = session.scalars(
         select(PublicationRow)
         .where(PublicationRow.graph_id == graph_id)
         .order_by(PublicationRow.number.desc())
         .limit(1)
     ).one_or_none()
+    return None if row is None else _summary(row)
 
 
 def latest_publication_id(session: Session, graph: str | int) -> int:

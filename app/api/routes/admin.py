@@ -156,7 +156,7 @@ def epochs(
                 number=epoch.number,
                 strategy=epoch.strategy,
                 status=epoch.status,
-                planned=len(epoch.plan or []),
+                planned=epoch.planned,
                 expansions=epoch.expansions,
                 relinks=epoch.relinks,
                 size_frames=epoch.size_frames,
