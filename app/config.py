@@ -113,11 +113,6 @@ class Settings(BaseSettings):
     clip_cache_mb: int = Field(
         256, ge=1, description="per-process memory for cached occupancy grids of a loaded graph"
     )
-    test_simulate_delay: float = Field(
-        0.0,
-        ge=0.0,
-        description="TEST ONLY: seconds `simulate` sleeps first, to kill a worker mid-task",
-    )
     test_postgres_url: str = Field(
         "postgresql+psycopg://postgres@127.0.0.1:5432/srg_test",
         description="PostgreSQL server where the tests and `srg bench grow` create their "

@@ -10,7 +10,6 @@ done. Simulating needs no database at all
 from __future__ import annotations
 
 import hashlib
-import time
 from dataclasses import dataclass
 from typing import Protocol, runtime_checkable
 
@@ -195,8 +194,6 @@ def simulate_step(
         return job
     if (remembered := remembered_clip(session, settings, job)) is not None:
         return remembered
-    if settings.test_simulate_delay > 0:  # test-only: a window to kill the worker in
-        time.sleep(settings.test_simulate_delay)
     return artifact_store(settings).put_arrays(simulate_job(job), session=session)
 
 

@@ -14,6 +14,7 @@ from pathlib import Path
 
 import pytest
 from database_helpers import migrate, postgres_base_url, postgres_database
+from slow_simulate import SIMULATE_DELAY
 from tasks_cluster import ROOT, Cluster, RedisServer, free_port
 
 from app.config import Settings, get_settings
@@ -40,10 +41,12 @@ def postgres_url() -> Iterator[str]:
 def cluster_env(
     tmp_path: Path, redis_server: RedisServer, postgres_url: str
 ) -> Iterator[Callable[..., Cluster]]:
-    """Make a :class:`Cluster`; keyword arguments are extra Settings fields."""
+    """Make a :class:`Cluster`; keyword arguments are extra Settings fields, but for
+    ``simulate_delay``: the seconds its workers' ``srg.simulate`` sleeps first
+    (:mod:`slow_simulate`)."""
     made: list[Cluster] = []
 
-    def make(**extra: object) -> Cluster:
+    def make(simulate_delay: float = 0.0, **extra: object) -> Cluster:
         fields: dict[str, object] = {
             "broker_url": redis_server.url,
             "result_backend": redis_server.url,
@@ -55,7 +58,8 @@ def cluster_env(
         }
         env = {k: v for k, v in os.environ.items() if not k.startswith("SRG_")}
         env.update({f"SRG_{k.upper()}": str(v) for k, v in fields.items()})
-        env["PYTHONPATH"] = str(ROOT)
+        env["PYTHONPATH"] = f"{ROOT}{os.pathsep}{Path(__file__).parent}"  # slow_simulate
+        env[SIMULATE_DELAY] = str(simulate_delay)
         env["FLOWER_UNAUTHENTICATED_API"] = "true"
         logs = tmp_path / "logs"
         logs.mkdir(exist_ok=True)

@@ -107,6 +107,7 @@ class Cluster:
                 "--loglevel=INFO",
                 f"--concurrency={concurrency}",
                 f"--hostname={name}@%h",
+                "--include=slow_simulate",
                 "--without-gossip",
                 "--without-mingle",
             ],

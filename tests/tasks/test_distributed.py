@@ -96,8 +96,9 @@ def _wait_until_ready(cluster: Cluster, *workers: str) -> None:
 def test_worker_killed_mid_simulate_loses_no_expansion(
     cluster_env: Callable[..., Cluster], tmp_path: Path
 ) -> None:
-    # test_simulate_delay is the test-only setting that keeps `simulate` busy long enough
-    cluster = cluster_env(batch_size=2, test_simulate_delay=0.5, epoch_check_interval=2)
+    # simulate_delay (tests/tasks/slow_simulate.py, a hook of the test workers) keeps `simulate`
+    # busy long enough
+    cluster = cluster_env(batch_size=2, simulate_delay=0.5, epoch_check_interval=2)
     graph_id = seed_graph(cluster.settings)
     doomed = cluster.start_worker("doomed")
     app = client(cluster)
@@ -115,7 +116,7 @@ def test_a_lost_worker_costs_under_a_minute_without_beat(
     cluster_env: Callable[..., Cluster], tmp_path: Path
 ) -> None:
     # default settings: what bounds the loss is the workers' own look at their epochs
-    cluster = cluster_env(batch_size=2, test_simulate_delay=2.0)
+    cluster = cluster_env(batch_size=2, simulate_delay=2.0)
     graph_id = seed_graph(cluster.settings)
     doomed = cluster.start_worker("doomed")
     cluster.start_worker("survivor")
@@ -135,7 +136,7 @@ def test_a_lost_worker_costs_under_a_minute_without_beat(
 def test_redis_restarted_mid_epoch_loses_no_expansion(
     cluster_env: Callable[..., Cluster], redis_server: RedisServer, tmp_path: Path
 ) -> None:
-    cluster = cluster_env(batch_size=2, test_simulate_delay=0.5, epoch_check_interval=2)
+    cluster = cluster_env(batch_size=2, simulate_delay=0.5, epoch_check_interval=2)
     graph_id = seed_graph(cluster.settings)
     cluster.start_worker("w1")
     app = client(cluster)
@@ -153,7 +154,7 @@ def test_a_slow_epoch_whose_work_is_queued_or_running_is_not_resent(
     cluster_env: Callable[..., Cluster], tmp_path: Path
 ) -> None:
     # each clip takes 2 s, one at a time: the watchdog looks a dozen times meanwhile
-    cluster = cluster_env(batch_size=1, test_simulate_delay=2.0, epoch_check_interval=1)
+    cluster = cluster_env(batch_size=1, simulate_delay=2.0, epoch_check_interval=1)
     graph_id = seed_graph(cluster.settings)
     cluster.start_worker("w1")
     app = client(cluster)
