@@ -1,8 +1,8 @@
 """A player's trace stored against the publication it was played on.
 
 The checks that need the HTTP request (size, token, rates, schema) stay in the route;
-the publication and every step are checked here and in the store, once
-(:func:`app.store.traces.record_trace`), before anything is written.
+every step is checked once, by the store (:func:`app.store.traces.record_trace`),
+against the publication's edges, before anything is written.
 """
 
 from __future__ import annotations
