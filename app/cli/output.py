@@ -62,6 +62,11 @@ def _to_json(data: Any) -> str:
     return json.dumps(data, indent=2, default=str)
 
 
+#: a list or mapping of more items shows as its count in a ``key=value`` line (``--json``
+#: lists them): 53 corrupt digests would otherwise be a wall of hashes
+SHOWN_ITEMS = 3
+
+
 def emit(result: Any, as_json: bool) -> None:
     """Print a result (a dataclass, a dict; a list with ``as_json``): its JSON, or one
     ``key=value`` line."""
@@ -69,7 +74,13 @@ def emit(result: Any, as_json: bool) -> None:
     if as_json:
         typer.echo(_to_json(data))
     else:
-        typer.echo(" ".join(f"{k}={v}" for k, v in data.items()))
+        typer.echo(" ".join(f"{k}={_shown(v)}" for k, v in data.items()))
+
+
+def _shown(value: Any) -> Any:
+    if isinstance(value, list | tuple | set | dict) and len(value) > SHOWN_ITEMS:
+        return f"<{len(value)} items: --json lists them>"
+    return value
 
 
 def write_result(path: Path, data: Any) -> None:
