@@ -1,16 +1,20 @@
 """Throwaway services for the benchmarks: a migrated PostgreSQL database, a Redis server.
 
 Each lives for one ``with`` block and leaves nothing behind, so a benchmark never touches
-the user's own database or broker.
+the user's own database or broker. A benchmark stopped with SIGTERM (``kill``) unwinds as
+on Ctrl-C while one is open, so a long run killed by hand drops its database too.
 """
 
 from __future__ import annotations
 
+import signal
 import subprocess
+import threading
 import uuid
 from collections.abc import Iterator
 from contextlib import contextmanager
 from pathlib import Path
+from types import FrameType
 
 from sqlalchemy import text
 from sqlalchemy.engine import make_url
@@ -38,11 +42,30 @@ def scratch_database(server_url: str) -> Iterator[str]:
         command.upgrade(alembic_config(connection), "head")
     engine.dispose()
     try:
-        yield created
+        with _terminate_as_interrupt():
+            yield created
     finally:
         with admin.connect() as connection:
             connection.execute(text(f'DROP DATABASE IF EXISTS "{name}" WITH (FORCE)'))
         admin.dispose()
+
+
+def _interrupt(signum: int, frame: FrameType | None) -> None:
+    raise KeyboardInterrupt
+
+
+@contextmanager
+def _terminate_as_interrupt() -> Iterator[None]:
+    """SIGTERM raises KeyboardInterrupt in the main thread for the block (a signal handler
+    can only be set there; elsewhere nothing changes)."""
+    if threading.current_thread() is not threading.main_thread():
+        yield
+        return
+    previous = signal.signal(signal.SIGTERM, _interrupt)
+    try:
+        yield
+    finally:
+        signal.signal(signal.SIGTERM, previous)
 
 
 @contextmanager

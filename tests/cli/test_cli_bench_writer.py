@@ -3,13 +3,20 @@
 from __future__ import annotations
 
 import json
+import os
+import signal
+import subprocess
+import time
 from pathlib import Path
 
 import pytest
-from cli_helpers import ok, one_line_error, srg
+from cli_helpers import SRG, ok, one_line_error, srg
+from sqlalchemy import text
+from sqlalchemy.engine import make_url
 
 from app.bench.writer import _virtual_clock, bench_writer
 from app.config import Settings
+from app.db.engines import make_engine
 
 
 def test_the_virtual_clock_adds_the_clips_rounds_and_the_writer() -> None:
@@ -72,3 +79,36 @@ def test_an_interrupted_run_reports_the_epochs_it_grew(tmp_path: Path) -> None:
     assert result["epochs"] == 2
     assert result["by_workers"][0]["slices"][-1]["up_to_frames"] == result["frames"]
     assert result["frames"] > 120  # the toy's tree (120 frames) and two epochs more
+
+
+def _scratch_databases() -> set[str]:
+    server = make_url(Settings().test_postgres_url).set(database="postgres")
+    admin = make_engine(server.render_as_string(False), isolation_level="AUTOCOMMIT")
+    try:
+        with admin.connect() as connection:
+            names = connection.execute(
+                text("SELECT datname FROM pg_database WHERE datname LIKE 'srg_bench_%'")
+            )
+            return set(names.scalars())
+    finally:
+        admin.dispose()
+
+
+def test_a_killed_run_reports_what_it_grew_and_drops_its_database(tmp_path: Path) -> None:
+    """SIGTERM (``kill``) unwinds a bench as Ctrl-C does: the report of the epochs grown,
+    and no scratch database left behind on the server."""
+    before = _scratch_databases()
+    env = {**os.environ, "SRG_VAR_DIR": str(tmp_path)}
+    args = [str(SRG), "bench", "writer", "--frames", "100000", "--batch", "2", "--workers", "4"]
+    process = subprocess.Popen(args, env=env, stdout=subprocess.PIPE, stderr=subprocess.PIPE)
+    deadline = time.monotonic() + 120
+    while not (new := _scratch_databases() - before):
+        assert process.poll() is None and time.monotonic() < deadline
+        time.sleep(0.2)
+    time.sleep(3)  # a few epochs
+    process.send_signal(signal.SIGTERM)
+    out, err = process.communicate(timeout=120)
+    assert process.returncode == 0, err.decode()
+    report = json.loads(out)
+    assert report["interrupted"] is True and report["epochs"] >= 1
+    assert not (_scratch_databases() & new)
