@@ -21,7 +21,11 @@ from app.models import Artifact, Clip, Edge, PublicationEdge
 from app.store.artifacts import ArtifactStore
 from app.store.clipbank import ShapeOf
 from app.store.graph_catalogue import get_graph_row
-from app.store.graph_persistence import stored_descriptor, stored_potential
+from app.store.graph_persistence import (
+    CLIP_FEATURE_COLUMNS,
+    stored_descriptor,
+    stored_potential,
+)
 
 #: animations are videos (image strips before); every other artifact is internal
 ANIMATION_MEDIA_PREFIXES = ("image/", "video/")
@@ -115,18 +119,7 @@ def stored_clip(session: Session, graph_id: int, clip: int) -> ClipRow:
 
 def _clip_columns(session: Session, where: tuple[ColumnElement[bool], ...]) -> list[ClipRow]:
     rows = session.execute(
-        select(
-            Clip.idx,
-            Clip.control,
-            Clip.kinetic,
-            Clip.potential,
-            Clip.score,
-            Clip.descriptor,
-            Clip.bundle,
-            Clip.animation,
-        )
-        .where(*where)
-        .order_by(Clip.idx)
+        select(Clip.idx, *CLIP_FEATURE_COLUMNS, Clip.animation).where(*where).order_by(Clip.idx)
     )
     return [
         ClipRow(

@@ -180,17 +180,20 @@ def load_graph(
     )
 
 
+#: the columns a stored clip is compared by (its features) and found by (its bundle)
+CLIP_FEATURE_COLUMNS = (
+    Clip.control,
+    Clip.kinetic,
+    Clip.potential,
+    Clip.score,
+    Clip.descriptor,
+    Clip.bundle,
+)
+
+
 def _load_clips(session: Session, graph_id: int, graph: StateGraph) -> list[str]:
     rows = session.execute(
-        select(
-            Clip.source,
-            Clip.control,
-            Clip.kinetic,
-            Clip.potential,
-            Clip.score,
-            Clip.descriptor,
-            Clip.bundle,
-        )
+        select(Clip.source, *CLIP_FEATURE_COLUMNS)
         .where(Clip.graph_id == graph_id)
         .order_by(Clip.idx)
     ).all()
