@@ -7,7 +7,6 @@ no broker (Celery then runs tasks eagerly, in-process) and PoCL on the CPU.
 
 from __future__ import annotations
 
-from functools import lru_cache
 from pathlib import Path
 
 from pydantic import AliasChoices, Field, field_validator
@@ -209,6 +208,8 @@ class Settings(BaseSettings):
         return not self.broker_url
 
 
-@lru_cache(maxsize=1)
 def get_settings() -> Settings:
+    """The settings of this process's environment, read now (a shell reads them where it
+    starts a use case and hands them down; nothing caches them, so a change of the
+    environment is seen by the next command or task without a reset)."""
     return Settings()

@@ -11,7 +11,6 @@ from pathlib import Path
 import pytest
 
 from app.cli.main import main
-from app.config import get_settings
 from app.db.engines import dispose_engines
 
 SRG = Path(sys.executable).with_name("srg")
@@ -24,7 +23,6 @@ def srg(var: Path, *args: str, **env: str) -> subprocess.CompletedProcess[str]:
         for key, value in {"SRG_VAR_DIR": str(var), **env}.items():
             patch.setenv(key, value)
         patch.setattr(sys, "argv", ["srg", *args])
-        get_settings.cache_clear()
         out, err = io.StringIO(), io.StringIO()
         code = 0
         try:
@@ -34,7 +32,6 @@ def srg(var: Path, *args: str, **env: str) -> subprocess.CompletedProcess[str]:
             code = exit_.code if isinstance(exit_.code, int) else 1
         finally:
             dispose_engines()  # the command's: its database file goes with the test
-            get_settings.cache_clear()
     return subprocess.CompletedProcess(args, code, out.getvalue(), err.getvalue())
 
 

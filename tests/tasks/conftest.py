@@ -93,7 +93,5 @@ def settings(tmp_path: Path, monkeypatch: pytest.MonkeyPatch) -> Iterator[Settin
         "SRG_BROKER_URL": "",
     }.items():
         monkeypatch.setenv(name, value)
-    get_settings.cache_clear()
     yield get_settings()
     dispose_engines()
-    get_settings.cache_clear()

@@ -297,7 +297,6 @@ def test_beat_publishes_a_growing_graph_when_due_and_grows_it_otherwise(
     """At once when it has no publication, then after SRG_PUBLISH_EVERY frames grown,
     each time instead of that tick's epoch; renders what the publication misses."""
     monkeypatch.setenv("SRG_PUBLISH_EVERY", "240")  # two epochs of 4 toy expansions
-    get_settings.cache_clear()
     graph_id = seed_graph(settings)
     idle = seed_graph(settings, "not-growing")
     with transaction(get_settings()) as session:
@@ -336,7 +335,6 @@ def test_beat_never_publishes_with_publish_every_0_nor_while_an_epoch_runs(
     with transaction(get_settings()) as session:
         session.execute(update(GrowthEpoch).values(status="finished"))
     monkeypatch.setenv("SRG_PUBLISH_EVERY", "0")
-    get_settings.cache_clear()
     assert schedule_growth.delay().get()["publish"] == []
     assert _publications(graph_id) == []
 

@@ -74,7 +74,6 @@ def test_a_graph_grown_again_reuses_every_clip_and_with_reuse_off_simulates_the_
         assert reuse_counts(session) == (2 * EXPANSIONS * 3, EXPANSIONS * 3)
 
     monkeypatch.setenv("SRG_REUSE_SIMULATIONS", "false")
-    get_settings.cache_clear()
     reuse_off = get_settings()
     assert not reuse_off.reuse_simulations
     _new_graph(reuse_off, "simulated")

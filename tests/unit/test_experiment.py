@@ -38,7 +38,6 @@ def test_prediction_is_for_the_publication_played_from_earlier_traces(
     with rho (and the crowd model) from the traces of earlier publications only."""
     monkeypatch.setenv("SRG_VAR_DIR", str(tmp_path))
     monkeypatch.delenv("SRG_DATABASE_URL", raising=False)
-    get_settings.cache_clear()
     migrate(get_settings().resolved_database_url)
     played: list[Publication] = []
     sessions: list[list[np.ndarray]] = []
@@ -96,7 +95,6 @@ def test_every_run_reaches_a_checkpoint_before_any_grows_towards_the_next(
     checkpoint."""
     monkeypatch.setenv("SRG_VAR_DIR", str(tmp_path))
     monkeypatch.delenv("SRG_DATABASE_URL", raising=False)
-    get_settings.cache_clear()
     migrate(get_settings().resolved_database_url)
     settings = get_settings()
     plan = ExperimentPlan(
@@ -119,7 +117,6 @@ def test_every_run_reaches_a_checkpoint_before_any_grows_towards_the_next(
 def _fresh_settings() -> Any:
     yield
     dispose_engines()
-    get_settings.cache_clear()
 
 
 # ---- the plan's player model, bots and fixed-graph setting --------------------------------
