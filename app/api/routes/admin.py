@@ -150,21 +150,7 @@ def epochs(
         graph=graph.name,
         running=running,
         growth=_growth_out(latest_request(session, graph.id), jobs.running(graph.id)),
-        epochs=[
-            EpochOut(
-                id=epoch.id,
-                number=epoch.number,
-                strategy=epoch.strategy,
-                status=epoch.status,
-                planned=epoch.planned,
-                expansions=epoch.expansions,
-                relinks=epoch.relinks,
-                size_frames=epoch.size_frames,
-                started_at=epoch.started_at,
-                finished_at=epoch.finished_at,
-            )
-            for epoch in listed
-        ],
+        epochs=[EpochOut(**epoch._asdict()) for epoch in listed],
     )
 
 
