@@ -110,22 +110,13 @@ def bench_writer(
         started = time.perf_counter()
         interrupted = False
         try:
-            size = _grow(
-                sessions,
-                settings,
-                graph_id,
-                n_controls,
-                size,
-                frames,
-                records,
-                integration_seconds,
-                progress,
-            )
+            _grow(sessions, settings, graph_id, n_controls, size, frames, records,
+                  integration_seconds, progress)  # fmt: skip
         except KeyboardInterrupt:
             if not records:
                 raise
             interrupted = True
-            size = records[-1][0]
+        size = records[-1][0] if records else size
     t_int = np.asarray(integration_seconds)
     return {
         "frames": size,
@@ -163,9 +154,9 @@ def _grow(
     records: list[tuple[int, float]],
     integration_seconds: list[float],
     progress: Callable[[int], None] | None,
-) -> int:
+) -> None:
     """Epochs until the graph holds ``frames``: the writer's part timed into ``records``
-    (size after the epoch, plan + integration seconds) as each epoch ends; the size."""
+    (size after the epoch, plan + integration seconds) as each epoch ends."""
     from app.services import clips, epochs
 
     while size < frames:
@@ -196,4 +187,3 @@ def _grow(
         integration_seconds.extend(integrations)
         if progress is not None:
             progress(grown)
-    return size

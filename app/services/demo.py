@@ -25,6 +25,7 @@ from app.db.sessions import transaction
 from app.reports.contact_sheet import Tile, contact_sheet
 from app.reports.experiment import write_report
 from app.reports.figures import ArraysLoader
+from app.services.catalogue import missing_animations
 from app.services.dynamics import QUICK_LIQUID_PRESET
 from app.services.experiment.plan import (
     ExperimentExists,
@@ -40,7 +41,6 @@ from app.services.progress import Advance
 from app.services.publishing import PublishResult, publish_graph
 from app.store.animations import (
     PublishedStrip,
-    count_missing_animations,
     publication_animations,
 )
 from app.store.graph_catalogue import graph_entry, graph_exists
@@ -123,7 +123,7 @@ def unrendered_edges(settings: Settings, name: str, plan: ExperimentPlan) -> int
     with transaction(settings) as session:
         if not graph_exists(session, graph):
             return 0
-        return count_missing_animations(session, graph_entry(session, graph).id)
+        return missing_animations(session, graph)
 
 
 def demo_rows(result: dict[str, Any]) -> list[DemoRow]:

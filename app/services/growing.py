@@ -67,13 +67,12 @@ def grow_graph(
     batch = batch_size or settings.batch_size
     with scope() as session:
         entry = graph_entry(session, name)
-        graph_id, n_controls, frames_per_clip = entry.id, entry.n_controls, entry.frames_per_clip
+        graph_id, per_expansion = entry.id, entry.frames_per_expansion
         chosen = parse_strategy(strategy) if strategy else parse_strategy(entry.strategy)
         size = size_frames(session, graph_id)
         interrupted = running_epoch(session, graph_id) if settings.eager else None
         interrupted_id = None if interrupted is None else interrupted.id
     result = GrowResult(graph=str(entry.name), strategy=chosen.value)
-    per_expansion = n_controls * frames_per_clip
 
     def advance(_: object) -> None:
         if progress is not None:

@@ -27,7 +27,7 @@ from celery.canvas import Signature
 from celery.utils.log import get_task_logger
 from sqlalchemy.exc import OperationalError
 
-from app.config import get_settings
+from app.config import Settings, get_settings
 from app.core.refinement import GrowthBudget
 from app.db.sessions import transaction
 from app.services import clips, epochs, rank_relink_publish
@@ -52,8 +52,9 @@ def simulate(epoch_id: int, position: int, control: int) -> str:
 
     Toy: the whole clip. Liquid: PCISPH only (particle positions and end state).
     """
-    with transaction(get_settings()) as session:
-        return clips.simulate_step(session, get_settings(), epoch_id, position, control)
+    settings = get_settings()
+    with transaction(settings) as session:
+        return clips.simulate_step(session, settings, epoch_id, position, control)
 
 
 @celery_app.task(name="srg.sdf")
@@ -62,15 +63,17 @@ def sdf(stage: str, epoch_id: int, position: int, control: int) -> str:
 
     Records the clip on ``expansion_clips``; returns the clip artifact's digest.
     """
-    with transaction(get_settings()) as session:
-        return clips.sdf_step(session, get_settings(), stage, epoch_id, position, control)
+    settings = get_settings()
+    with transaction(settings) as session:
+        return clips.sdf_step(session, settings, stage, epoch_id, position, control)
 
 
 @celery_app.task(name="srg.render")
 def render(clip: str, epoch_id: int, position: int, control: int) -> str:
     """Render the clip's animation strip (stored, attached at integration)."""
-    with transaction(get_settings()) as session:
-        return clips.render_step(session, get_settings(), clip, epoch_id, position, control)
+    settings = get_settings()
+    with transaction(settings) as session:
+        return clips.render_step(session, settings, clip, epoch_id, position, control)
 
 
 @celery_app.task(name="srg.integrate", bind=True)
@@ -79,7 +82,7 @@ def integrate(self: Any, epoch_id: int, position: int, renders: bool | None = No
     settings = get_settings()
     renders = settings.growth_renders if renders is None else renders
     try:
-        with transaction(get_settings()) as session:
+        with transaction(settings) as session:
             outcome = epochs.integrate_step(session, settings, epoch_id, position)
     except epochs.ExpansionNotReady as exc:
         if exc.missing:
@@ -104,15 +107,17 @@ def integrate(self: Any, epoch_id: int, position: int, renders: bool | None = No
 @celery_app.task(name="srg.blend")
 def blend(epoch_id: int) -> int:
     """Render eq. 8's blend of the epoch's new BLEND edges; how many were rendered."""
-    with transaction(get_settings()) as session:
-        return epochs.blend_step(session, get_settings(), epoch_id)
+    settings = get_settings()
+    with transaction(settings) as session:
+        return epochs.blend_step(session, settings, epoch_id)
 
 
 @celery_app.task(name="srg.rank")
 def rank(graph_id: int) -> str | None:
     """STATERANK of the graph now (warm-started), stored: the ``pi`` artifact's digest."""
-    with transaction(get_settings()) as session:
-        return rank_relink_publish.rank_graph(session, get_settings(), graph_id)
+    settings = get_settings()
+    with transaction(settings) as session:
+        return rank_relink_publish.rank_graph(session, settings, graph_id)
 
 
 @celery_app.task(name="srg.relink", bind=True)
@@ -120,7 +125,7 @@ def relink(self: Any, graph_id: int) -> int:
     """Relink every BLEND edge to its best target now (between epochs); how many moved."""
     settings = get_settings()
     try:
-        with transaction(get_settings()) as session:
+        with transaction(settings) as session:
             return rank_relink_publish.relink_graph(session, settings, graph_id)
     except rank_relink_publish.EpochRunning as exc:
         raise self.retry(exc=exc, countdown=settings.beat_interval) from exc
@@ -131,7 +136,7 @@ def publish(self: Any, graph_id: int) -> int:
     """Pre-publish relinking, missing animations, a frozen publication; its id."""
     settings = get_settings()
     try:
-        with transaction(get_settings()) as session:
+        with transaction(settings) as session:
             return rank_relink_publish.publish_between_epochs(session, settings, graph_id)
     except rank_relink_publish.EpochRunning as exc:
         raise self.retry(exc=exc, countdown=settings.beat_interval) from exc
@@ -151,15 +156,16 @@ def grow_epoch(
     admin route's growth request, told which epoch serves it or why none does. Returns
     the epoch id, or None when an epoch of the graph is already running.
     """
+    settings = get_settings()
     try:
-        epoch_id = _plan_and_send(graph_id, count, renders)
+        epoch_id = _plan_and_send(settings, graph_id, count, renders)
     except Exception as exc:
         if request is not None:
-            with transaction(get_settings()) as session:
+            with transaction(settings) as session:
                 end_request(session, request, failure=failure_reason(exc))
         raise
     if request is not None:
-        with transaction(get_settings()) as session:
+        with transaction(settings) as session:
             if epoch_id is None:
                 end_request(session, request, failure="an epoch of the graph was running")
             else:
@@ -167,11 +173,12 @@ def grow_epoch(
     return epoch_id
 
 
-def _plan_and_send(graph_id: int, count: int | None, renders: bool | None) -> int | None:
-    settings = get_settings()
+def _plan_and_send(
+    settings: Settings, graph_id: int, count: int | None, renders: bool | None
+) -> int | None:
     renders = settings.growth_renders if renders is None else renders
     try:
-        with transaction(get_settings()) as session:
+        with transaction(settings) as session:
             plan = epochs.plan_epoch(session, settings, graph_id, count=count, renders=renders)
     except epochs.EpochTaken:  # another tick opened the same epoch number first
         return None
@@ -187,7 +194,7 @@ def _plan_and_send(graph_id: int, count: int | None, renders: bool | None) -> in
         plan.relinks,
     )
     if plan.expansions:
-        with transaction(get_settings()) as session:
+        with transaction(settings) as session:
             work = epochs.epoch_work(session, plan.epoch_id)
         epoch_canvas(work).apply_async()
     return plan.epoch_id
@@ -197,16 +204,18 @@ def _plan_and_send(graph_id: int, count: int | None, renders: bool | None) -> in
 def publish_if_due(graph_id: int) -> int | None:
     """Beat's publication of a growing graph due one; its id, or None (not due after all,
     or another writer holds the graph: the next tick asks again)."""
-    with transaction(get_settings()) as session:
-        return rank_relink_publish.publish_if_due(session, get_settings(), graph_id)
+    settings = get_settings()
+    with transaction(settings) as session:
+        return rank_relink_publish.publish_if_due(session, settings, graph_id)
 
 
 @celery_app.task(name="srg.schedule_growth")
 def schedule_growth() -> dict[str, list[int]]:
     """Beat's tick: for each graph with ``growing = true`` its publication when one is due
     (``SRG_PUBLISH_EVERY``), else a ``grow_epoch``; the ids of each."""
-    with transaction(get_settings()) as session:
-        tick = rank_relink_publish.beat_tick(session, get_settings())
+    settings = get_settings()
+    with transaction(settings) as session:
+        tick = rank_relink_publish.beat_tick(session, settings)
     for graph_id in tick.publish:
         publish_if_due.delay(graph_id)
     for graph_id in tick.grow:
@@ -254,17 +263,17 @@ def grow_on_workers(
     to ``grow_epoch`` again.
     """
     settings = get_settings()
-    with transaction(get_settings()) as session:
+    with transaction(settings) as session:
         graph = find_graph(session, name)
     graph_id, per_expansion = graph.id, graph.frames_per_expansion
-    size = _size_frames(graph_id)
+    size = _size_frames(settings, graph_id)
     budget = GrowthBudget.of(size, to_frames=to_frames)
     while (left := budget.left(size, 0, per_expansion)) > 0:
         epoch_id = grow_epoch.delay(graph_id, min(left, batch), False).get(
             timeout=settings.task_time_limit
         )
-        _wait_for_epochs(graph_id, settings.epoch_resend_after)
-        grown = _size_frames(graph_id)
+        _wait_for_epochs(settings, graph_id)
+        grown = _size_frames(settings, graph_id)
         if progress is not None:
             progress(grown - size)
         if epoch_id is not None and grown == size:
@@ -272,24 +281,24 @@ def grow_on_workers(
         size = grown
 
 
-def _size_frames(graph_id: int) -> int:
-    with transaction(get_settings()) as session:
+def _size_frames(settings: Settings, graph_id: int) -> int:
+    with transaction(settings) as session:
         return size_frames(session, graph_id)
 
 
-def _wait_for_epochs(graph_id: int, resend_after: float) -> None:
-    """Until no epoch of the graph runs; one quiet for ``resend_after`` seconds is handed
-    to ``grow_epoch`` again, the backstop that beat would otherwise reach."""
+def _wait_for_epochs(settings: Settings, graph_id: int) -> None:
+    """Until no epoch of the graph runs; one quiet for ``SRG_EPOCH_RESEND_AFTER`` seconds
+    is handed to ``grow_epoch`` again, the backstop that beat would otherwise reach."""
     last_change = time.monotonic()
     seen: tuple[int, float | None] | None = None
     while True:
-        with transaction(get_settings()) as session:
+        with transaction(settings) as session:
             state = running_epoch_state(session, graph_id)
         if state is None:
             return
         if state != seen:
             seen, last_change = state, time.monotonic()
-        elif time.monotonic() - last_change > resend_after:
+        elif time.monotonic() - last_change > settings.epoch_resend_after:
             grow_epoch.delay(graph_id, None, False)
             last_change = time.monotonic()
         time.sleep(EPOCH_POLL)
