@@ -61,10 +61,9 @@ def planned_clip(session: Session, epoch_id: int, position: int) -> tuple[GraphE
     """The graph of the epoch and the dead-end clip its expansion ``position`` starts from."""
     epoch = get_epoch(session, epoch_id)
     entry = graph_entry(session, epoch.graph_id)
-    plan = epoch.plan or []
-    if not 0 <= position < len(plan):
+    if not 0 <= position < len(epoch.plan):
         raise NotFound(f"epoch {epoch_id} plans no expansion {position}")
-    return entry, int(plan[position][1])
+    return entry, epoch.plan[position][1]
 
 
 def clip_job(
@@ -72,7 +71,7 @@ def clip_job(
 ) -> ClipJob | str:
     """The start state and dynamics of a planned clip, or its digest once recorded."""
     if (stored := expansion_clip(session, epoch_id, position, control)) is not None:
-        return stored.clip  # a redelivery after the clip was recorded
+        return stored  # a redelivery after the clip was recorded
     return _planned_job(session, settings, epoch_id, position, control)
 
 
@@ -208,7 +207,7 @@ def sdf_step(
     """Turn a simulated stage into a clip and record it; return the clip artifact."""
     stored = expansion_clip(session, epoch_id, position, control)
     if stored is not None:
-        return stored.clip
+        return stored
     job = _planned_job(session, settings, epoch_id, position, control)
     artifacts = artifact_store(settings)
     clip = finish_clip(job.dynamics, artifacts.get_arrays(stage))

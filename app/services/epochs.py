@@ -34,7 +34,6 @@ from app.core.graph_entry import GraphEntry
 from app.core.growth import integrate_expansion, select_for_expansion
 from app.core.strategies import Strategy
 from app.db.sessions import Scope
-from app.models import GrowthEpoch
 from app.services.animations import blend_strip
 from app.services.clips import (
     clip_from_arrays,
@@ -49,6 +48,7 @@ from app.services.loading import LoadedGraph, artifact_store, keep_graph, loaded
 from app.services.refining import rank_stored, refiner_for
 from app.store.animations import edges_without_animation, set_animations
 from app.store.epochs import (
+    Epoch,
     EpochStatus,
     expansion_clips,
     finish_epoch,
@@ -184,10 +184,9 @@ def resend_epoch(session: Session, epoch_id: int) -> EpochPlan | None:
     return _resent(session, epoch)
 
 
-def _resent(session: Session, epoch: GrowthEpoch) -> EpochPlan:
+def _resent(session: Session, epoch: Epoch) -> EpochPlan:
     record_heartbeat(session, epoch.id)  # the re-send is progress: the backstop waits again
-    plan = [(int(e), int(c)) for e, c in epoch.plan or []]
-    return EpochPlan(epoch.id, epoch.graph_id, plan, epoch.relinks, resent=True)
+    return EpochPlan(epoch.id, epoch.graph_id, list(epoch.plan), epoch.relinks, resent=True)
 
 
 def running_work(session: Session) -> list[EpochWork]:
@@ -199,14 +198,14 @@ def epoch_work(session: Session, epoch_id: int) -> EpochWork:
     """The clips not yet stored and the expansions not yet integrated, of one epoch."""
     epoch = get_epoch(session, epoch_id)
     entry = graph_entry(session, epoch.graph_id)
-    plan = epoch.plan or []
+    plan = epoch.plan
     stored = stored_clips(session, epoch_id)
     pending = [p for p in range(len(plan)) if not _integrated(session, entry, plan[p])]
     missing = [(p, c) for p in pending for c in range(entry.n_controls) if (p, c) not in stored]
     return EpochWork(epoch_id, missing, pending, epoch.renders)
 
 
-def _integrated(session: Session, graph: GraphEntry, planned: list[int]) -> bool:
+def _integrated(session: Session, graph: GraphEntry, planned: tuple[int, int]) -> bool:
     """Whether planned (edge, dead-end clip) has been swapped in: the edge is now SIM."""
     edge, _ = planned
     return stored_edge_kind(session, graph, edge) == EdgeKind.SIM
@@ -226,12 +225,12 @@ def integrate_step(
     plan also finishes the epoch.
     """
     epoch, entry = lock_epoch_graph(session, epoch_id)
-    plan = [(int(e), int(c)) for e, c in epoch.plan or []]
+    plan = epoch.plan
     edge, dead_end = plan[position]
     loaded = loaded_graph(session, settings, entry)
     graph = loaded.graph
     if not (graph.edge_kind[edge] == EdgeKind.BLEND and graph.edge_clip[edge] == dead_end):
-        finished = _finish_if_complete(session, loaded, epoch, plan)
+        finished = _finish_if_complete(session, loaded, epoch)
         keep_graph(session, loaded)
         vertex = graph.edge_dst[edge] if graph.edge_clip[edge] == dead_end else None
         return Integration(epoch_id, position, "done", vertex, finished)
@@ -254,8 +253,7 @@ def integrate_step(
             waiting_for=None,
         )
     clips = [
-        clip_from_arrays(loaded.artifacts.get_arrays(recorded[c].clip))
-        for c in range(graph.n_controls)
+        clip_from_arrays(loaded.artifacts.get_arrays(recorded[c])) for c in range(graph.n_controls)
     ]
     first_clip = graph.n_clips
     expansion = integrate_expansion(
@@ -264,7 +262,7 @@ def integrate_step(
     save_graph(session, entry.id, graph, loaded.bank, loaded.artifacts)
     _canonical_descriptors(loaded, first_clip)
     record_heartbeat(session, epoch_id)
-    finished = _finish_if_complete(session, loaded, epoch, plan)
+    finished = _finish_if_complete(session, loaded, epoch)
     keep_graph(session, loaded)
     return Integration(epoch_id, position, "integrated", expansion.vertex, finished)
 
@@ -281,18 +279,16 @@ def _canonical_descriptors(loaded: LoadedGraph, first_clip: int) -> None:
         graph.clip_descriptor[clip] = stored.astype(np.float64)
 
 
-def _finish_if_complete(
-    session: Session, loaded: LoadedGraph, epoch: GrowthEpoch, plan: list[tuple[int, int]]
-) -> bool:
+def _finish_if_complete(session: Session, loaded: LoadedGraph, epoch: Epoch) -> bool:
     graph = loaded.graph
     if epoch.status != EpochStatus.RUNNING:
         return False
-    if any(graph.edge_kind[e] == EdgeKind.BLEND and graph.edge_clip[e] == d for e, d in plan):
+    if any(graph.edge_kind[e] == EdgeKind.BLEND and graph.edge_clip[e] == d for e, d in epoch.plan):
         return False
     finish_epoch(
         session,
         epoch.id,
-        expansions=len(plan),
+        expansions=len(epoch.plan),
         relinks=epoch.relinks,
         size_frames=graph.size_frames,
     )
@@ -309,7 +305,7 @@ def blend_step(session: Session, settings: Settings, epoch_id: int) -> int:
     graph = loaded.graph
     vertices = [
         graph.edge_dst[e]
-        for e, d in epoch.plan or []
+        for e, d in epoch.plan
         if graph.edge_kind[e] == EdgeKind.SIM and graph.edge_clip[e] == d
     ]
     wanted = {edge_index(v, c, n) for v in vertices for c in range(n)}

@@ -7,6 +7,7 @@ in the database (:class:`EpochTaken`), a backstop behind the per-graph growth lo
 from __future__ import annotations
 
 import time
+from dataclasses import dataclass
 from datetime import datetime
 from enum import StrEnum
 from typing import NamedTuple
@@ -28,6 +29,48 @@ class EpochStatus(StrEnum):
 
 class EpochTaken(Conflict):
     """Another writer opened the graph's next epoch first."""
+
+
+class EpochNotFound(NotFound):
+    """No growth epoch with that id."""
+
+
+@dataclass(frozen=True)
+class Epoch:
+    """A growth epoch as it was read: the workflow's view of its row, which a later
+    step reads again rather than holding on to (another writer may have moved it on)."""
+
+    id: int
+    graph_id: int
+    number: int
+    status: EpochStatus
+    #: (edge, dead-end clip) in integration order; empty until the plan is recorded
+    plan: tuple[tuple[int, int], ...]
+    relinks: int
+    size_frames: int
+    renders: bool
+    heartbeat: float | None
+
+
+def _value(row: GrowthEpoch) -> Epoch:
+    return Epoch(
+        id=row.id,
+        graph_id=row.graph_id,
+        number=row.number,
+        status=EpochStatus(row.status),
+        plan=tuple((int(edge), int(clip)) for edge, clip in row.plan or []),
+        relinks=row.relinks,
+        size_frames=row.size_frames,
+        renders=row.renders,
+        heartbeat=row.heartbeat,
+    )
+
+
+def _row(session: Session, epoch_id: int, *, fresh: bool = False) -> GrowthEpoch:
+    row = session.get(GrowthEpoch, epoch_id, populate_existing=fresh)
+    if row is None:
+        raise EpochNotFound(f"no growth epoch {epoch_id}")
+    return row
 
 
 def start_epoch(session: Session, graph_id: int, strategy: str, *, renders: bool = True) -> int:
@@ -65,7 +108,7 @@ def finish_epoch(
     size_frames: int,
     status: EpochStatus = EpochStatus.FINISHED,
 ) -> None:
-    row = get_epoch(session, epoch_id)
+    row = _row(session, epoch_id)
     row.status = status
     row.expansions = expansions
     row.relinks = relinks
@@ -122,24 +165,20 @@ def epochs_after(session: Session, graph_id: int, after: int, limit: int) -> lis
     ]
 
 
-class EpochNotFound(NotFound):
-    """No growth epoch with that id."""
+def get_epoch(session: Session, epoch_id: int, *, fresh: bool = False) -> Epoch:
+    """The epoch; ``fresh`` reads its row again from the database, past what this session
+    read of it before (what a writer that just took the graph's lock needs)."""
+    return _value(_row(session, epoch_id, fresh=fresh))
 
 
-def get_epoch(session: Session, epoch_id: int) -> GrowthEpoch:
-    row = session.get(GrowthEpoch, epoch_id)
-    if row is None:
-        raise EpochNotFound(f"no growth epoch {epoch_id}")
-    return row
-
-
-def running_epoch(session: Session, graph_id: int) -> GrowthEpoch | None:
+def running_epoch(session: Session, graph_id: int) -> Epoch | None:
     """The graph's running epoch, if one runs (the oldest, should there be two)."""
-    return session.scalars(
+    row = session.scalars(
         select(GrowthEpoch)
         .where(GrowthEpoch.graph_id == graph_id, GrowthEpoch.status == EpochStatus.RUNNING)
         .order_by(GrowthEpoch.number)
     ).first()
+    return None if row is None else _value(row)
 
 
 def running_epoch_ids(session: Session) -> list[int]:
@@ -185,16 +224,16 @@ def record_plan(
     plan: list[tuple[int, int]],
     relinks: int,
     warm_start: str | None,
-) -> GrowthEpoch:
+) -> Epoch:
     """Write an opened epoch's plan, (edge, dead-end clip) in integration order."""
-    row = get_epoch(session, epoch_id)
+    row = _row(session, epoch_id)
     row.plan = [list(pair) for pair in plan]
     row.relinks = relinks
     row.heartbeat = time.time()
     if warm_start is not None:
         row.warm_start = warm_start
     session.flush()
-    return row
+    return _value(row)
 
 
 def record_heartbeat(session: Session, epoch_id: int) -> None:
@@ -216,22 +255,20 @@ def stored_clips(session: Session, epoch_id: int) -> set[tuple[int, int]]:
     }
 
 
-def expansion_clip(
-    session: Session, epoch_id: int, position: int, control: int
-) -> ExpansionClip | None:
-    return session.get(ExpansionClip, (epoch_id, position, control))
+def expansion_clip(session: Session, epoch_id: int, position: int, control: int) -> str | None:
+    """The clip artifact recorded for one planned clip, if it has been."""
+    row = session.get(ExpansionClip, (epoch_id, position, control))
+    return None if row is None else row.clip
 
 
-def expansion_clips(session: Session, epoch_id: int, position: int) -> dict[int, ExpansionClip]:
-    """The recorded clips of one planned expansion, by control."""
-    return {
-        row.control: row
-        for row in session.scalars(
-            select(ExpansionClip).where(
-                ExpansionClip.epoch_id == epoch_id, ExpansionClip.position == position
-            )
+def expansion_clips(session: Session, epoch_id: int, position: int) -> dict[int, str]:
+    """The recorded clip artifacts of one planned expansion, by control."""
+    rows = session.execute(
+        select(ExpansionClip.control, ExpansionClip.clip).where(
+            ExpansionClip.epoch_id == epoch_id, ExpansionClip.position == position
         )
-    }
+    )
+    return {control: clip for control, clip in rows}
 
 
 def record_clip(session: Session, epoch_id: int, position: int, control: int, clip: str) -> None:

@@ -12,8 +12,8 @@ from sqlalchemy.orm import Session
 
 from app.core.graph_entry import GraphEntry
 from app.db.engines import begin_immediate
-from app.models import Graph, GrowthEpoch
-from app.store.epochs import get_epoch
+from app.models import Graph
+from app.store.epochs import Epoch, get_epoch
 from app.store.graph_catalogue import GraphNotFound, entry_of
 
 
@@ -50,14 +50,12 @@ def _locked_row(session: Session, graph_id: int, *, skip_locked: bool) -> Graph 
     return session.scalars(stmt).one_or_none()
 
 
-def lock_epoch_graph(session: Session, epoch_id: int) -> tuple[GrowthEpoch, GraphEntry]:
+def lock_epoch_graph(session: Session, epoch_id: int) -> tuple[Epoch, GraphEntry]:
     """The epoch, read again under its graph's lock, and the locked graph.
 
     The epoch is refreshed once the lock is held: a writer that held the lock before
     may have finished it meanwhile.
     """
     begin_immediate(session)  # before the first statement: see lock_graph
-    epoch = get_epoch(session, epoch_id)
-    graph = lock_graph(session, epoch.graph_id)
-    session.refresh(epoch)
-    return epoch, graph
+    graph = lock_graph(session, get_epoch(session, epoch_id).graph_id)
+    return get_epoch(session, epoch_id, fresh=True), graph
