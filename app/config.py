@@ -14,20 +14,21 @@ from pydantic_settings import BaseSettings, SettingsConfigDict
 
 from app.core.player_models import PlayerModelKind
 
+_SOURCES = SettingsConfigDict(
+    env_prefix="SRG_",
+    env_file=".env",
+    extra="ignore",
+    allow_inf_nan=False,
+    populate_by_name=True,
+)
 
-class Settings(BaseSettings):
-    model_config = SettingsConfigDict(
-        env_prefix="SRG_", env_file=".env", extra="ignore", allow_inf_nan=False
-    )
 
-    var_dir: Path = Path("var")
-    database_url: str = ""
-    artifact_dir: Path | None = None
-    broker_url: str = ""
-    result_backend: str = ""
-    redis_url: str = ""
+class GrowthSettings(BaseSettings):
+    """How a graph grows: what an epoch expands and how STATERANK and the crowd model
+    choose it (docs/runtime.md, docs/player-models.md)."""
 
-    # Growth
+    model_config = _SOURCES
+
     batch_size: int = Field(4, ge=1, description="blend edges expanded per growth epoch")
     prefilter_k: int = Field(100, ge=1, description="energy pre-filter size for best-target search")
     restart_steps: float = Field(90.0, ge=1.0, description="default mean session length L (steps)")
@@ -42,14 +43,32 @@ class Settings(BaseSettings):
     )
     crowd_eps: float = Field(1e-3, gt=0.0, le=1.0, description="crowd model prior weight epsilon")
     high_error_threshold: float = Field(0.0, ge=0.0, description="0: per dynamics default")
+    player_model: PlayerModelKind = Field(
+        PlayerModelKind.KNN,
+        description="crowd model of new sr-crowd graphs: knn (default: docs/player-models.md), "
+        "eq2 (the paper's) or logit",
+    )
+    reuse_simulations: bool = Field(
+        True,
+        description="a liquid clip already simulated from the same state and control is "
+        "reused, not simulated again (docs/runtime.md)",
+    )
+
+
+class RenderSettings(BaseSettings):
+    """When and with which Mitsuba variant clips become animations (docs/render.md)."""
+
+    model_config = _SOURCES
+
+    growth_renders: bool = Field(
+        True, description="render clip and blend animations while growing (else at publish)"
+    )
     dedup_error_fraction: float = Field(
         0.1,
         ge=0.0,
         description="a clip shows a nearly identical rendered clip's animation when the "
         "substitution error is at most this fraction of the high-error threshold; 0: never",
     )
-
-    # Rendering
     render_variant: str = Field(
         "auto", description="Mitsuba variant: auto (LLVM when a working libLLVM is found)"
     )
@@ -59,10 +78,13 @@ class Settings(BaseSettings):
         description="libLLVM for Mitsuba's LLVM variant ('': look in the system's lib dirs)",
     )
 
-    # OpenCL
-    opencl_device: str = Field("", description="substring of the OpenCL device name; '' = PoCL CPU")
 
-    # Celery
+class RuntimeSettings(BaseSettings):
+    """How the workers, beat and the caches run the work (docs/runtime.md)."""
+
+    model_config = _SOURCES
+
+    opencl_device: str = Field("", description="substring of the OpenCL device name; '' = PoCL CPU")
     task_soft_time_limit: int = Field(600, ge=1)
     task_time_limit: int = Field(900, ge=1)
     task_max_retries: int = Field(
@@ -74,11 +96,6 @@ class Settings(BaseSettings):
         ge=0,
         description="simulated frames a growing graph grows between the publications beat "
         "makes of it (one at once when it has none); 0: beat never publishes",
-    )
-    player_model: PlayerModelKind = Field(
-        PlayerModelKind.KNN,
-        description="crowd model of new sr-crowd graphs: knn (default: docs/player-models.md), "
-        "eq2 (the paper's) or logit",
     )
     epoch_check_interval: float = Field(
         10.0,
@@ -98,33 +115,46 @@ class Settings(BaseSettings):
     artifact_gc_grace: float = Field(
         3600.0, ge=0, description="orphaned artifacts younger than this (s) are kept by gc"
     )
-    growth_renders: bool = Field(
-        True, description="render clip and blend animations while growing (else at publish)"
-    )
-    reuse_simulations: bool = Field(
-        True,
-        description="a liquid clip already simulated from the same state and control is "
-        "reused, not simulated again (docs/runtime.md)",
-    )
     occupancy_cache_ttl: int = Field(
         7 * 24 * 3600, ge=1, description="Redis occupancy cache TTL (s)"
     )
     clip_cache_mb: int = Field(
         256, ge=1, description="per-process memory for cached occupancy grids of a loaded graph"
     )
-    test_postgres_url: str = Field(
-        "postgresql+psycopg://postgres@127.0.0.1:5432/srg_test",
-        description="PostgreSQL server where the tests and `srg bench grow` create their "
-        "throwaway databases (its database name is replaced by theirs)",
-    )
-
     flower_basic_auth: str = Field(
         "",
         description="`srg flower`'s HTTP basic auth, user:password[,user:password...]; '': "
         "none (Flower's own /api then answers only with FLOWER_UNAUTHENTICATED_API set)",
     )
 
-    # API
+    @field_validator("flower_basic_auth")
+    @classmethod
+    def _user_password_pairs(cls, value: str) -> str:
+        """Flower compares ``user:password`` with what a browser sends and splits the list
+        at commas, so an entry without a user or a password would never match: refused
+        here, before Flower starts. The message never repeats the value (a password)."""
+        pairs = [pair.strip() for pair in value.split(",")] if value.strip() else []
+        for pair in pairs:
+            user, _, password = pair.partition(":")
+            if not user or not password:
+                raise ValueError("each entry must be user:password (a comma between entries)")
+        return ",".join(pairs)
+
+    @property
+    def visibility_timeout(self) -> int:
+        """Redis broker visibility timeout: well above the longest hard time limit.
+
+        An unacknowledged (acks_late) message goes back to the queue only after this, so
+        it must outlast any task still running, or a slow task would run twice at once.
+        """
+        return max(3600, 4 * self.task_time_limit)
+
+
+class ApiSettings(BaseSettings):
+    """What the HTTP API accepts, from whom and how often (docs/play.md)."""
+
+    model_config = _SOURCES
+
     admin_token: str = Field(
         "", description="bearer token of the admin routes; '' (no default secret): routes off"
     )
@@ -158,23 +188,52 @@ class Settings(BaseSettings):
         "", description="comma-separated origins allowed by CORS ('*': any); '': CORS off"
     )
 
-    @field_validator("flower_basic_auth")
-    @classmethod
-    def _user_password_pairs(cls, value: str) -> str:
-        """Flower compares ``user:password`` with what a browser sends and splits the list
-        at commas, so an entry without a user or a password would never match: refused
-        here, before Flower starts. The message never repeats the value (a password)."""
-        pairs = [pair.strip() for pair in value.split(",")] if value.strip() else []
-        for pair in pairs:
-            user, _, password = pair.partition(":")
-            if not user or not password:
-                raise ValueError("each entry must be user:password (a comma between entries)")
-        return ",".join(pairs)
-
     @property
     def admin_routes_on(self) -> bool:
         """Admin routes answer only once a token is configured: there is no default one."""
         return bool(self.admin_token.strip())
+
+
+class Settings(BaseSettings):
+    """Where the data lives and which broker carries the work, and the four groups.
+
+    Every field of every group is read from its own ``SRG_<FIELD>`` variable: the groups
+    arrange the code's view, not the environment's names (docs/design.md, "Settings").
+    """
+
+    model_config = _SOURCES
+
+    var_dir: Path = Path("var")
+    database_url: str = ""
+    artifact_dir: Path | None = None
+    broker_url: str = ""
+    result_backend: str = ""
+    redis_url: str = ""
+    scratch_postgres_url: str = Field(
+        "postgresql+psycopg://postgres@127.0.0.1:5432/srg_scratch",
+        description="PostgreSQL server where `srg bench grow` and `srg bench writer` create "
+        "their throwaway databases (its database name is replaced by theirs)",
+    )
+
+    growth: GrowthSettings = Field(default_factory=GrowthSettings)
+    render: RenderSettings = Field(default_factory=RenderSettings)
+    runtime: RuntimeSettings = Field(default_factory=RuntimeSettings)
+    api: ApiSettings = Field(default_factory=ApiSettings)
+
+    def replace(self, **changes: object) -> Settings:
+        """These settings with some fields changed, each named as its variable is
+        (``batch_size=2``, wherever its group is) and validated as if read; an unknown
+        name is an error, where ``model_copy`` would quietly add an attribute."""
+        data = self.model_dump()
+        for name, value in changes.items():
+            if name in data:
+                data[name] = value
+                continue
+            group = next((g for g in _GROUPS if name in data[g]), None)
+            if group is None:
+                raise TypeError(f"Settings have no field {name!r}")
+            data[group][name] = value
+        return Settings.model_validate(data)
 
     @property
     def resolved_database_url(self) -> str:
@@ -187,15 +246,6 @@ class Settings(BaseSettings):
         return self.artifact_dir if self.artifact_dir is not None else self.var_dir / "data"
 
     @property
-    def visibility_timeout(self) -> int:
-        """Redis broker visibility timeout: well above the longest hard time limit.
-
-        An unacknowledged (acks_late) message goes back to the queue only after this, so
-        it must outlast any task still running, or a slow task would run twice at once.
-        """
-        return max(3600, 4 * self.task_time_limit)
-
-    @property
     def resolved_redis_url(self) -> str:
         """Redis for caches and locks: ``redis_url``, else a ``redis://`` broker, else none."""
         if self.redis_url:
@@ -206,6 +256,16 @@ class Settings(BaseSettings):
     def eager(self) -> bool:
         """No broker configured means Celery runs every task in-process."""
         return not self.broker_url
+
+
+_GROUPS = tuple(
+    name for name, field in Settings.model_fields.items() if field.default_factory is not None
+)
+
+#: the names of the settings classes, as a validation error gives its class
+SETTINGS_CLASSES = frozenset(
+    cls.__name__ for cls in (Settings, GrowthSettings, RenderSettings, RuntimeSettings, ApiSettings)
+)
 
 
 def get_settings() -> Settings:

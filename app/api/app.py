@@ -63,7 +63,7 @@ def create_app(settings: Settings | None = None) -> FastAPI:
 
     @asynccontextmanager
     async def lifespan(_: FastAPI) -> AsyncIterator[None]:
-        if not settings.admin_routes_on:
+        if not settings.api.admin_routes_on:
             # the one line `srg serve` shows about it; the token itself is never logged
             log.warning("admin routes are off (grow and publish answer 403): set SRG_ADMIN_TOKEN")
         yield
@@ -98,10 +98,10 @@ def create_app(settings: Settings | None = None) -> FastAPI:
     app.add_middleware(HeadAsGet)
     app.add_middleware(
         BodyLimit,
-        default=settings.max_body_bytes,
-        per_path={traces.router.prefix: settings.max_trace_bytes},
+        default=settings.api.max_body_bytes,
+        per_path={traces.router.prefix: settings.api.max_trace_bytes},
     )
-    origins = [origin.strip() for origin in settings.cors_origins.split(",") if origin.strip()]
+    origins = [origin.strip() for origin in settings.api.cors_origins.split(",") if origin.strip()]
     if origins:  # added last: outermost, so refusals (413, 429) carry CORS headers too
         app.add_middleware(
             CORSMiddleware,

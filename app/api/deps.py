@@ -89,10 +89,10 @@ def require_admin(
     With no token configured the admin routes are off: 403 for every request, whatever
     it presents, so no default secret ever opens them.
     """
-    if not settings.admin_routes_on:
+    if not settings.api.admin_routes_on:
         raise ApiError(403, ADMIN_ROUTES_OFF)
     token = bearer_token(credentials)
-    if not secrets.compare_digest(token.encode(), settings.admin_token.encode()):
+    if not secrets.compare_digest(token.encode(), settings.api.admin_token.encode()):
         raise ApiError(403, "admin token required")
 
 

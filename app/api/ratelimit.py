@@ -35,7 +35,7 @@ from limits.strategies import MovingWindowRateLimiter
 
 from app.api.deps import current_player
 from app.api.errors import ApiError
-from app.config import Settings
+from app.config import ApiSettings, Settings
 from app.core.errors import InvalidInput
 
 log = logging.getLogger(__name__)
@@ -54,13 +54,13 @@ class RateLimits:
 
     def __init__(self, settings: Settings) -> None:
         self.player_uploads: list[RateLimitItem] = [
-            RateLimitItemPerMinute(settings.uploads_per_minute)
+            RateLimitItemPerMinute(settings.api.uploads_per_minute)
         ]
-        self.address_uploads = _setting("address_upload_rate", parse_many, settings)
-        self.registrations = _setting("registration_rate", parse_many, settings)
-        self.trusted_proxies = _setting("trusted_proxies", parse_networks, settings)
-        if settings.rate_limit_storage:
-            self.storage = _setting("rate_limit_storage", _storage, settings)
+        self.address_uploads = _setting("address_upload_rate", parse_many, settings.api)
+        self.registrations = _setting("registration_rate", parse_many, settings.api)
+        self.trusted_proxies = _setting("trusted_proxies", parse_networks, settings.api)
+        if settings.api.rate_limit_storage:
+            self.storage = _setting("rate_limit_storage", _storage, settings.api)
         else:
             self.storage = _storage(settings.resolved_redis_url or "memory://")
         self.shared = not isinstance(self.storage, MemoryStorage)
@@ -106,7 +106,7 @@ class RateLimits:
         self._storage_down = True
 
 
-def _setting(name: str, parse: Callable[[str], T], settings: Settings) -> T:
+def _setting(name: str, parse: Callable[[str], T], settings: ApiSettings) -> T:
     """The setting ``name`` parsed; a value the parser refuses is the operator's to fix, so
     it is an :class:`InvalidInput` naming the variable (``srg serve`` says it in one line)."""
     try:

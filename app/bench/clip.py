@@ -199,7 +199,7 @@ def bench_clip(
     dyn.renderer.frame(np.full(dyn.grid.shape, dyn.grid.far_value, np.float32))  # load scene
     images, render = _spent(lambda: dyn.render(clip.frames))
     strip, encode = _spent(lambda: encode_strip(images))
-    settings = dyn.render_settings
+    settings = dyn.render_quality
     camera = tank_camera(dyn.scene.tank, settings.width, settings.height)
     water = silhouettes(
         silhouette_projector(camera, dyn.grid), dequantise_sdf(dyn.grid, clip.frames)
@@ -230,8 +230,8 @@ def bench_clip(
         "fluid": fluid,
         "particles": int(sim.n),
         "voxels": list(dyn.grid.shape),
-        "image": [dyn.render_settings.width, dyn.render_settings.height],
-        "spp": dyn.render_settings.spp,
+        "image": [dyn.render_quality.width, dyn.render_quality.height],
+        "spp": dyn.render_quality.spp,
         "frames_per_clip": k,
         "simulated_frames_per_clip": n,
         "settle_seconds": settle,

@@ -151,7 +151,7 @@ def bench_dedup(
         "clips_with_strips": len(strips),
         "clips_already_sharing": shared,
         "high_error_threshold": threshold,
-        "configured_fraction": settings.dedup_error_fraction,
+        "configured_fraction": settings.render.dedup_error_fraction,
         "strip_bytes_per_frame": sum(size.values()) / frames,
         "clip_strip_bytes_per_frame": sum(size[d] for d in set(strips.values())) / frames,
         "visible_levels": VISIBLE_LEVELS,

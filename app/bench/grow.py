@@ -60,7 +60,7 @@ def _throughput(
     with (
         tempfile.TemporaryDirectory() as tmp,
         scratch_redis(Path(tmp)) as broker,
-        scratch_database(settings.test_postgres_url) as url,
+        scratch_database(settings.scratch_postgres_url) as url,
     ):
         fields = {
             "broker_url": broker,
@@ -69,7 +69,7 @@ def _throughput(
             "var_dir": Path(tmp) / "var",
             "batch_size": batch,
         }
-        settings = settings.model_copy(update=fields)
+        settings = settings.replace(**fields)
         sessions = session_factory(make_engine(url))
         with sessions() as session:
             graph_id = int(
@@ -227,16 +227,14 @@ def _integration(
     start = time.perf_counter()
     graph = _grown_graph(dynamics, bank, edges=edges, frames=frames)
     build = time.perf_counter() - start
-    with tempfile.TemporaryDirectory() as tmp, scratch_database(settings.test_postgres_url) as url:
-        fields: dict[str, Any] = {
-            "database_url": url,
-            "var_dir": Path(tmp),
-            "batch_size": expansions,
-            "growth_renders": False,
-            "strategy": "max-error",
-        }
-        settings = settings.model_copy(update=fields)
-        candidates = _search_candidates(graph, settings.prefilter_k)
+    with (
+        tempfile.TemporaryDirectory() as tmp,
+        scratch_database(settings.scratch_postgres_url) as url,
+    ):
+        settings = settings.replace(
+            database_url=url, var_dir=Path(tmp), batch_size=expansions, growth_renders=False
+        )
+        candidates = _search_candidates(graph, settings.growth.prefilter_k)
         sessions = session_factory(make_engine(url))
         with sessions() as session:
             graph_id = create_graph(
@@ -304,7 +302,7 @@ def bench_grow(
 ) -> dict[str, Any]:
     """Throughput on ``dynamics`` (and ``preset``); integration cost by graph size.
 
-    ``settings`` are the caller's: the scratch databases go to its ``test_postgres_url``
+    ``settings`` are the caller's: the scratch databases go to its ``scratch_postgres_url``
     server, and every run's own settings are these with the run's database, broker and
     sizes.
 

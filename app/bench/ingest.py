@@ -142,9 +142,7 @@ def bench_ingest(
         raise InvalidInput("--clients and --uploads must be at least 1")
     with tempfile.TemporaryDirectory(prefix="srg-bench-ingest-") as tmp:
         url = database_url or f"sqlite:///{Path(tmp) / 'bench.sqlite3'}"
-        settings = Settings(
-            database_url=url,
-            artifact_dir=Path(tmp) / "data",
+        settings = Settings(database_url=url, artifact_dir=Path(tmp) / "data").replace(
             uploads_per_minute=max(60, 2 * uploads),
             # every client plays from loopback: the per-address limits would measure themselves
             registration_rate=f"{clients}/minute",

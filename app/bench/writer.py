@@ -87,14 +87,12 @@ def bench_writer(
     """Grow a toy graph to ``frames`` with the real writer; the virtual-clock figures."""
     from app.services.creation import init_graph
 
-    with tempfile.TemporaryDirectory() as tmp, scratch_database(settings.test_postgres_url) as url:
-        settings = settings.model_copy(
-            update={
-                "database_url": url,
-                "var_dir": Path(tmp),
-                "batch_size": batch,
-                "growth_renders": False,
-            }
+    with (
+        tempfile.TemporaryDirectory() as tmp,
+        scratch_database(settings.scratch_postgres_url) as url,
+    ):
+        settings = settings.replace(
+            database_url=url, var_dir=Path(tmp), batch_size=batch, growth_renders=False
         )
         sessions = session_factory(make_engine(url))
         with sessions() as session:

@@ -168,7 +168,7 @@ def sph(
     from app.bench.sph import bench_sph
     from app.config import get_settings
 
-    device = get_settings().opencl_device
+    device = get_settings().runtime.opencl_device
     result = bench_sph(preset, steps, fluid=fluid, device=device, compare_splishsplash=splishsplash)
     emit(result, as_json=True)
 

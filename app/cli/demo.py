@@ -60,7 +60,7 @@ def demo(
         parse_checkpoints(checkpoints),
         sessions=sessions,
         seed=seed,
-        player_model=parse_player_model(settings.player_model),
+        player_model=parse_player_model(settings.growth.player_model),
     )
     devices = LiquidDevices.from_settings(settings)
     make_dynamics(plan.dynamics, plan.preset, plan.fluid, devices=devices)  # preset, calibration

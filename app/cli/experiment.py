@@ -97,7 +97,7 @@ def experiment(
             dynamics or "toy",
             quick,
             *options[1:],
-            player_model or settings.player_model,
+            player_model or settings.growth.player_model,
             bots,
             fixed_graph_sessions,
         )

@@ -95,7 +95,7 @@ def grow(
         parse_strategy(strategy)
     settings = get_settings()
     require_intact(settings)
-    total = frames if frames is not None else expansions or settings.batch_size
+    total = frames if frames is not None else expansions or settings.growth.batch_size
     label = "frames" if frames is not None else "expansions"
     with progress_bar(total, label) as advance:
         result = grow_graph(

@@ -59,7 +59,7 @@ def validate(
     from app.liquid import validation
 
     typer.echo(f"validating tilt-tank/{preset} with the {fluid} fluid (minutes) ...", err=True)
-    report = validation.validate(preset, fluid, device=get_settings().opencl_device)
+    report = validation.validate(preset, fluid, device=get_settings().runtime.opencl_device)
     if result_path is not None:
         write_result(result_path, report)
     if json_output:

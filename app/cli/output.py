@@ -124,17 +124,17 @@ def user_error_message(exc: Exception) -> str | None:
     from pydantic import ValidationError
     from sqlalchemy.exc import DBAPIError, OperationalError
 
-    from app.config import Settings
+    from app.config import SETTINGS_CLASSES
 
     if isinstance(exc, SrgError):
         return str(exc.args[0] if exc.args else exc)
     missing = missing_extra_message(exc)
     if missing is not None:
         return missing
-    if isinstance(exc, ValidationError) and exc.title == Settings.__name__:
+    if isinstance(exc, ValidationError) and exc.title in SETTINGS_CLASSES:
+        # a field's variable is named for the field alone, whatever group holds it
         return "; ".join(
-            f"SRG_{'_'.join(str(part) for part in error['loc']).upper()}: {error['msg']}"
-            for error in exc.errors()
+            f"SRG_{str(error['loc'][-1]).upper()}: {error['msg']}" for error in exc.errors()
         )
     if isinstance(exc, DBAPIError):
         mapped = database_user_error(exc)

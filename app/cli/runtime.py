@@ -66,7 +66,7 @@ def flower(
     argv = ["flower", f"--port={port}", f"--address={address}"]
     # from the settings, never an option: a password on a command line is in every
     # user's `ps`; Flower is started in this process, so it is in no command line
-    credentials = get_settings().flower_basic_auth
+    credentials = get_settings().runtime.flower_basic_auth
     if credentials:
         argv.append(f"--basic-auth={credentials}")
     celery_app.start(argv)

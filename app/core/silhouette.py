@@ -23,7 +23,7 @@ from app.core.surface import SurfaceGrid
 
 #: horizontal field of view of the game camera, degrees
 CAMERA_FOV_X = 33.0
-#: image size of the edges' videos (``app.render.mitsuba_scene.RenderSettings``)
+#: image size of the edges' videos (``app.render.mitsuba_scene.RenderQuality``)
 IMAGE_WIDTH, IMAGE_HEIGHT = 160, 120
 
 

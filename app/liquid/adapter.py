@@ -48,7 +48,7 @@ from app.kernels.context import runtime
 from app.kernels.sdf import SdfKernel
 from app.kernels.sph import SphSimulator
 from app.liquid.devices import LiquidDevices
-from app.render.mitsuba_scene import LiquidRenderer, RenderSettings, pick_variant
+from app.render.mitsuba_scene import LiquidRenderer, RenderQuality, pick_variant
 
 CALIBRATION_DIR = Path(__file__).resolve().parents[1] / "data" / "calibration"
 #: the packages whose code makes a clip's bytes: the pure core, the kernels, this one
@@ -122,7 +122,7 @@ class LiquidDynamics:
         ``low`` or ``high`` viscosity (``app.core.scene.FLUIDS``).
     calibration : LiquidCalibration, optional
         Defaults to the stored one of the preset and fluid.
-    render_settings : RenderSettings, optional
+    render_quality : RenderQuality, optional
         Image size and samples per pixel of :meth:`render`.
     devices : LiquidDevices, optional
         The OpenCL device and the Mitsuba variant; the shells pass the configured ones.
@@ -137,7 +137,7 @@ class LiquidDynamics:
         preset: str,
         fluid: str = "low",
         calibration: LiquidCalibration | None = None,
-        render_settings: RenderSettings | None = None,
+        render_quality: RenderQuality | None = None,
         devices: LiquidDevices | None = None,
     ) -> None:
         self.preset = preset
@@ -149,7 +149,7 @@ class LiquidDynamics:
         self.frames_per_clip = self.scene.frames_per_clip
         self.n_controls = self.scene.n_controls
         self.fps = float(self.scene.fps)
-        self.render_settings = render_settings or RenderSettings()
+        self.render_quality = render_quality or RenderQuality()
         self.devices = devices or LiquidDevices()
         self.params = LiquidMetricParams(
             rest_kinetic=self.rest_kinetic,
@@ -208,7 +208,7 @@ class LiquidDynamics:
     def renderer(self) -> LiquidRenderer:
         if self._renderer is None:
             variant = pick_variant(self.devices.render_variant, self.devices.llvm_path)
-            self._renderer = LiquidRenderer(self.scene, self.grid, self.render_settings, variant)
+            self._renderer = LiquidRenderer(self.scene, self.grid, self.render_quality, variant)
         return self._renderer
 
     # ---- Dynamics operations ---------------------------------------------------------

@@ -35,4 +35,8 @@ class LiquidDevices:
 
     @classmethod
     def from_settings(cls, settings: Settings) -> LiquidDevices:
-        return cls(settings.opencl_device, settings.render_variant, settings.llvm_path)
+        return cls(
+            settings.runtime.opencl_device,
+            settings.render.render_variant,
+            settings.render.llvm_path,
+        )

@@ -139,7 +139,7 @@ def measure_pairs(
     """
     controls = [s.control for s in sims]
     grid = dyn.grid
-    settings = dyn.render_settings
+    settings = dyn.render_quality
     projector = silhouette_projector(
         tank_camera(dyn.scene.tank, settings.width, settings.height), grid
     )

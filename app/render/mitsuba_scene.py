@@ -59,7 +59,7 @@ SKY_RADIANCE = 0.3
 
 
 @dataclass(frozen=True)
-class RenderSettings:
+class RenderQuality:
     """Image size, samples per pixel, path depth, the median's passes, the mesh's smoothing.
 
     The defaults are the game's, chosen by the measurements in docs/render.md (the
@@ -147,16 +147,16 @@ def _glowing(box: Box, rgb: tuple[float, float, float]) -> Any:
     )
 
 
-def _static_objects(scene: Scene, settings: RenderSettings) -> dict[str, Any]:
+def _static_objects(scene: Scene, quality: RenderQuality) -> dict[str, Any]:
     """Loaded Mitsuba objects of everything but the liquid."""
     lo, hi = np.asarray(scene.tank.lo), np.asarray(scene.tank.hi)
     size = hi - lo
     t = 0.02 * size[0]  # wall thickness
     wall, frame = _diffuse(WALL_COLOUR), _diffuse(FRAME_COLOUR)
     tg = scene.target
-    camera = tank_camera(scene.tank, settings.width, settings.height)
+    camera = tank_camera(scene.tank, quality.width, quality.height)
     return {
-        "integrator": mi.load_dict({"type": "path", "max_depth": settings.max_depth}),
+        "integrator": mi.load_dict({"type": "path", "max_depth": quality.max_depth}),
         "sensor": mi.load_dict(
             {
                 "type": "perspective",
@@ -167,11 +167,11 @@ def _static_objects(scene: Scene, settings: RenderSettings) -> dict[str, Any]:
                 ),
                 "film": {
                     "type": "hdrfilm",
-                    "width": settings.width,
-                    "height": settings.height,
+                    "width": quality.width,
+                    "height": quality.height,
                     "rfilter": {"type": "box"},
                 },
-                "sampler": {"type": "multijitter", "sample_count": settings.spp},
+                "sampler": {"type": "multijitter", "sample_count": quality.spp},
             }
         ),
         "sky": mi.load_dict(
@@ -228,19 +228,19 @@ class LiquidRenderer:
         self,
         scene: Scene,
         grid: SurfaceGrid,
-        settings: RenderSettings | None = None,
+        quality: RenderQuality | None = None,
         variant: str = DEFAULT_VARIANT,
     ) -> None:
         mi.set_variant(variant)
         self.grid = grid
-        self.settings = settings or RenderSettings()
-        objects = _static_objects(scene, self.settings)
+        self.quality = quality or RenderQuality()
+        objects = _static_objects(scene, self.quality)
         self.water = objects.pop("water")
         self.static = objects
 
     def frame(self, phi: np.ndarray) -> np.ndarray:
         """(H, W, 3) uint8 sRGB image of one float (X, Y, Z) SDF frame."""
-        mesh = render_mesh(self.grid, phi, self.settings.smoothing_steps)
+        mesh = render_mesh(self.grid, phi, self.quality.smoothing_steps)
         shapes = dict(self.static)
         if len(mesh.faces):
             shapes["liquid"] = _liquid_mesh(mesh, self.water)
@@ -249,7 +249,7 @@ class LiquidRenderer:
             mi.Bitmap.PixelFormat.RGB, mi.Struct.Type.UInt8, srgb_gamma=True
         )
         image = np.array(bitmap, dtype=np.uint8)
-        for _ in range(self.settings.median_passes):
+        for _ in range(self.quality.median_passes):
             image = median_denoise(image)
         return image
 

@@ -35,7 +35,7 @@ from app.store.artifacts import ArtifactNotFound, ArtifactStore
 
 def reuse_error_limit(settings: Settings, context: GraphContext) -> float:
     """The largest substitution error at which a clip reuses another's strip (0: never)."""
-    return settings.dedup_error_fraction * context.threshold
+    return settings.render.dedup_error_fraction * context.threshold
 
 
 ClipColumns = Callable[[int], tuple[int, np.ndarray]]

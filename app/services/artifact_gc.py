@@ -40,7 +40,7 @@ def count_fanout_directories(settings: Settings) -> int:
 
 def grace_seconds(settings: Settings, older_than: float | None) -> float:
     """The grace period a collection keeps: ``older_than``, else the configured one."""
-    grace = settings.artifact_gc_grace if older_than is None else older_than
+    grace = settings.runtime.artifact_gc_grace if older_than is None else older_than
     if not 0 <= grace < math.inf:
         raise InvalidInput(f"--older-than must be a finite number of seconds >= 0, not {grace}")
     return grace
@@ -55,7 +55,7 @@ def collect_artifacts(
 ) -> ArtifactGcResult:
     """Scan the store, delete the orphaned rows in one transaction, then their files.
 
-    ``older_than`` defaults to ``settings.artifact_gc_grace``; ``progress(1)`` is called
+    ``older_than`` defaults to ``settings.runtime.artifact_gc_grace``; ``progress(1)`` is called
     per fan-out directory scanned (:func:`~app.store.artifact_gc.count_fanout_directories`).
     """
     grace = grace_seconds(settings, older_than)

@@ -105,7 +105,7 @@ def remembered_clip(session: Session, settings: Settings, job: ClipJob) -> str |
     Its file is read and checked, which also marks it as in use for ``srg gc``; one that
     was collected or fails its hash is a miss.
     """
-    key = simulation_key(job) if settings.reuse_simulations else None
+    key = simulation_key(job) if settings.growth.reuse_simulations else None
     digest = None if key is None else simulated_clip(session, key)
     if digest is None:
         return None
@@ -119,7 +119,7 @@ def remembered_clip(session: Session, settings: Settings, job: ClipJob) -> str |
 
 def remember_clip(session: Session, settings: Settings, job: ClipJob, clip: str) -> None:
     """Note ``clip`` as the simulation of ``job`` for the next identical one."""
-    key = simulation_key(job) if settings.reuse_simulations else None
+    key = simulation_key(job) if settings.growth.reuse_simulations else None
     if key is not None:
         record_simulated_clip(session, key, clip)
 

@@ -67,7 +67,7 @@ def init_graph(
     """
     check_name(name, what="graph", max_length=graph_name_length())
     chosen = parse_strategy(strategy)
-    crowd_model = parse_player_model(player_model or settings.player_model)
+    crowd_model = parse_player_model(player_model or settings.growth.player_model)
     if dynamics == "toy" and preset is not None:
         raise InvalidInput(f"the toy has no preset (got {preset!r}); presets are the liquid's")
     if graph_exists(session, name):
@@ -77,7 +77,7 @@ def init_graph(
     artifacts = artifact_store(settings)
     bank = MemoryClipBank()
     graph = initial_tree(
-        model, bank, depth=depth, prefilter_k=settings.prefilter_k, progress=progress
+        model, bank, depth=depth, prefilter_k=settings.growth.prefilter_k, progress=progress
     )
     graph_id = create_graph(
         session,

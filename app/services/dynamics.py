@@ -62,7 +62,7 @@ def threshold_in_force(settings: Settings, dynamics: Dynamics) -> float:
     """The high-error threshold every figure uses: ``SRG_HIGH_ERROR_THRESHOLD`` when set
     (to compare graphs of different calibrations on one scale), else the one calibrated
     with the dynamics' scene (docs/threshold.md)."""
-    return settings.high_error_threshold or dynamics.high_error_threshold
+    return settings.growth.high_error_threshold or dynamics.high_error_threshold
 
 
 def control_count(name: str) -> int:

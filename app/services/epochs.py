@@ -129,7 +129,7 @@ def plan_epoch(
     """Open the graph's next epoch (rendering its clips if ``renders``), or re-send a
     stalled one; None if one is running.
 
-    A running epoch that has made no progress for ``settings.epoch_resend_after``
+    A running epoch that has made no progress for ``settings.runtime.epoch_resend_after``
     seconds is returned again (``resent=True``) for its missing work to be dispatched
     once more, whatever holds it: the backstop behind :func:`resend_epoch`, for a task
     that hangs. Two concurrent calls are serialised by the graph's lock, and the unique
@@ -138,7 +138,7 @@ def plan_epoch(
     entry = lock_graph(session, graph_id)
     running = running_epoch(session, graph_id)
     if running is not None:
-        if time.time() - (running.heartbeat or 0.0) < settings.epoch_resend_after:
+        if time.time() - (running.heartbeat or 0.0) < settings.runtime.epoch_resend_after:
             return None
         return _resent(session, running)
     loaded = loaded_graph(session, settings, entry)
@@ -257,7 +257,7 @@ def integrate_step(
     ]
     first_clip = graph.n_clips
     expansion = integrate_expansion(
-        graph, loaded.bank, loaded.dynamics, edge, clips, prefilter_k=settings.prefilter_k
+        graph, loaded.bank, loaded.dynamics, edge, clips, prefilter_k=settings.growth.prefilter_k
     )
     save_graph(session, entry.id, graph, loaded.bank, loaded.artifacts)
     _canonical_descriptors(loaded, first_clip)

@@ -52,19 +52,19 @@ def grow_graph(
 ) -> GrowResult:
     """Grow in-process by a budget (frames, expansions, or up to a size), epoch by epoch.
 
-    Without a budget: one batch (``settings.batch_size`` expansions). Each epoch is
+    Without a budget: one batch (``settings.growth.batch_size`` expansions). Each epoch is
     planned (rank, pick the top BLEND edges, relink lazily), each clip simulated, the
     expansions integrated in plan order, and animations rendered when ``renders``
-    (default ``settings.growth_renders``). Every step runs in a ``scope()``:
+    (default ``settings.render.growth_renders``). Every step runs in a ``scope()``:
     :func:`app.db.sessions.transaction` makes each step durable (an interrupted grow keeps its
     finished steps, and the next grow first finishes the interrupted epoch);
     :func:`app.services.epochs.in_session` runs all in one caller-owned transaction.
     """
     if frames is None and expansions is None and to_frames is None:
-        expansions = settings.batch_size
+        expansions = settings.growth.batch_size
     GrowthBudget.check(frames=frames, expansions=expansions, to_frames=to_frames)
-    renders = settings.growth_renders if renders is None else renders
-    batch = batch_size or settings.batch_size
+    renders = settings.render.growth_renders if renders is None else renders
+    batch = batch_size or settings.growth.batch_size
     with scope() as session:
         entry = graph_entry(session, name)
         graph_id, per_expansion = entry.id, entry.frames_per_expansion

@@ -117,10 +117,10 @@ def loaded_graph(session: Session, settings: Settings, entry: GraphEntry) -> Loa
     artifacts = artifact_store(settings)
     context = graph_context(entry, settings)
     graph, bank = load_graph(
-        session, entry.id, artifacts, context.dynamics.shape, settings.clip_cache_mb * 2**20
+        session, entry.id, artifacts, context.dynamics.shape, settings.runtime.clip_cache_mb * 2**20
     )
     if settings.resolved_redis_url:
-        cache = _shape_cache(settings.resolved_redis_url, settings.occupancy_cache_ttl)
+        cache = _shape_cache(settings.resolved_redis_url, settings.runtime.occupancy_cache_ttl)
         bank.use_shape_cache(cache)
     return LoadedGraph(context, graph, bank, artifacts)
 

@@ -32,7 +32,9 @@ class PublishResult:
 
 def relink_blends(session: Session, settings: Settings, loaded: LoadedGraph) -> int:
     """Relink every BLEND edge to its best target now and save what moved; how many."""
-    moved = relink_all(loaded.graph, loaded.bank, loaded.dynamics, prefilter_k=settings.prefilter_k)
+    moved = relink_all(
+        loaded.graph, loaded.bank, loaded.dynamics, prefilter_k=settings.growth.prefilter_k
+    )
     if moved:
         save_graph(session, loaded.entry.id, loaded.graph, loaded.bank, loaded.artifacts)
     return len(moved)

@@ -71,7 +71,7 @@ def publication_due(session: Session, settings: Settings, graph_id: int) -> bool
     a graph whose growth stopped or stalls is not published again and again, and a
     faster cluster publishes as often as its graph changes by that much.
     """
-    every = settings.publish_every
+    every = settings.runtime.publish_every
     if every == 0 or running_epoch(session, graph_id) is not None:
         return False
     latest = latest_publication(session, graph_id)

@@ -26,13 +26,13 @@ def refiner_config(
     settings: Settings, dynamics: Dynamics, player_model: PlayerModelKind = PlayerModelKind.EQ2
 ) -> RefinerConfig:
     return RefinerConfig(
-        alpha=settings.alpha,
-        crowd_radius=settings.crowd_radius or dynamics.crowd_radius,
-        crowd_eps=settings.crowd_eps,
-        default_session_steps=settings.restart_steps,
-        max_session_steps=settings.max_session_steps,
-        prefilter_k=settings.prefilter_k,
-        batch_size=settings.batch_size,
+        alpha=settings.growth.alpha,
+        crowd_radius=settings.growth.crowd_radius or dynamics.crowd_radius,
+        crowd_eps=settings.growth.crowd_eps,
+        default_session_steps=settings.growth.restart_steps,
+        max_session_steps=settings.growth.max_session_steps,
+        prefilter_k=settings.growth.prefilter_k,
+        batch_size=settings.growth.batch_size,
         player_model=player_model,
     )
 

@@ -29,7 +29,7 @@ DELIVERY_KEY = "srg:deliveries:"
 
 def celery_config(settings: Settings) -> dict[str, Any]:
     broker = settings.broker_url or "memory://"
-    transport = {"visibility_timeout": settings.visibility_timeout}
+    transport = {"visibility_timeout": settings.runtime.visibility_timeout}
     return {
         "broker_url": broker,
         "result_backend": settings.result_backend or settings.broker_url or "cache+memory://",
@@ -38,8 +38,8 @@ def celery_config(settings: Settings) -> dict[str, Any]:
         "task_acks_late": True,
         "task_reject_on_worker_lost": True,
         "worker_prefetch_multiplier": 1,
-        "task_soft_time_limit": settings.task_soft_time_limit,
-        "task_time_limit": settings.task_time_limit,
+        "task_soft_time_limit": settings.runtime.task_soft_time_limit,
+        "task_time_limit": settings.runtime.task_time_limit,
         "broker_transport_options": transport,
         "result_backend_transport_options": transport,
         "broker_connection_retry_on_startup": True,
@@ -58,12 +58,12 @@ def celery_config(settings: Settings) -> dict[str, Any]:
 def beat_schedule(settings: Settings) -> dict[str, dict[str, Any]]:
     """Growth ticks, and (unless its interval is 0) collection of orphaned artifacts."""
     schedule: dict[str, dict[str, Any]] = {
-        "grow-graphs": {"task": "srg.schedule_growth", "schedule": settings.beat_interval}
+        "grow-graphs": {"task": "srg.schedule_growth", "schedule": settings.runtime.beat_interval}
     }
-    if settings.artifact_gc_interval > 0:
+    if settings.runtime.artifact_gc_interval > 0:
         schedule["collect-artifacts"] = {
             "task": "srg.collect_artifacts",
-            "schedule": settings.artifact_gc_interval,
+            "schedule": settings.runtime.artifact_gc_interval,
         }
     return schedule
 
@@ -90,11 +90,13 @@ class BoundedTask(Task):
             client = _redis(url)
             key = DELIVERY_KEY + task_id
             deliveries = client.incr(key)
-            client.expire(key, settings.visibility_timeout * (settings.task_max_retries + 2))
+            client.expire(
+                key, settings.runtime.visibility_timeout * (settings.runtime.task_max_retries + 2)
+            )
         except Exception as exc:  # counting is a safety net; Redis trouble must not block work
             log.warning("cannot count deliveries of %s: %s", task_id, exc)
             return
-        if deliveries > settings.task_max_retries + 1:
+        if deliveries > settings.runtime.task_max_retries + 1:
             raise Reject(f"task {task_id} delivered {deliveries} times: dropped", requeue=False)
 
 

@@ -80,7 +80,7 @@ def render(clip: str, epoch_id: int, position: int, control: int) -> str:
 def integrate(self: Any, epoch_id: int, position: int, renders: bool | None = None) -> int | None:
     """Swap one planned expansion into the graph (once); the new vertex's index."""
     settings = get_settings()
-    renders = settings.growth_renders if renders is None else renders
+    renders = settings.render.growth_renders if renders is None else renders
     try:
         with transaction(settings) as session:
             outcome = epochs.integrate_step(session, settings, epoch_id, position)
@@ -89,10 +89,12 @@ def integrate(self: Any, epoch_id: int, position: int, renders: bool | None = No
             missing = [(position, c) for c in exc.missing]
             clip_pipelines(epoch_id, missing, renders=renders).apply_async()
         raise self.retry(
-            exc=exc, countdown=NOT_READY_DELAY, max_retries=settings.task_max_retries
+            exc=exc, countdown=NOT_READY_DELAY, max_retries=settings.runtime.task_max_retries
         ) from exc
     except (epochs.StaleGraph, OperationalError) as exc:  # a racing writer, a dropped connection
-        raise self.retry(exc=exc, countdown=0.5, max_retries=settings.task_max_retries) from exc
+        raise self.retry(
+            exc=exc, countdown=0.5, max_retries=settings.runtime.task_max_retries
+        ) from exc
     log.info(
         "epoch %d: expansion %d %s (vertex %s)%s",
         epoch_id,
@@ -128,7 +130,7 @@ def relink(self: Any, graph_id: int) -> int:
         with transaction(settings) as session:
             return rank_relink_publish.relink_graph(session, settings, graph_id)
     except rank_relink_publish.EpochRunning as exc:
-        raise self.retry(exc=exc, countdown=settings.beat_interval) from exc
+        raise self.retry(exc=exc, countdown=settings.runtime.beat_interval) from exc
 
 
 @celery_app.task(name="srg.publish", bind=True)
@@ -139,7 +141,7 @@ def publish(self: Any, graph_id: int) -> int:
         with transaction(settings) as session:
             return rank_relink_publish.publish_between_epochs(session, settings, graph_id)
     except rank_relink_publish.EpochRunning as exc:
-        raise self.retry(exc=exc, countdown=settings.beat_interval) from exc
+        raise self.retry(exc=exc, countdown=settings.runtime.beat_interval) from exc
 
 
 @celery_app.task(name="srg.grow_epoch")
@@ -176,7 +178,7 @@ def grow_epoch(
 def _plan_and_send(
     settings: Settings, graph_id: int, count: int | None, renders: bool | None
 ) -> int | None:
-    renders = settings.growth_renders if renders is None else renders
+    renders = settings.render.growth_renders if renders is None else renders
     try:
         with transaction(settings) as session:
             plan = epochs.plan_epoch(session, settings, graph_id, count=count, renders=renders)
@@ -270,7 +272,7 @@ def grow_on_workers(
     budget = GrowthBudget.of(size, to_frames=to_frames)
     while (left := budget.left(size, 0, per_expansion)) > 0:
         epoch_id = grow_epoch.delay(graph_id, min(left, batch), False).get(
-            timeout=settings.task_time_limit
+            timeout=settings.runtime.task_time_limit
         )
         _wait_for_epochs(settings, graph_id)
         grown = _size_frames(settings, graph_id)
@@ -298,7 +300,7 @@ def _wait_for_epochs(settings: Settings, graph_id: int) -> None:
             return
         if state != seen:
             seen, last_change = state, time.monotonic()
-        elif time.monotonic() - last_change > settings.epoch_resend_after:
+        elif time.monotonic() - last_change > settings.runtime.epoch_resend_after:
             grow_epoch.delay(graph_id, None, False)
             last_change = time.monotonic()
         time.sleep(EPOCH_POLL)

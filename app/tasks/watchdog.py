@@ -69,7 +69,7 @@ def _stop_watching(**_: Any) -> None:
 
 def _watch(settings: Settings, hostname: str) -> None:
     factory = session_factory(make_engine(settings.resolved_database_url, poolclass=NullPool))
-    interval = settings.epoch_check_interval
+    interval = settings.runtime.epoch_check_interval
     while not _stopping.wait(interval):
         try:
             _look(factory, settings, hostname)
@@ -79,7 +79,7 @@ def _watch(settings: Settings, hostname: str) -> None:
 
 def _look(factory: sessionmaker[Session], settings: Settings, hostname: str) -> None:
     """One look at every running epoch, if it is this worker's turn (see the module doc)."""
-    interval_ms = max(1, int(settings.epoch_check_interval * 1000))
+    interval_ms = max(1, int(settings.runtime.epoch_check_interval * 1000))
     with celery_app.connection_for_write() as connection:
         client = connection.default_channel.client
         if not client.set(TURN_KEY, hostname, nx=True, px=max(1, interval_ms // 2)):

@@ -53,7 +53,7 @@ def make_client(
         "rate_limit_storage": "memory://",
         **settings,
     }
-    app = create_app(Settings(**values))
+    app = create_app(Settings().replace(**values))
 
     def joined_session() -> Iterator[Session]:
         try:

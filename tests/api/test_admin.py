@@ -21,7 +21,7 @@ import app.services.growing
 import app.tasks.growth
 from app.api.app import create_app
 from app.api.local_server import serve_in_thread
-from app.config import Settings
+from app.config import ApiSettings, Settings
 from app.models import Clip
 from app.models import Publication as PublicationRow
 from app.store.artifacts import ArtifactStore
@@ -38,7 +38,7 @@ def admin_requests(name: str) -> list[tuple[str, str]]:
 
 
 def test_there_is_no_default_admin_token() -> None:
-    assert Settings.model_fields["admin_token"].default == ""
+    assert ApiSettings.model_fields["admin_token"].default == ""
 
 
 def test_with_no_admin_token_the_admin_routes_are_off(
@@ -184,7 +184,7 @@ def test_with_a_broker_admin_grow_sends_grow_epoch_to_the_workers(
 @pytest.fixture
 def served(tmp_path: Path) -> Iterator[Settings]:
     """Settings of a SQLite database holding the toy graph ``g``, growth without renders."""
-    settings = Settings(
+    settings = Settings().replace(
         database_url=f"sqlite:///{tmp_path / 'admin.sqlite3'}",
         artifact_dir=tmp_path / "data",
         admin_token=ADMIN_TOKEN,

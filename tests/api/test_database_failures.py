@@ -25,7 +25,7 @@ EXPANSIONS = 120
 @pytest.fixture
 def growing(tmp_path: Path) -> Iterator[Settings]:
     """A SQLite file holding the toy graph ``g``, grown in epochs of 3 (a commit a step)."""
-    settings = Settings(
+    settings = Settings().replace(
         database_url=f"sqlite:///{tmp_path / 'growing.sqlite3'}",
         artifact_dir=tmp_path / "data",
         admin_token=ADMIN_TOKEN,
@@ -70,7 +70,7 @@ def test_every_route_answers_503_when_the_database_cannot_serve(
 ) -> None:
     """The finding: every data route answered 500 "internal error" (only health said 503)."""
     url = UNREACHABLE if database == "postgresql" else garbage_sqlite(tmp_path / "x.sqlite3")
-    settings = Settings(
+    settings = Settings().replace(
         database_url=url,
         artifact_dir=tmp_path / "data",
         admin_token=ADMIN_TOKEN,

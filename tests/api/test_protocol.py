@@ -186,7 +186,7 @@ def test_health_is_200_and_says_so_when_the_broker_is_unreachable(
 
 
 def test_health_is_503_when_the_database_does_not_answer(tmp_path: Path) -> None:
-    settings = Settings(
+    settings = Settings().replace(
         database_url="postgresql+psycopg://postgres@127.0.0.1:1/none",
         artifact_dir=tmp_path,
         rate_limit_storage="memory://",

@@ -11,7 +11,7 @@ from fastapi.testclient import TestClient
 from sqlalchemy.orm import Session
 
 from app.api.app import STATIC_DIR
-from app.config import Settings
+from app.config import ApiSettings
 
 
 def body(published: Published, steps: list[list[int]], key: str = "key-1") -> dict[str, object]:
@@ -223,7 +223,7 @@ def test_the_step_limit_leaves_room_for_the_web_client() -> None:
     found = re.search(r"const MAX_TRACE_STEPS = (\d+);", source)
     assert found is not None
     client_limit = int(found.group(1))
-    server_limit = Settings.model_fields["max_trace_steps"].default
+    server_limit = ApiSettings.model_fields["max_trace_steps"].default
     assert client_limit < server_limit <= 2 * client_limit
 
 

@@ -82,7 +82,7 @@ def test_an_interrupted_run_reports_the_epochs_it_grew(tmp_path: Path) -> None:
 
 
 def _scratch_databases() -> set[str]:
-    server = make_url(Settings().test_postgres_url).set(database="postgres")
+    server = make_url(Settings().scratch_postgres_url).set(database="postgres")
     admin = make_engine(server.render_as_string(False), isolation_level="AUTOCOMMIT")
     try:
         with admin.connect() as connection:

@@ -24,7 +24,7 @@ from app.render.animation import (
 from app.render.denoise import median_denoise
 from app.render.look import dark_fractions
 from app.render.meshing import WALL_OVERLAP, render_mesh, surface_mesh
-from app.render.mitsuba_scene import LiquidRenderer, RenderSettings, pick_variant
+from app.render.mitsuba_scene import LiquidRenderer, RenderQuality, pick_variant
 from app.render.smoothing import mesh_volume
 
 SCENE = tilt_tank("tiny")
@@ -104,13 +104,13 @@ def test_a_splash_renders_without_black_shards() -> None:
     With the renderer before (paths of depth 4, the water stopping short of the walls,
     no smoothing) 4.3 % of this frame was near-black at this size.
     """
-    renderer = LiquidRenderer(SCENE, GRID, RenderSettings(width=160, height=120))
+    renderer = LiquidRenderer(SCENE, GRID, RenderQuality(width=160, height=120))
     image = renderer.frames(SPLASH[None])
     assert dark_fractions(image)[0] <= 0.003
 
 
 def test_rendered_frames_show_water_at_the_bottom() -> None:
-    renderer = LiquidRenderer(SCENE, GRID, RenderSettings(width=48, height=36, spp=4))
+    renderer = LiquidRenderer(SCENE, GRID, RenderQuality(width=48, height=36, spp=4))
     phi = zhu_bridson_sdf(GRID, initial_particles(SCENE)[:, :3])
     empty = np.full(GRID.shape, GRID.far_value, np.float32)
     images = renderer.frames(np.stack([phi, empty]))

@@ -63,7 +63,7 @@ def cluster_env(
         env["FLOWER_UNAUTHENTICATED_API"] = "true"
         logs = tmp_path / "logs"
         logs.mkdir(exist_ok=True)
-        cluster = Cluster(env, Settings(**fields), logs)  # type: ignore[arg-type]
+        cluster = Cluster(env, Settings().replace(**fields), logs)
         made.append(cluster)
         return cluster
 

@@ -57,7 +57,7 @@ def eager_reference(tmp_path: Path, epochs: int, batch: int = BATCH) -> dict[str
     url = f"sqlite:///{tmp_path / 'eager.sqlite3'}"
     if not (tmp_path / "eager.sqlite3").exists():
         migrate(url)
-    settings = Settings(
+    settings = Settings().replace(
         database_url=url,
         var_dir=tmp_path / "eager-var",
         artifact_dir=tmp_path / "eager-artifacts",

@@ -47,7 +47,7 @@ def test_without_a_broker_tasks_run_eagerly() -> None:
 
 
 def test_celery_is_configured_for_at_least_once_delivery() -> None:
-    settings = Settings(broker_url="redis://127.0.0.1:6379/0", task_time_limit=900)
+    settings = Settings().replace(broker_url="redis://127.0.0.1:6379/0", task_time_limit=900)
     conf = celery_config(settings)
     assert conf["task_acks_late"] and conf["task_reject_on_worker_lost"]
     assert conf["worker_prefetch_multiplier"] == 1
@@ -144,7 +144,7 @@ def test_a_running_epoch_blocks_a_second_until_it_stalls(settings: Settings) -> 
     assert first is not None
     with database_sessions(get_settings())() as session:
         assert epochs.plan_epoch(session, settings, graph_id) is None
-    stalled = settings.model_copy(update={"epoch_resend_after": 0.0})
+    stalled = settings.replace(epoch_resend_after=0.0)
     with database_sessions(get_settings())() as session:
         again = epochs.plan_epoch(session, stalled, graph_id)
         session.commit()
@@ -227,11 +227,11 @@ def redis_server_url(redis_server: RedisServer) -> str:
 
 
 def test_beat_collects_orphaned_artifacts_unless_told_not_to() -> None:
-    conf = celery_config(Settings(artifact_gc_interval=600))
+    conf = celery_config(Settings().replace(artifact_gc_interval=600))
     entry = conf["beat_schedule"]["collect-artifacts"]
     assert entry == {"task": "srg.collect_artifacts", "schedule": 600}
     assert "srg.collect_artifacts" in celery_app.tasks
-    never = celery_config(Settings(artifact_gc_interval=0))["beat_schedule"]
+    never = celery_config(Settings().replace(artifact_gc_interval=0))["beat_schedule"]
     assert set(never) == {"grow-graphs"}
 
 
@@ -239,7 +239,7 @@ def test_the_collect_artifacts_task_removes_old_orphans_only(settings: Settings)
     graph_id = seed_graph(settings)
     store = ArtifactStore(settings.resolved_artifact_dir)
     kept = {path for path in store.root.rglob("*") if path.is_file()}
-    old = time.time() - settings.artifact_gc_grace - 60
+    old = time.time() - settings.runtime.artifact_gc_grace - 60
     for path in kept:
         os.utime(path, (old, old))
     orphan = store.root / "00" / "00" / ("0" * 64)
@@ -345,7 +345,7 @@ def test_a_publication_due_skips_a_graph_another_writer_holds(
 ) -> None:
     """A tick sent while a publication still renders returns at once instead of waiting
     for the lock, and publishes nothing."""
-    settings = Settings(database_url=postgres_url, var_dir=tmp_path, growth_renders=False)
+    settings = Settings().replace(database_url=postgres_url, var_dir=tmp_path, growth_renders=False)
     graph_id = seed_graph(settings)
     factory = session_factory(make_engine(postgres_url))
     with factory() as holder, factory() as session:

@@ -75,7 +75,7 @@ def test_a_graph_grown_again_reuses_every_clip_and_with_reuse_off_simulates_the_
 
     monkeypatch.setenv("SRG_REUSE_SIMULATIONS", "false")
     reuse_off = get_settings()
-    assert not reuse_off.reuse_simulations
+    assert not reuse_off.growth.reuse_simulations
     _new_graph(reuse_off, "simulated")
     assert _grow(reuse_off, "simulated") > 0
     assert _bundles("simulated") == _bundles("first")

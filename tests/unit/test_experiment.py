@@ -79,8 +79,9 @@ def test_prediction_is_for_the_publication_played_from_earlier_traces(
         np.testing.assert_allclose(pi, (1.0 - rho) * inflow + restart, atol=1e-8)
         assert row["predicted_expected_error"] == pytest.approx(float(prob @ publication.edge_err))
     # the second prediction knows the first publication's sessions, not its own
+    growth = settings.growth
     first = robust_session_length(
-        sessions[0], default=settings.restart_steps, ceiling=settings.max_session_steps
+        sessions[0], default=growth.restart_steps, ceiling=growth.max_session_steps
     )
     assert rows[1]["predicted_session_steps"] == pytest.approx(first)
     assert rows[1]["predicted_session_steps"] != pytest.approx(rows[1]["observed_session_steps"])

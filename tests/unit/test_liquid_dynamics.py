@@ -9,7 +9,7 @@ from pathlib import Path
 import numpy as np
 import pytest
 
-from app.config import Settings
+from app.config import RenderSettings, RuntimeSettings, Settings
 from app.core.dynamics import Dynamics, SimClip
 from app.core.surface import dequantise_sdf, liquid_volumes, occupancy
 from app.liquid.adapter import (
@@ -92,7 +92,10 @@ def test_blend_of_nearby_clips(dyn: LiquidDynamics, rest: np.ndarray, tilted: Si
 
 def test_the_devices_default_to_the_embedded_configuration() -> None:
     # a liquid made without devices runs where an unconfigured srg runs it
-    assert LiquidDevices() == LiquidDevices.from_settings(Settings.model_construct())
+    unconfigured = Settings.model_construct(  # the defaults, not this process's environment
+        render=RenderSettings.model_construct(), runtime=RuntimeSettings.model_construct()
+    )
+    assert LiquidDevices() == LiquidDevices.from_settings(unconfigured)
     assert LiquidDynamics("tiny").devices == LiquidDevices()
     chosen = LiquidDevices(opencl_device="cpu", render_variant="scalar_rgb")
     assert LiquidDynamics("tiny", devices=chosen).devices is chosen

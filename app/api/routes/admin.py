@@ -123,7 +123,7 @@ def grow(
             grow_in_background, jobs, scope, settings, graph_id, expansions, request_id
         )
     else:
-        send_to_workers(graph_id, expansions, request_id, renders=settings.growth_renders)
+        send_to_workers(graph_id, expansions, request_id, renders=settings.render.growth_renders)
     return GrowQueued(
         graph=graph_name,
         expansions=expansions,

@@ -67,7 +67,7 @@ def upload_trace(
         upload = TraceUpload.model_validate_json(body)
     except ValidationError as exc:
         raise ApiError(422, "invalid trace upload", details=validation_details(exc)) from None
-    max_steps: int = request.app.state.settings.max_trace_steps
+    max_steps: int = request.app.state.settings.api.max_trace_steps
     if len(upload.steps) > max_steps:  # no session is that long: it would skew growth's L
         raise ApiError(
             413,
