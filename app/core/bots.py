@@ -18,7 +18,7 @@ from enum import StrEnum
 
 import numpy as np
 
-from app.core.errors import InvalidInput
+from app.core.choices import parse_choice
 from app.core.lookahead import lookahead_values, scaled_per_vertex
 from app.core.publication import Publication
 
@@ -36,11 +36,7 @@ class BotKind(StrEnum):
 
 def parse_bot(name: str) -> BotKind:
     """The bot called ``name``; :class:`InvalidInput` naming the known ones otherwise."""
-    try:
-        return BotKind(name)
-    except ValueError:
-        known = ", ".join(k.value for k in BotKind)
-        raise InvalidInput(f"unknown bot {name!r} (known: {known})") from None
+    return parse_choice(BotKind, name, what="bot")
 
 
 def lookahead_policy(
@@ -65,22 +61,19 @@ def lookahead_policy(
 
 
 @dataclass(frozen=True)
-class GoalDirectedBot:
-    """Aims at the target: lookahead on clip scores, softmax noise and a reaction delay.
-
-    The policy is :func:`lookahead_policy` of the clip scores. The control a bot plays was
-    decided ``delay`` steps earlier, as a person reacts late.
-    """
+class _PlanningBot:
+    """What the bots that plan share: :func:`lookahead_policy` of some clip values, with
+    softmax noise, played ``delay`` steps after it was decided (a person reacts late)."""
 
     lookahead: int = 4
     discount: float = 0.9
     temperature: float = 0.15
     delay: int = 1
 
-    def policy(self, publication: Publication) -> np.ndarray:
+    def _aim(self, publication: Publication, values: np.ndarray) -> np.ndarray:
         return lookahead_policy(
             publication,
-            publication.edge_score,
+            values,
             lookahead=self.lookahead,
             discount=self.discount,
             temperature=self.temperature,
@@ -88,7 +81,15 @@ class GoalDirectedBot:
 
 
 @dataclass(frozen=True)
-class HesitantBot:
+class GoalDirectedBot(_PlanningBot):
+    """Aims at the target: plans on the clip scores."""
+
+    def policy(self, publication: Publication) -> np.ndarray:
+        return self._aim(publication, publication.edge_score)
+
+
+@dataclass(frozen=True)
+class HesitantBot(_PlanningBot):
     """Means to reach the target but reacts late, wavers and often lets the tank go level.
 
     The goal-directed choice with a higher ``temperature`` (noisier), played ``delay``
@@ -98,47 +99,29 @@ class HesitantBot:
     temperature it plays the goal-directed decisions, ``delay`` steps late.
     """
 
-    lookahead: int = 4
-    discount: float = 0.9
     temperature: float = 0.5
     delay: int = 3
     level_rate: float = 0.4
 
     def policy(self, publication: Publication) -> np.ndarray:
-        aim = lookahead_policy(
-            publication,
-            publication.edge_score,
-            lookahead=self.lookahead,
-            discount=self.discount,
-            temperature=self.temperature,
-        )
-        prob = (1.0 - self.level_rate) * aim
+        prob = (1.0 - self.level_rate) * self._aim(publication, publication.edge_score)
         prob[:, LEVEL_CONTROL] += self.level_rate
         return prob
 
 
 @dataclass(frozen=True)
-class AvoiderBot:
+class AvoiderBot(_PlanningBot):
     """Chases another goal: keeps the water away from the target.
 
-    :func:`lookahead_policy` of the negated clip scores, so it steers towards clips that
-    leave the target window dry, with its own softmax noise and reaction delay. A crowd of
-    avoiders visits the part of the graph goal-directed players leave alone.
+    It plans on the negated clip scores, so it steers towards clips that leave the target
+    window dry. A crowd of avoiders visits the part of the graph goal-directed players
+    leave alone.
     """
 
-    lookahead: int = 4
-    discount: float = 0.9
-    temperature: float = 0.15
     delay: int = 2
 
     def policy(self, publication: Publication) -> np.ndarray:
-        return lookahead_policy(
-            publication,
-            -publication.edge_score,
-            lookahead=self.lookahead,
-            discount=self.discount,
-            temperature=self.temperature,
-        )
+        return self._aim(publication, -publication.edge_score)
 
 
 @dataclass(frozen=True)

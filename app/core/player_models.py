@@ -14,7 +14,7 @@ import numpy as np
 import scipy.sparse as sp
 from scipy.spatial import cKDTree
 
-from app.core.errors import InvalidInput
+from app.core.choices import parse_choice
 from app.core.graph import edge_index
 
 #: One step of a trace: the vertex the player was at and the control they took there.
@@ -35,11 +35,7 @@ class PlayerModelKind(StrEnum):
 
 def parse_player_model(name: str) -> PlayerModelKind:
     """The player model called ``name``; :class:`InvalidInput` naming the known ones otherwise."""
-    try:
-        return PlayerModelKind(name)
-    except ValueError:
-        known = ", ".join(k.value for k in PlayerModelKind)
-        raise InvalidInput(f"unknown player model {name!r}; choose one of: {known}") from None
+    return parse_choice(PlayerModelKind, name, what="player model")
 
 
 def heuristic_player_model(vertex_control: np.ndarray, n_controls: int, alpha: float) -> np.ndarray:

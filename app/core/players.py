@@ -10,7 +10,7 @@ from __future__ import annotations
 
 from enum import StrEnum
 
-from app.core.errors import InvalidInput
+from app.core.choices import parse_choice
 
 
 class PlayerKind(StrEnum):
@@ -38,8 +38,4 @@ class PlayerSelection(StrEnum):
 
 def parse_player_selection(name: str) -> PlayerSelection:
     """The selection called ``name``; :class:`InvalidInput` naming the known ones otherwise."""
-    try:
-        return PlayerSelection(name)
-    except ValueError:
-        known = ", ".join(s.value for s in PlayerSelection)
-        raise InvalidInput(f"unknown players {name!r}; choose one of: {known}") from None
+    return parse_choice(PlayerSelection, name, what="players")

@@ -13,7 +13,7 @@ from enum import StrEnum
 
 import numpy as np
 
-from app.core.errors import InvalidInput
+from app.core.choices import parse_choice
 from app.core.graph import StateGraph
 from app.core.staterank import (
     STATERANK_MAX_ITER,
@@ -39,11 +39,7 @@ class Strategy(StrEnum):
 
 
 def parse_strategy(name: str) -> Strategy:
-    try:
-        return Strategy(name)
-    except ValueError:
-        known = ", ".join(s.value for s in Strategy)
-        raise InvalidInput(f"unknown strategy {name!r} (known: {known})") from None
+    return parse_choice(Strategy, name, what="strategy")
 
 
 @dataclass(frozen=True)

@@ -15,6 +15,12 @@
 
 // grid origin (xyz), cells per axis, 1 / cell size, kernel support h, 8 / (pi h^3), mass
 #define GRID_ARGS float4 origin, int4 dims, float inv_cell, float h, float sigma, float mass
+// a particle's fluid neighbours (max_nb a row) and wall neighbours (max_wall_nb a row), and
+// the wall particles' positions and volumes psi
+#define NEIGHBOUR_ARGS                                                                      \
+    __global const int *nb, __global const int *nb_count, int max_nb,                       \
+        __global const float4 *walls, __global const float *psi, __global const int *wall_nb, \
+        __global const int *wall_nb_count, int max_wall_nb
 
 // correctly rounded square roots, inlined (PoCL's sqrt() is the same instruction behind a
 // call); other compilers get the built-in
@@ -282,11 +288,8 @@ __kernel void find_neighbours(__global const float4 *pos, __global const int *st
 // pressure_predict evaluates no kernel gradient (storing the whole gradient instead
 // streamed three times the bytes per pass and was slower).
 __kernel void nonpressure_accel(__global const float4 *pos, __global const float4 *vel,
-                                __global const int *nb, __global const int *nb_count,
-                                int max_nb, __global const float4 *walls,
-                                __global const float *psi, __global const int *wall_nb,
-                                __global const int *wall_nb_count, int max_wall_nb,
-                                GRID_ARGS, float4 gravity, float visc, float wall_visc,
+                                NEIGHBOUR_ARGS, GRID_ARGS, float4 gravity, float visc,
+                                float wall_visc,
                                 __global float4 *a_np, __global float *pair_scale,
                                 __global float4 *wall_grad) {
     int i = get_global_id(0);
@@ -391,11 +394,8 @@ __kernel void pressure_predict(__global const float4 *pos, __global const float4
 // rho* at the predicted positions (fluid pairs eight at a time, padding masked out),
 // p <- max(0, p + delta (rho* - rho0)), and the max relative compression into
 // err[iteration] (atomic max of non-negative float bits).
-__kernel void density_pressure(__global const float4 *pos_pred, __global const int *nb,
-                               __global const int *nb_count, int max_nb,
-                               __global const float4 *walls, __global const float *psi,
-                               __global const int *wall_nb, __global const int *wall_nb_count,
-                               int max_wall_nb, GRID_ARGS, float rho0, float delta,
+__kernel void density_pressure(__global const float4 *pos_pred, NEIGHBOUR_ARGS, GRID_ARGS,
+                               float rho0, float delta,
                                __global float *p, __global float *rho,
                                __global volatile uint *err, int iteration, int check_from,
                                float eta) {

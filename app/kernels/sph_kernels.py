@@ -259,6 +259,20 @@ class SphKernels:
             self.overflow,
         )
 
+    @property
+    def neighbour_args(self) -> tuple[object, ...]:
+        """Both neighbour lists and the walls, as ``NEIGHBOUR_ARGS`` in sph.cl takes them."""
+        return (
+            self.nb,
+            self.nb_count,
+            self._i32(MAX_NEIGHBOURS),
+            self.walls_buf,
+            self.psi_buf,
+            self.wall_nb,
+            self.wall_nb_count,
+            self._i32(MAX_WALL_NEIGHBOURS),
+        )
+
     def nonpressure_accel(self, gravity: tuple[float, float, float]) -> None:
         s = self.scene
         visc = 10.0 * s.viscosity * s.particle_mass / s.rest_density
@@ -268,14 +282,7 @@ class SphKernels:
             self.n,
             self.pos,
             self.vel,
-            self.nb,
-            self.nb_count,
-            self._i32(MAX_NEIGHBOURS),
-            self.walls_buf,
-            self.psi_buf,
-            self.wall_nb,
-            self.wall_nb_count,
-            self._i32(MAX_WALL_NEIGHBOURS),
+            *self.neighbour_args,
             *self.grid_args,
             self._f4(gravity),
             self._f32(visc),
@@ -329,14 +336,7 @@ class SphKernels:
             "density_pressure",
             self.n,
             self.pos_pred,
-            self.nb,
-            self.nb_count,
-            self._i32(MAX_NEIGHBOURS),
-            self.walls_buf,
-            self.psi_buf,
-            self.wall_nb,
-            self.wall_nb_count,
-            self._i32(MAX_WALL_NEIGHBOURS),
+            *self.neighbour_args,
             *self.grid_args,
             self._f32(self.scene.rest_density),
             self._f32(self.delta),

@@ -8,6 +8,7 @@ API, the CLI and the toy experiments import this module without needing either.
 from __future__ import annotations
 
 from app.config import Settings
+from app.core.choices import unknown_choice
 from app.core.dynamics import Dynamics
 from app.core.errors import InvalidInput
 from app.core.scene import DEFAULT_FLUID, FLUIDS, TILT_DEGREES, TILT_TANK_SPACINGS
@@ -33,7 +34,7 @@ class UnknownDynamics(InvalidInput):
 
     @classmethod
     def of(cls, name: str) -> UnknownDynamics:
-        return cls(f"unknown dynamics {name!r} (known: {', '.join(DYNAMICS_NAMES)})")
+        return cls(unknown_choice("dynamics", name, DYNAMICS_NAMES))
 
 
 class UnknownPreset(InvalidInput):
@@ -47,14 +48,14 @@ class UnknownFluid(InvalidInput):
 def check_liquid_preset(preset: str) -> str:
     """``preset`` itself if the liquid has it; else :class:`UnknownPreset` (one line)."""
     if preset not in LIQUID_PRESETS:
-        raise UnknownPreset(f"unknown preset {preset!r} (known: {', '.join(LIQUID_PRESETS)})")
+        raise UnknownPreset(unknown_choice("preset", preset, LIQUID_PRESETS))
     return preset
 
 
 def check_fluid(fluid: str) -> str:
     """``fluid`` itself if the liquid has it; else :class:`UnknownFluid` (one line)."""
     if fluid not in LIQUID_FLUIDS:
-        raise UnknownFluid(f"unknown fluid {fluid!r} (known: {', '.join(LIQUID_FLUIDS)})")
+        raise UnknownFluid(unknown_choice("fluid", fluid, LIQUID_FLUIDS))
     return fluid
 
 

@@ -120,7 +120,7 @@ def test_every_figure_is_computed_from_the_players_chosen(var: Path) -> None:
 def test_players_default_to_all_and_a_bad_choice_is_one_line(var: Path) -> None:
     assert analytics(var)["players"] == "all"
     done = srg(var, "analytics", "mixed", "--players", "humans")
-    one_line_error(done, "unknown players 'humans'; choose one of: people, bots, all")
+    one_line_error(done, "unknown players 'humans' (known: people, bots, all)")
     assert done.stdout == ""
 
 

@@ -82,5 +82,5 @@ def test_players_are_chosen_by_kind() -> None:
     assert PlayerSelection.BOTS.kinds == (PlayerKind.BOT,)
     assert set(PlayerSelection.ALL.kinds) == set(PlayerKind)
     assert parse_player_selection("people") is PlayerSelection.PEOPLE
-    with pytest.raises(InvalidInput, match="unknown players 'humans'; choose one of: people"):
+    with pytest.raises(InvalidInput, match=r"unknown players 'humans' \(known: people"):
         parse_player_selection("humans")
