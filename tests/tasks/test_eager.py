@@ -144,7 +144,7 @@ def test_a_running_epoch_blocks_a_second_until_it_stalls(settings: Settings) -> 
     assert first is not None
     with database_sessions(get_settings())() as session:
         assert epochs.plan_epoch(session, settings, graph_id) is None
-    stalled = settings.replace(epoch_resend_after=0.0)
+    stalled = settings.replace(epoch_resend_after=1e-6)
     with database_sessions(get_settings())() as session:
         again = epochs.plan_epoch(session, stalled, graph_id)
         session.commit()
