@@ -9,7 +9,7 @@ what that means to the user.
 from __future__ import annotations
 
 from collections.abc import Sequence
-from typing import Any
+from typing import Any, NamedTuple
 
 from sqlalchemy import func, select
 from sqlalchemy.orm import Session
@@ -96,12 +96,39 @@ def add_checkpoint(
     )
 
 
+class CheckpointRecord(NamedTuple):
+    """One run's stored checkpoint: where the crowd played and what it measured."""
+
+    strategy: str
+    seed: int
+    bot: str
+    #: index into the plan's checkpoints
+    checkpoint: int
+    graph_id: int
+    publication_id: int
+    figures: dict[str, Any]
+    #: npz artifact of the per-step errors, edge densities and vertex layout
+    arrays: str
+    seconds: float
+
+
 def checkpoint_rows(
     session: Session, experiment: int, *, strategy: str | None = None
-) -> Sequence[ExperimentCheckpoint]:
-    """The experiment's checkpoint rows (of one strategy, if named), each run's in order."""
-    query = select(ExperimentCheckpoint).where(ExperimentCheckpoint.experiment_id == experiment)
+) -> list[CheckpointRecord]:
+    """The experiment's checkpoints (of one strategy, if named), each run's in order."""
+    row = ExperimentCheckpoint
+    query = select(
+        row.strategy,
+        row.seed,
+        row.bot,
+        row.checkpoint,
+        row.graph_id,
+        row.publication_id,
+        row.figures,
+        row.arrays,
+        row.seconds,
+    ).where(row.experiment_id == experiment)
     if strategy is not None:
-        query = query.where(ExperimentCheckpoint.strategy == strategy)
-    order = (ExperimentCheckpoint.bot, ExperimentCheckpoint.strategy, ExperimentCheckpoint.seed)
-    return session.scalars(query.order_by(*order, ExperimentCheckpoint.checkpoint)).all()
+        query = query.where(row.strategy == strategy)
+    order = (row.bot, row.strategy, row.seed, row.checkpoint)
+    return [CheckpointRecord(*found) for found in session.execute(query.order_by(*order))]
