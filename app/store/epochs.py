@@ -272,7 +272,8 @@ def expansion_clips(session: Session, epoch_id: int, position: int) -> dict[int,
 
 
 def record_clip(session: Session, epoch_id: int, position: int, control: int, clip: str) -> None:
-    """Note a planned clip's artifact on ``expansion_clips`` (once) and record the epoch's heartbeat."""
+    """Note a planned clip's artifact on ``expansion_clips`` (once), and the epoch's
+    heartbeat."""
     insert_ignoring_duplicates(
         session,
         ExpansionClip,
