@@ -258,9 +258,8 @@ class Settings(BaseSettings):
         return not self.broker_url
 
 
-_GROUPS = tuple(
-    name for name, field in Settings.model_fields.items() if field.default_factory is not None
-)
+#: the fields of ``Settings`` that hold a group
+_GROUPS = ("growth", "render", "runtime", "api")
 
 #: the names of the settings classes, as a validation error gives its class
 SETTINGS_CLASSES = frozenset(
