@@ -30,7 +30,7 @@ for control in CONTROLS:
     clip = dyn.simulate(state, control)
     clips.append(clip.frames)
     state = clip.end_state
-settings = dyn.render_settings
+settings = dyn.render_quality
 camera = tank_camera(dyn.scene.tank, settings.width, settings.height)
 water = silhouettes(
     silhouette_projector(camera, dyn.grid), dequantise_sdf(dyn.grid, np.concatenate(clips))
