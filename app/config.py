@@ -1,8 +1,11 @@
-"""The one Settings object. Nothing else in the project reads ``os.environ``.
+"""The settings: one ``Settings`` value, in groups. Nothing else in ``app`` reads
+``os.environ``.
 
-Every value has an embedded default so that a fresh checkout runs with no
-configuration at all: a SQLite file under ``./var``, artifacts under ``./var/data``,
-no broker (Celery then runs tasks eagerly, in-process) and PoCL on the CPU.
+Each group (growth, render, runtime, api) reads its own fields, each from one flat
+``SRG_<FIELD>`` variable (docs/design.md, "Settings"). Every value has an embedded
+default so that a fresh checkout runs with no configuration at all: a SQLite file under
+``./var``, artifacts under ``./var/data``, no broker (Celery then runs tasks eagerly,
+in-process) and PoCL on the CPU.
 """
 
 from __future__ import annotations
