@@ -31,6 +31,7 @@ from app.core.player_models import (
     control_groups,
     crowd_player_model,
     observed_control_counts,
+    visited_groups,
     with_group_prior,
 )
 
@@ -58,8 +59,7 @@ def neighbour_counts(
     counts = np.asarray(control_counts, dtype=np.float64)
     vertex_control = np.asarray(vertex_control)
     scores = np.zeros_like(counts)
-    visited = counts.sum(axis=1) > 0.0
-    for members, sources in control_groups(vertex_control, visited, counts.shape[1]):
+    for members, sources in visited_groups(vertex_control, counts):
         if sources.size == 0 or members.size == 0:
             continue
         k = min(neighbours, sources.size)

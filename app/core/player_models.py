@@ -184,6 +184,14 @@ def control_groups(
         yield np.flatnonzero(in_group), np.flatnonzero(in_group & visited)
 
 
+def visited_groups(
+    vertex_control: np.ndarray, counts: np.ndarray
+) -> Iterator[tuple[np.ndarray, np.ndarray]]:
+    """:func:`control_groups` where a vertex was visited when its row of the (V, N)
+    control ``counts`` is not all zero."""
+    return control_groups(vertex_control, counts.sum(axis=1) > 0.0, counts.shape[1])
+
+
 def kernel_counts(
     descriptors: np.ndarray, vertex_control: np.ndarray, control_counts: np.ndarray, radius: float
 ) -> np.ndarray:
@@ -198,8 +206,7 @@ def kernel_counts(
     counts = np.asarray(control_counts, dtype=np.float64)
     vertex_control = np.asarray(vertex_control)
     scores = np.zeros_like(counts)
-    visited = counts.sum(axis=1) > 0.0
-    for members, sources in control_groups(vertex_control, visited, counts.shape[1]):
+    for members, sources in visited_groups(vertex_control, counts):
         if sources.size == 0:
             continue
         pairs = cKDTree(descriptors[members]).sparse_distance_matrix(
