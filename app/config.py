@@ -11,8 +11,10 @@ in-process) and PoCL on the CPU.
 from __future__ import annotations
 
 from pathlib import Path
+from typing import Any
 
-from pydantic import AliasChoices, Field, field_validator
+from pydantic import AliasChoices, Field, ValidationError, field_validator, model_validator
+from pydantic_core import ErrorDetails, InitErrorDetails
 from pydantic_settings import BaseSettings, SettingsConfigDict
 
 from app.core.player_models import PlayerModelKind
@@ -197,6 +199,15 @@ class ApiSettings(BaseSettings):
         return bool(self.admin_token.strip())
 
 
+#: the fields of ``Settings`` that hold a group, and the group each holds
+_GROUPS: dict[str, type[BaseSettings]] = {
+    "growth": GrowthSettings,
+    "render": RenderSettings,
+    "runtime": RuntimeSettings,
+    "api": ApiSettings,
+}
+
+
 class Settings(BaseSettings):
     """Where the data lives and which broker carries the work, and the four groups.
 
@@ -222,6 +233,25 @@ class Settings(BaseSettings):
     render: RenderSettings = Field(default_factory=RenderSettings)
     runtime: RuntimeSettings = Field(default_factory=RuntimeSettings)
     api: ApiSettings = Field(default_factory=ApiSettings)
+
+    @model_validator(mode="before")
+    @classmethod
+    def _read_groups(cls, data: Any) -> Any:
+        """Every group not given read from the environment, all of them before an error
+        is raised: a command names every bad variable at once, where each group's own
+        default would stop at the first group with one."""
+        if not isinstance(data, dict):
+            return data
+        errors: list[InitErrorDetails] = []
+        for name, group in _GROUPS.items():
+            if name not in data:
+                try:
+                    data[name] = group()
+                except ValidationError as exc:
+                    errors += [_as_detail(error) for error in exc.errors(include_url=False)]
+        if errors:
+            raise ValidationError.from_exception_data(cls.__name__, errors)
+        return data
 
     def replace(self, **changes: object) -> Settings:
         """These settings with some fields changed, each named as its variable is
@@ -261,13 +291,16 @@ class Settings(BaseSettings):
         return not self.broker_url
 
 
-#: the fields of ``Settings`` that hold a group
-_GROUPS = ("growth", "render", "runtime", "api")
-
 #: the names of the settings classes, as a validation error gives its class
-SETTINGS_CLASSES = frozenset(
-    cls.__name__ for cls in (Settings, GrowthSettings, RenderSettings, RuntimeSettings, ApiSettings)
-)
+SETTINGS_CLASSES = frozenset([Settings.__name__, *(group.__name__ for group in _GROUPS.values())])
+
+
+def _as_detail(error: ErrorDetails) -> InitErrorDetails:
+    """One group's error, to be raised again among the others'."""
+    detail = InitErrorDetails(type=error["type"], loc=error["loc"], input=error["input"])
+    if "ctx" in error:
+        detail["ctx"] = error["ctx"]
+    return detail
 
 
 def get_settings() -> Settings:

@@ -340,6 +340,16 @@ def test_a_setting_of_the_wrong_type_is_named_in_one_line(tmp_path: Path) -> Non
     one_line_error(done, "SRG_BATCH_SIZE: Input should be a valid integer")
 
 
+def test_bad_settings_of_several_groups_are_named_in_the_same_line(tmp_path: Path) -> None:
+    done = srg(tmp_path, "status", SRG_BATCH_SIZE="0", SRG_TASK_TIME_LIMIT="x", SRG_ALPHA="2")
+    for named in (
+        "SRG_BATCH_SIZE: Input should be greater than or equal to 1",
+        "SRG_ALPHA: Input should be less than or equal to 1",
+        "SRG_TASK_TIME_LIMIT: Input should be a valid integer",
+    ):
+        one_line_error(done, named)
+
+
 @pytest.mark.parametrize(
     ("variable", "value", "says"),
     [
