@@ -10,7 +10,6 @@ import time
 from dataclasses import dataclass
 from datetime import datetime
 from enum import StrEnum
-from typing import NamedTuple
 
 from sqlalchemy import func, select, update
 from sqlalchemy.exc import IntegrityError
@@ -37,19 +36,30 @@ class EpochNotFound(NotFound):
 
 @dataclass(frozen=True)
 class Epoch:
-    """A growth epoch as it was read: the workflow's view of its row, which a later
-    step reads again rather than holding on to (another writer may have moved it on)."""
+    """A growth epoch as it was read: what the workflow steps and the poll see of its row.
+    A later step reads it again rather than holding on to it (another writer may have
+    moved it on)."""
 
     id: int
     graph_id: int
     number: int
+    strategy: str
     status: EpochStatus
     #: (edge, dead-end clip) in integration order; empty until the plan is recorded
     plan: tuple[tuple[int, int], ...]
+    #: expansions done, set when the epoch finishes
+    expansions: int
     relinks: int
     size_frames: int
     renders: bool
     heartbeat: float | None
+    started_at: datetime
+    finished_at: datetime | None
+
+    @property
+    def planned(self) -> int:
+        """Expansions in the epoch's plan."""
+        return len(self.plan)
 
 
 def _value(row: GrowthEpoch) -> Epoch:
@@ -57,12 +67,16 @@ def _value(row: GrowthEpoch) -> Epoch:
         id=row.id,
         graph_id=row.graph_id,
         number=row.number,
+        strategy=row.strategy,
         status=EpochStatus(row.status),
         plan=tuple((int(edge), int(clip)) for edge, clip in row.plan or []),
+        expansions=row.expansions,
         relinks=row.relinks,
         size_frames=row.size_frames,
         renders=row.renders,
         heartbeat=row.heartbeat,
+        started_at=row.started_at,
+        finished_at=row.finished_at,
     )
 
 
@@ -125,22 +139,7 @@ def last_epoch_number(session: Session, graph_id: int) -> int:
     return int(last or 0)
 
 
-class EpochSummary(NamedTuple):
-    """An epoch's row as a value: what its poll shows."""
-
-    id: int
-    number: int
-    strategy: str
-    status: str
-    planned: int
-    expansions: int
-    relinks: int
-    size_frames: int
-    started_at: datetime
-    finished_at: datetime | None
-
-
-def epochs_after(session: Session, graph_id: int, after: int, limit: int) -> list[EpochSummary]:
+def epochs_after(session: Session, graph_id: int, after: int, limit: int) -> list[Epoch]:
     """The graph's epochs numbered above ``after``, oldest first, at most ``limit``."""
     rows = session.scalars(
         select(GrowthEpoch)
@@ -148,21 +147,7 @@ def epochs_after(session: Session, graph_id: int, after: int, limit: int) -> lis
         .order_by(GrowthEpoch.number)
         .limit(limit)
     )
-    return [
-        EpochSummary(
-            row.id,
-            row.number,
-            row.strategy,
-            row.status,
-            len(row.plan or []),
-            row.expansions,
-            row.relinks,
-            row.size_frames,
-            row.started_at,
-            row.finished_at,
-        )  # fmt: skip
-        for row in rows
-    ]
+    return [_value(row) for row in rows]
 
 
 def get_epoch(session: Session, epoch_id: int, *, fresh: bool = False) -> Epoch:

@@ -150,7 +150,7 @@ def epochs(
         graph=graph.name,
         running=running,
         growth=_growth_out(latest_request(session, graph.id), jobs.running(graph.id)),
-        epochs=[EpochOut(**epoch._asdict()) for epoch in listed],
+        epochs=[EpochOut.model_validate(epoch, from_attributes=True) for epoch in listed],
     )
 
 
