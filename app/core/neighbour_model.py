@@ -30,14 +30,13 @@ from app.core.player_models import (
     Trace,
     control_groups,
     crowd_player_model,
-    observed_control_counts,
     visited_groups,
     with_group_prior,
 )
+from app.core.session_folds import FOLDS, SessionFolds
 
 #: the neighbour counts cross-validation chooses from
 NEIGHBOURS = (1, 2, 4, 8, 16, 32, 64)
-FOLDS = 5
 #: r_v over the k-th neighbour's distance: that neighbour weighs 1 - 1/2
 BANDWIDTH_OVER_KTH = 2.0
 
@@ -132,38 +131,21 @@ def choose_neighbours(
     fixed radius is scored on the same folds, for comparison. Raises ValueError when no
     trace has a step.
     """
-    sessions = [np.asarray(t, dtype=np.int64).reshape(-1, 2) for t in traces if len(t) > 0]
-    if not sessions:
-        raise ValueError("no trace has a step: nothing to choose a neighbour count from")
     descriptors = np.asarray(descriptors, dtype=np.float64)
     vertex_control = np.asarray(vertex_control)
     n_vertices = descriptors.shape[0]
-    n_folds = max(2, min(folds, len(sessions)))
-    fold_counts = [
-        observed_control_counts(sessions[i::n_folds], n_vertices, n_controls)
-        for i in range(n_folds)
-    ]
-    total = np.sum(fold_counts, axis=0)
-    steps = float(total.sum())
+    folded = SessionFolds.of(traces, n_vertices, n_controls, folds)
     uniform = np.full((n_vertices, n_controls), 1.0 / n_controls)
-
-    def held_out(learned: Callable[[np.ndarray], np.ndarray]) -> float:
-        """Mean log-likelihood per step of every fold under the model of the others."""
-        total_ll = 0.0
-        for fold in fold_counts:
-            model = learned(total - fold)
-            total_ll += float(np.sum(fold * np.log(np.maximum(model, 1e-300))))
-        return total_ll / steps
 
     def neighbours_model(k: int) -> Callable[[np.ndarray], np.ndarray]:
         return lambda counts: neighbour_player_model(
             descriptors, vertex_control, counts, k, eps, fallback=uniform
         )
 
-    scores = {int(n): held_out(neighbours_model(int(n))) for n in candidates}
+    scores = {int(n): folded.score(neighbours_model(int(n))) for n in candidates}
     reference = None
     if reference_radius is not None:
-        reference = held_out(
+        reference = folded.score(
             lambda counts: crowd_player_model(
                 descriptors, vertex_control, counts, reference_radius, eps, fallback=uniform
             )

@@ -31,6 +31,9 @@ class PlayerModelKind(StrEnum):
     #: eq. 2 with a per-vertex radius, the k-th nearest visited vertex's distance, k chosen
     #: by cross-validation (app.core.neighbour_model)
     KNN = "knn"
+    #: eq. 2's kernel counts over the heuristic model as a prior, radius and prior weight
+    #: chosen by cross-validation (app.core.shrunk_model)
+    SHRUNK = "shrunk"
 
 
 def parse_player_model(name: str) -> PlayerModelKind:

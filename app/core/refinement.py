@@ -34,6 +34,7 @@ from app.core.player_models import (
     robust_session_length,
 )
 from app.core.publication import Publication, freeze
+from app.core.shrunk_model import ShrunkFit, fit_shrunk_model, shrunk_player_model
 from app.core.staterank import STATERANK_MAX_ITER, edge_probabilities, staterank
 from app.core.strategies import EdgeWeights, Strategy, edge_weights
 
@@ -85,6 +86,10 @@ class GrowthBudget:
         return self.expansions - expanded
 
 
+#: chosen on the selection seeds (docs/player-models.md, "Players not seen yet")
+UNSEEN_SHARE = 0.5
+
+
 @dataclass(frozen=True)
 class RefinerConfig:
     alpha: float = 0.8
@@ -99,6 +104,9 @@ class RefinerConfig:
     batch_size: int = 4
     #: the crowd model sr-crowd learns: the paper's eq. 2, or eq. 2 under a logit prior
     player_model: PlayerModelKind = PlayerModelKind.EQ2
+    #: the share of sr-crowd's ranking that plays as the heuristic model: players the
+    #: traces have not shown yet (docs/player-models.md, "Players not seen yet")
+    unseen_share: float = UNSEEN_SHARE
 
 
 @dataclass
@@ -113,6 +121,8 @@ class Refiner:
     _pi: np.ndarray | None = None
     _choice: ChoiceModel | None = None
     _neighbours: NeighbourFit | None = None
+    _shrunk: ShrunkFit | None = None
+    _pi_unseen: np.ndarray | None = None
 
     @property
     def traces(self) -> list[Trace]:
@@ -144,6 +154,16 @@ class Refiner:
                 self.neighbour_fit().neighbours,
                 self.config.crowd_eps,
                 fallback=self.heuristic_model(),
+            )[:vertices]
+        if self.config.player_model is PlayerModelKind.SHRUNK:
+            fit = self.shrunk_fit()
+            return shrunk_player_model(
+                self.graph.vertex_descriptors(),
+                np.asarray(self.graph.vertex_control),
+                counts,
+                fit.radius,
+                fit.prior_weight,
+                prior=self.heuristic_model(),
             )[:vertices]
         if self.config.player_model is PlayerModelKind.LOGIT:
             graph = ChoiceGraph.of(
@@ -183,6 +203,18 @@ class Refiner:
             )
         return self._neighbours
 
+    def shrunk_fit(self) -> ShrunkFit:
+        """The radius and prior weight cross-validated on the sessions learnt so far."""
+        if self._shrunk is None:
+            self._shrunk = fit_shrunk_model(
+                self.graph.vertex_descriptors(),
+                np.asarray(self.graph.vertex_control),
+                self.traces,
+                self.heuristic_model(),
+                self.config.crowd_radius,
+            )
+        return self._shrunk
+
     def choice_model(self) -> ChoiceModel:
         """The logit-prior model fitted to the sessions learnt so far (fitted once)."""
         if self._choice is None:
@@ -207,18 +239,36 @@ class Refiner:
         )
         return 1.0 / steps
 
-    def weights(self) -> EdgeWeights:
-        result = edge_weights(
-            self.strategy,
-            self.graph,
-            self.player_model(),
-            restart=self.restart,
-            warm_start=self._pi,
-            max_iter=self.config.staterank_max_iter,
-        )
+    def weights(self, warm_start: np.ndarray | None = None) -> EdgeWeights:
+        """The strategy's edge weights; for sr-crowd with traces, a mixture of the crowd
+        model's P(e) and, with share ``unseen_share``, the heuristic model's.
+
+        STATERANK starts from ``warm_start`` (a stored pi), else from this refiner's last.
+        """
+        result = self._ranked(self.player_model(), self._pi if warm_start is None else warm_start)
         if result.rank is not None:
             self._pi = result.rank.pi
-        return result
+        share = self.config.unseen_share
+        if not (self.strategy.learns_from_traces and share > 0.0 and any(map(len, self.traces))):
+            return result
+        unseen = self._ranked(self.heuristic_model(), self._pi_unseen)
+        if unseen.rank is not None:
+            self._pi_unseen = unseen.rank.pi
+        return EdgeWeights(
+            (1.0 - share) * result.weights + share * unseen.weights,
+            result.rank,
+            result.fallback or unseen.fallback,
+        )
+
+    def _ranked(self, model: np.ndarray, warm_start: np.ndarray | None) -> EdgeWeights:
+        return edge_weights(
+            self.strategy,
+            self.graph,
+            model,
+            restart=self.restart,
+            warm_start=warm_start,
+            max_iter=self.config.staterank_max_iter,
+        )
 
     def predicted_edge_probabilities(self, model: np.ndarray | None = None) -> np.ndarray:
         """P(e) = pi(v) P(c|v) under ``model`` (default: this refiner's player model)."""
@@ -287,3 +337,4 @@ class Refiner:
         self.played.append((publication, [np.asarray(t, dtype=np.int64) for t in traces]))
         self._choice = None
         self._neighbours = None
+        self._shrunk = None

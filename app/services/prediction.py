@@ -45,6 +45,13 @@ def model_fit(refiner: Refiner) -> dict[str, Any] | None:
             "cv_scores": {str(k): round(v, 6) for k, v in fit.cv_scores.items()},
             "eq2_cv_score": fit.reference_score,
         }
+    if kind is PlayerModelKind.SHRUNK:
+        shrunk = refiner.shrunk_fit()
+        return {
+            "radius": shrunk.radius,
+            "prior_weight": shrunk.prior_weight,
+            "cv_scores": {f"{r:.6g}/{m:g}": round(v, 6) for (r, m), v in shrunk.cv_scores.items()},
+        }
     fitted = refiner.choice_model()
     return {
         "horizon": fitted.horizon,

@@ -15,7 +15,7 @@ from app.core.player_models import PlayerModelKind, parse_player_model
 from app.core.players import PlayerSelection
 from app.core.publication import Publication
 from app.core.refinement import Refiner, RefinerConfig
-from app.core.strategies import EdgeWeights, Strategy, edge_weights, parse_strategy
+from app.core.strategies import EdgeWeights, Strategy, parse_strategy
 from app.services.loading import LoadedGraph
 from app.store.epochs import latest_warm_start
 from app.store.publications import load_publication
@@ -78,14 +78,7 @@ def refiner_for(
 def rank_stored(session: Session, loaded: LoadedGraph, refiner: Refiner) -> EdgeWeights:
     """Edge weights under the refiner's strategy, STATERANK warm-started from the pi the
     graph's last ranking stored (when it still fits the graph)."""
-    return edge_weights(
-        refiner.strategy,
-        loaded.graph,
-        refiner.player_model(),
-        restart=refiner.restart,
-        warm_start=_warm_start(session, loaded),
-        max_iter=refiner.config.staterank_max_iter,
-    )
+    return refiner.weights(warm_start=_warm_start(session, loaded))
 
 
 def _warm_start(session: Session, loaded: LoadedGraph) -> np.ndarray | None:

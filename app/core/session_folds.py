@@ -1,0 +1,51 @@
+"""Held-out log-likelihood of sessions' controls: how the learned player models choose
+their hyper-parameters (docs/player-models.md).
+
+Whole sessions are dealt to folds in turn; each fold's controls are scored by the model
+learned from the other folds' control counts. Pure numpy.
+"""
+
+from __future__ import annotations
+
+from collections.abc import Callable, Sequence
+from dataclasses import dataclass
+
+import numpy as np
+
+from app.core.player_models import Trace, observed_control_counts
+
+FOLDS = 5
+#: a learned model: the (V, N) control counts of the sessions it learns from in, P(c|v) out
+LearnedModel = Callable[[np.ndarray], np.ndarray]
+
+
+@dataclass(frozen=True)
+class SessionFolds:
+    """The control counts of each fold of the sessions, and of all of them."""
+
+    fold_counts: tuple[np.ndarray, ...]
+    total: np.ndarray
+
+    @classmethod
+    def of(
+        cls, traces: Sequence[Trace], n_vertices: int, n_controls: int, folds: int = FOLDS
+    ) -> SessionFolds:
+        """Deal the non-empty sessions to ``folds`` folds (at least 2, at most one per
+        session). Raises ValueError when no trace has a step."""
+        sessions = [np.asarray(t, dtype=np.int64).reshape(-1, 2) for t in traces if len(t) > 0]
+        if not sessions:
+            raise ValueError("no trace has a step: nothing to cross-validate on")
+        n_folds = max(2, min(folds, len(sessions)))
+        counts = tuple(
+            observed_control_counts(sessions[i::n_folds], n_vertices, n_controls)
+            for i in range(n_folds)
+        )
+        return cls(counts, np.sum(counts, axis=0))
+
+    def score(self, learned: LearnedModel) -> float:
+        """Mean log-likelihood per step of every fold under the model of the others."""
+        total_ll = 0.0
+        for fold in self.fold_counts:
+            model = learned(self.total - fold)
+            total_ll += float(np.sum(fold * np.log(np.maximum(model, 1e-300))))
+        return total_ll / float(self.total.sum())
