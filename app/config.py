@@ -49,9 +49,9 @@ class GrowthSettings(BaseSettings):
     crowd_eps: float = Field(1e-3, gt=0.0, le=1.0, description="crowd model prior weight epsilon")
     high_error_threshold: float = Field(0.0, ge=0.0, description="0: per dynamics default")
     player_model: PlayerModelKind = Field(
-        PlayerModelKind.KNN,
-        description="crowd model of new sr-crowd graphs: knn (default: docs/player-models.md), "
-        "eq2 (the paper's) or logit",
+        PlayerModelKind.SHRUNK,
+        description="crowd model of new sr-crowd graphs: shrunk (default: docs/player-models.md), "
+        "knn, eq2 (the paper's) or logit",
     )
     reuse_simulations: bool = Field(
         True,

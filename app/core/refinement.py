@@ -86,10 +86,6 @@ class GrowthBudget:
         return self.expansions - expanded
 
 
-#: chosen on the selection seeds (docs/player-models.md, "Players not seen yet")
-UNSEEN_SHARE = 0.5
-
-
 @dataclass(frozen=True)
 class RefinerConfig:
     alpha: float = 0.8
@@ -104,9 +100,6 @@ class RefinerConfig:
     batch_size: int = 4
     #: the crowd model sr-crowd learns: the paper's eq. 2, or eq. 2 under a logit prior
     player_model: PlayerModelKind = PlayerModelKind.EQ2
-    #: the share of sr-crowd's ranking that plays as the heuristic model: players the
-    #: traces have not shown yet (docs/player-models.md, "Players not seen yet")
-    unseen_share: float = UNSEEN_SHARE
 
 
 @dataclass
@@ -122,7 +115,6 @@ class Refiner:
     _choice: ChoiceModel | None = None
     _neighbours: NeighbourFit | None = None
     _shrunk: ShrunkFit | None = None
-    _pi_unseen: np.ndarray | None = None
 
     @property
     def traces(self) -> list[Trace]:
@@ -240,35 +232,19 @@ class Refiner:
         return 1.0 / steps
 
     def weights(self, warm_start: np.ndarray | None = None) -> EdgeWeights:
-        """The strategy's edge weights; for sr-crowd with traces, a mixture of the crowd
-        model's P(e) and, with share ``unseen_share``, the heuristic model's.
-
-        STATERANK starts from ``warm_start`` (a stored pi), else from this refiner's last.
-        """
-        result = self._ranked(self.player_model(), self._pi if warm_start is None else warm_start)
-        if result.rank is not None:
-            self._pi = result.rank.pi
-        share = self.config.unseen_share
-        if not (self.strategy.learns_from_traces and share > 0.0 and any(map(len, self.traces))):
-            return result
-        unseen = self._ranked(self.heuristic_model(), self._pi_unseen)
-        if unseen.rank is not None:
-            self._pi_unseen = unseen.rank.pi
-        return EdgeWeights(
-            (1.0 - share) * result.weights + share * unseen.weights,
-            result.rank,
-            result.fallback or unseen.fallback,
-        )
-
-    def _ranked(self, model: np.ndarray, warm_start: np.ndarray | None) -> EdgeWeights:
-        return edge_weights(
+        """The strategy's edge weights, STATERANK started from ``warm_start`` (a stored
+        pi), else from this refiner's last."""
+        result = edge_weights(
             self.strategy,
             self.graph,
-            model,
+            self.player_model(),
             restart=self.restart,
-            warm_start=warm_start,
+            warm_start=self._pi if warm_start is None else warm_start,
             max_iter=self.config.staterank_max_iter,
         )
+        if result.rank is not None:
+            self._pi = result.rank.pi
+        return result
 
     def predicted_edge_probabilities(self, model: np.ndarray | None = None) -> np.ndarray:
         """P(e) = pi(v) P(c|v) under ``model`` (default: this refiner's player model)."""

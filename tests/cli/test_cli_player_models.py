@@ -52,7 +52,7 @@ def graph_count(var: Path) -> int:
 # ---- srg init --player-model ------------------------------------------------------------
 def test_init_stores_the_player_model_chosen_else_the_setting(tmp_path: Path) -> None:
     ok(tmp_path, "db", "upgrade")
-    assert json.loads(ok(tmp_path, "init", "plain", "--json"))["player_model"] == "knn"
+    assert json.loads(ok(tmp_path, "init", "plain", "--json"))["player_model"] == "shrunk"
     chosen = json.loads(ok(tmp_path, "init", "chosen", "--player-model", "logit", "--json"))
     assert chosen["player_model"] == "logit"
     done = srg(tmp_path, "init", "configured", "--json", SRG_PLAYER_MODEL="logit")
@@ -107,6 +107,9 @@ def test_analytics_evaluates_another_model_when_asked(var: Path) -> None:
     assert knn["player_model"] == "knn" and knn["model_fit"]["neighbours"] >= 1
     assert knn["model_fit"]["eq2_cv_score"] < 0.0  # a log-likelihood per step
     assert knn["predicted_expected_error"] != eq2["predicted_expected_error"]
+    shrunk = analytics(var, "twice", "--player-model", "shrunk")["prediction"]
+    assert shrunk["player_model"] == "shrunk" and shrunk["model_fit"]["prior_weight"] > 0.0
+    assert shrunk["predicted_expected_error"] != knn["predicted_expected_error"]
 
 
 def test_analytics_before_two_played_publications_says_so_in_one_line(var: Path) -> None:

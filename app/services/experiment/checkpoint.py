@@ -24,7 +24,12 @@ from app.core.metrics import (
     predicted_edge_probabilities,
 )
 from app.core.neighbour_model import nearest_visited_distance
-from app.core.player_models import kernel_support, mean_session_length, observed_control_counts
+from app.core.player_models import (
+    kernel_support,
+    mean_session_length,
+    observed_control_counts,
+    trace_edges,
+)
 from app.core.prediction import observed_error_relative_se
 from app.core.publication import Publication
 from app.core.refinement import Refiner
@@ -41,6 +46,9 @@ from app.store.publications import load_publication
 BOT_PLAYER = "bot-experiment"
 #: added to a run's seed for the bots of the fixed-graph setting (checkpoints use 0, 1, ...)
 FIXED_GRAPH_SEED = 5_000
+#: an edge the learned model predicts less than this fraction of the heuristic model's
+#: play on is one it does not expect players to take (docs/player-models.md)
+UNEXPECTED_FRACTION = 0.1
 
 
 def checkpoint_figures(
@@ -68,9 +76,12 @@ def checkpoint_figures(
         publication.edge_dst, model, publication.start, refiner.restart
     )
     context = _prediction_context(refiner, publication, predicted)
+    unexpected = _unexpected_edges(refiner, publication, predicted)
     context["blend_edges"] = graph_summary(session, graph)["blend_edges"]
     context["model_fit"] = model_fit(refiner)
-    predicted_on = _Predicted(published, publication, loaded, model, predicted, context)
+    predicted_on = _Predicted(
+        published, publication, loaded, model, predicted, context, unexpected
+    )
     last = index == len(plan.checkpoints) - 1
     return [
         _crowd_figures(
@@ -98,6 +109,9 @@ class _Predicted:
     model: np.ndarray
     predicted: np.ndarray
     context: dict[str, Any]
+    #: edges the learned model expects less than UNEXPECTED_FRACTION of the heuristic's
+    #: play on (None for a strategy that learns nothing, or before any trace)
+    unexpected: np.ndarray | None
 
 
 def _crowd_figures(
@@ -152,6 +166,8 @@ def _crowd_figures(
             traces, publication.edge_err, n
         ),
     }
+    if on.unexpected is not None:
+        figures.update(_unexpected_play(traces, publication, on.unexpected))
     if fixed_graph:
         figures["fixed_graph"] = fixed_graph_prediction(
             settings,
@@ -174,6 +190,37 @@ def _crowd_figures(
         "vertex_descriptors": loaded.graph.vertex_descriptors().astype(np.float32),
     }
     return (seed, bot), figures, arrays
+
+
+def _unexpected_edges(
+    refiner: Refiner, publication: Publication, predicted: np.ndarray
+) -> np.ndarray | None:
+    """Edges whose predicted P(e) under the learned model is below
+    :data:`UNEXPECTED_FRACTION` of the heuristic model's (None where nothing is learned)."""
+    if not (refiner.strategy.learns_from_traces and refiner.traces):
+        return None
+    heuristic = predicted_edge_probabilities(
+        publication.edge_dst,
+        refiner.heuristic_model()[: publication.n_vertices],
+        publication.start,
+        refiner.restart,
+    )
+    return np.asarray(predicted < UNEXPECTED_FRACTION * heuristic)
+
+
+def _unexpected_play(
+    traces: list[np.ndarray], publication: Publication, unexpected: np.ndarray
+) -> dict[str, float]:
+    """The share of the crowd's steps on edges the learned model did not expect, and
+    the share of the error they met there: where a confident model goes wrong."""
+    edges = trace_edges(traces, publication.n_vertices, publication.n_controls)
+    errors = publication.edge_err[edges]
+    on_unexpected = unexpected[edges]
+    total = float(errors.sum())
+    return {
+        "unexpected_step_share": float(on_unexpected.mean()) if edges.size else 0.0,
+        "unexpected_error_share": float(errors[on_unexpected].sum() / total) if total else 0.0,
+    }
 
 
 def _prediction_context(
