@@ -52,7 +52,7 @@ def bench_experiment(arguments: list[str]) -> dict[str, Any]:
             grown, simulated = reuse_counts(session)
         engine.dispose()
     cpu = (after.ru_utime - before.ru_utime) + (after.ru_stime - before.ru_stime)
-    # a run that reads no traces is played by every seed and crowd: one graph for all
+    # a run that reads no traces is played by every crowd: one graph per seed for all
     runs = {
         _run_key(strategy, bot, seed): {
             "frames": rows[-1]["size_frames"],
@@ -88,4 +88,4 @@ def bench_experiment(arguments: list[str]) -> dict[str, Any]:
 def _run_key(strategy: str, bot: str, seed: str) -> str:
     if parse_strategy(strategy).learns_from_traces:
         return f"{strategy}/{bot}/{seed}"
-    return strategy
+    return f"{strategy}/{seed}"

@@ -20,9 +20,15 @@ def experiment(
     fluid: str | None = typer.Option(None, help="liquid fluid: low (default) or high"),
     quick: bool = typer.Option(False, "--quick", help="3 small checkpoints: minutes, not hours"),
     strategies: str | None = typer.Option(
-        None, help="comma-separated strategies (default: all four)"
+        None,
+        help="comma-separated strategies (default: baseline, sr-heuristic, sr-crowd; "
+        "max-error only when named; sr-crowd brings sr-heuristic, its control)",
     ),
-    seeds: str | None = typer.Option(None, help="comma-separated seeds (default 0,1,2)"),
+    seeds: str | None = typer.Option(
+        None,
+        help="comma-separated seeds, each a world and its bots (default 0,1,2); "
+        "all or none of the selection seeds 10-14",
+    ),
     checkpoints: str | None = typer.Option(None, help="comma-separated frame counts"),
     sessions: int | None = typer.Option(None, help="bot sessions per checkpoint (default 30)"),
     player_model: str | None = typer.Option(

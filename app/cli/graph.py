@@ -28,13 +28,16 @@ def init(
     player_model: str | None = typer.Option(
         None, help="crowd model sr-crowd learns: eq2, knn or logit (default SRG_PLAYER_MODEL)"
     ),
+    world: int | None = typer.Option(
+        None, help="world seed of the start state, >= 0 (default: the canonical start)"
+    ),
     json_output: bool = typer.Option(False, "--json", help=JSON_HELP),
 ) -> None:
     """Create a graph: the initial tree of the dynamics, its leaves blended back."""
     from app.config import get_settings
     from app.core.growth import initial_tree_clips
     from app.core.player_models import parse_player_model
-    from app.services.creation import init_graph
+    from app.services.creation import check_world, init_graph
     from app.services.dynamics import DEFAULT_LIQUID_PRESET, check_fluid, control_count
     from app.services.progress import Advance
 
@@ -44,6 +47,7 @@ def init(
         check_fluid(fluid)
     if player_model is not None:  # '' too: it names no model, not the default
         parse_player_model(player_model)
+    check_world(world)
     settings = get_settings()
     require_intact(settings)
     shown: Advance | None = None
@@ -67,6 +71,7 @@ def init(
             depth=depth,
             player_model=player_model,
             progress=advance,
+            world=world,
         )
     emit(summary, json_output)
 

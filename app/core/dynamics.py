@@ -76,7 +76,14 @@ class Dynamics(Protocol):
         """Default error above which a step counts as high-error (Fig. 6)."""
         ...
 
-    def initial_state(self) -> np.ndarray: ...
+    def initial_state(self, world: int | None = None) -> np.ndarray:
+        """The start state of a world seed (docs/experiment.md, "World seeds").
+
+        None is the dynamics' one canonical start (what calibrations and graphs made
+        before world seeds use); an int a seeded variation of it, the same on every call
+        on one device, another for every other seed.
+        """
+        ...
 
     def simulate(self, state: np.ndarray, control: int) -> SimClip: ...
 

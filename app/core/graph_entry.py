@@ -60,6 +60,8 @@ class GraphEntry:
     strategy: str
     player_model: str
     growing: bool
+    #: the world seed its start state was made from (None: the dynamics' canonical start)
+    world: int | None = None
 
     @property
     def fps(self) -> float:

@@ -77,10 +77,13 @@ def initial_tree(
     depth: int = 2,
     prefilter_k: int = 100,
     progress: Callable[[int], None] | None = None,
+    world: int | None = None,
 ) -> StateGraph:
     """A complete N-ary simulation tree of ``depth`` levels whose leaves are blended back.
 
     Depth 2 gives N interior SIM edges and N^2 BLEND edges (paper Fig. 3, left/centre).
+    The tree starts from ``dynamics.initial_state(world)``: a world seed's start state,
+    the canonical one when None.
     ``progress(1)`` follows each of its :func:`initial_tree_clips`: at the paper's
     resolution they take minutes.
     """
@@ -88,7 +91,7 @@ def initial_tree(
         raise ValueError("the initial tree needs depth >= 2 so that leaves have SIM targets")
     n = dynamics.n_controls
     graph = StateGraph(n_controls=n, frames_per_clip=dynamics.frames_per_clip)
-    frontier = [(graph.add_vertex(control=0, clip=-1), dynamics.initial_state())]
+    frontier = [(graph.add_vertex(control=0, clip=-1), dynamics.initial_state(world))]
     leaves: list[tuple[int, int]] = []
     for level in range(depth):
         next_frontier = []

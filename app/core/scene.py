@@ -262,15 +262,31 @@ def dam_break(column_width: float = 0.1, cells_per_width: int = 20, depth_cells:
     return replace(base, extra={"column_width": a})
 
 
-def initial_particles(scene: Scene) -> np.ndarray:
-    """State (n, 6) float32 of the fluid block as a cubic lattice at rest."""
+#: how far a world seed moves each particle of the initial lattice, per axis, at most
+#: (a fraction of the spacing: the block stays a block, its particles no closer than
+#: 0.6 spacings, yet every world's settled tank differs)
+WORLD_JITTER = 0.2
+
+
+def initial_particles(scene: Scene, world: int | None = None) -> np.ndarray:
+    """State (n, 6) float32 of the fluid block as a cubic lattice at rest.
+
+    With a ``world`` seed every particle is displaced by an offset drawn uniformly from
+    ``[-WORLD_JITTER, WORLD_JITTER]`` spacings per axis (``np.random.default_rng(world)``):
+    the start of one world of an experiment (docs/experiment.md, "World seeds"). None is
+    the plain lattice.
+    """
     dx = scene.spacing
     lo, hi = np.asarray(scene.fluid.lo), np.asarray(scene.fluid.hi)
     counts = np.floor((hi - lo) / dx + 1e-6).astype(int)
     axes = [lo[i] + dx * (np.arange(counts[i]) + 0.5) for i in range(3)]
     z, y, x = np.meshgrid(axes[2], axes[1], axes[0], indexing="ij")
+    positions = np.stack([x.ravel(), y.ravel(), z.ravel()], axis=1)
+    if world is not None:
+        rng = np.random.default_rng(world)
+        positions = positions + rng.uniform(-WORLD_JITTER, WORLD_JITTER, positions.shape) * dx
     state = np.zeros((x.size, 6), dtype=np.float32)
-    state[:, 0], state[:, 1], state[:, 2] = x.ravel(), y.ravel(), z.ravel()
+    state[:, :3] = positions
     return state
 
 

@@ -51,6 +51,8 @@ class ToyDynamics:
     crowd_radius: float = 0.5
     high_error_threshold: float = 0.5
     blend_overlap: float = 0.1
+    #: a world seed's largest change of a start height, as a fraction of the depth
+    world_perturbation: float = 0.1
 
     # ---- physics -----------------------------------------------------------------
     @property
@@ -66,8 +68,15 @@ class ToyDynamics:
         angle = np.radians((0.0, -self.tilt_degrees, self.tilt_degrees)[control])
         return self.gravity * float(np.sin(angle)), self.gravity * float(np.cos(angle))
 
-    def initial_state(self) -> np.ndarray:
-        return np.concatenate([np.full(self.cells, self.depth), np.zeros(self.cells - 1)])
+    def initial_state(self, world: int | None = None) -> np.ndarray:
+        """Still water of ``depth``; a ``world`` seed adds to each height a uniform draw
+        of amplitude ``world_perturbation`` x depth, less the draws' mean, so that the
+        tank holds the same water."""
+        heights = np.full(self.cells, self.depth)
+        if world is not None:
+            bumps = np.random.default_rng(world).uniform(-1.0, 1.0, self.cells)
+            heights += self.world_perturbation * self.depth * (bumps - bumps.mean())
+        return np.concatenate([heights, np.zeros(self.cells - 1)])
 
     def simulate(self, state: np.ndarray, control: int) -> SimClip:
         h = state[: self.cells].copy()

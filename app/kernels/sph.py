@@ -181,15 +181,17 @@ class SphSimulator:
         seconds: float = 3.0,
         damped_seconds: float = 1.5,
         damping: float = 0.02,
+        world: int | None = None,
     ) -> np.ndarray:
         """The rest state: the fluid block released from a lattice under control 0.
 
         The first ``damped_seconds`` remove a fraction ``damping`` of the velocity per
         substep (so the lattice relaxes without sloshing), the rest runs undamped so the
-        result is a genuine rest state of the undamped solver.
+        result is a genuine rest state of the undamped solver. A ``world`` seed jitters
+        the lattice first (``app.core.scene.initial_particles``); None settles the plain one.
         """
         fps = self.scene.fps
-        state = initial_particles(self.scene)
+        state = initial_particles(self.scene, world)
         damped = round(damped_seconds * fps)
         _, state = self.run(state, 0, damped, damping)
         _, state = self.run(state, 0, max(round(seconds * fps) - damped, 0))

@@ -159,7 +159,8 @@ class LiquidDynamics:
         self._simulator: SphSimulator | None = None
         self._sdf: SdfKernel | None = None
         self._renderer: LiquidRenderer | None = None
-        self._rest: np.ndarray | None = None
+        #: the settled tank of each world seed asked for (None: the plain lattice's)
+        self._rest: dict[int | None, np.ndarray] = {}
         self._identity: str | None = None
 
     # ---- Dynamics constants --------------------------------------------------------
@@ -212,11 +213,14 @@ class LiquidDynamics:
         return self._renderer
 
     # ---- Dynamics operations ---------------------------------------------------------
-    def initial_state(self) -> np.ndarray:
-        """The settled tank (computed once per instance: a few seconds of simulation)."""
-        if self._rest is None:
-            self._rest = self.simulator.settle()
-        return self._rest.copy()
+    def initial_state(self, world: int | None = None) -> np.ndarray:
+        """The settled tank of a ``world`` seed's fluid block (None: the plain lattice's).
+
+        Computed once per instance and world: a few seconds of simulation.
+        """
+        if world not in self._rest:
+            self._rest[world] = self.simulator.settle(world=world)
+        return self._rest[world].copy()
 
     def surface_frames(self, positions: np.ndarray) -> np.ndarray:
         """int8 SDF frames (k, X, Y, Z) of (k, n, 3) particle positions."""

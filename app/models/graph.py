@@ -50,6 +50,8 @@ class Graph(Base):
     n_controls: Mapped[int] = mapped_column(Integer)
     frames_per_clip: Mapped[int] = mapped_column(Integer)
     seed: Mapped[int] = mapped_column(Integer)
+    #: the world seed of the start state (``Dynamics.initial_state``); NULL: the canonical one
+    world: Mapped[int | None] = mapped_column(Integer)
     strategy: Mapped[str] = mapped_column(String(32))
     #: the crowd model sr-crowd learns (app.core.player_models.PlayerModelKind)
     player_model: Mapped[str] = mapped_column(String(16), default="eq2", server_default="eq2")

@@ -23,6 +23,8 @@ from app.store.graph_persistence import save_graph
 #: the most simulated clips ``srg init --depth`` may ask of the initial tree; past it the
 #: tree grows as N^depth and a typo would run for ever (growth refines from there)
 MAX_INITIAL_CLIPS = 1_000
+#: the largest world seed the graphs' integer column holds on every backend
+MAX_WORLD = 2**31 - 1
 
 
 def check_initial_depth(depth: int, n_controls: int) -> None:
@@ -41,6 +43,13 @@ def check_initial_depth(depth: int, n_controls: int) -> None:
         deepest += 1
 
 
+def check_world(world: int | None) -> None:
+    """Refuse a negative world seed (``np.random.default_rng`` takes none) or one past the
+    integer column that stores it."""
+    if world is not None and not 0 <= world <= MAX_WORLD:
+        raise InvalidInput(f"a world seed is an integer from 0 to {MAX_WORLD}, got {world}")
+
+
 def init_graph(
     session: Session,
     settings: Settings,
@@ -54,10 +63,15 @@ def init_graph(
     seed: int = 0,
     player_model: str | None = None,
     progress: Advance | None = None,
+    world: int | None = None,
 ) -> dict[str, object]:
     """Store the initial tree of a new graph; return its summary.
 
     ``progress(1)`` follows each clip of the tree (``app.core.growth.initial_tree_clips``).
+
+    ``world`` is the seed of the start state (``Dynamics.initial_state``; None, the
+    canonical start); it is stored with the graph, non-negative (docs/experiment.md,
+    "World seeds").
 
     ``player_model`` is the crowd model sr-crowd learns (default ``SRG_PLAYER_MODEL``).
 
@@ -66,6 +80,7 @@ def init_graph(
     toy has neither), the depth and the artifact directory.
     """
     check_name(name, what="graph", max_length=graph_name_length())
+    check_world(world)
     chosen = parse_strategy(strategy)
     crowd_model = parse_player_model(player_model or settings.growth.player_model)
     if dynamics == "toy" and preset is not None:
@@ -77,7 +92,12 @@ def init_graph(
     artifacts = artifact_store(settings)
     bank = MemoryClipBank()
     graph = initial_tree(
-        model, bank, depth=depth, prefilter_k=settings.growth.prefilter_k, progress=progress
+        model,
+        bank,
+        depth=depth,
+        prefilter_k=settings.growth.prefilter_k,
+        progress=progress,
+        world=world,
     )
     graph_id = create_graph(
         session,
@@ -89,6 +109,7 @@ def init_graph(
         seed=seed,
         strategy=chosen.value,
         player_model=crowd_model.value,
+        world=world,
     )
     save_graph(session, graph_id, graph, bank, artifacts)
     return graph_summary(session, graph_id)

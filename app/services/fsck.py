@@ -26,6 +26,7 @@ from sqlalchemy.orm import Session
 
 from app.config import Settings
 from app.core.dynamics import Dynamics
+from app.core.graph_entry import GraphEntry
 from app.db.sessions import database_sessions, transaction
 from app.services.clips import ClipJob, finish_clip, planned_clip, simulate_job
 from app.services.loading import artifact_store, graph_dynamics
@@ -138,21 +139,21 @@ def _recomputed(
             entry, before = planned_clip(session, epoch_id, position)
         else:
             return None
-        return _recompute(
-            session, store, graph_dynamics(entry, settings), entry.id, before, control
-        )
+        return _recompute(session, store, graph_dynamics(entry, settings), entry, before, control)
 
 
 def _recompute(
     session: Session,
     store: ArtifactStore,
     dynamics: Dynamics,
-    graph_id: int,
+    entry: GraphEntry,
     before: int | None,
     control: int,
 ) -> dict[str, np.ndarray]:
     """The clip playing ``control`` from the end state of clip ``before`` (None: the
-    start state), walking back along the clips whose end states are no longer kept."""
+    start state of the graph's world), walking back along the clips whose end states
+    are no longer kept."""
+    graph_id = entry.id
     controls = [control]
     state: np.ndarray | None = None
     while before is not None and state is None:
@@ -165,7 +166,7 @@ def _recompute(
             before, played = clip_start(session, graph_id, before)
             controls.append(played)
     if state is None:
-        state = dynamics.initial_state()
+        state = dynamics.initial_state(entry.world)
     for played in reversed(controls):
         stage = simulate_job(ClipJob(dynamics, state, played))
         arrays = finish_clip(dynamics, stage) or stage

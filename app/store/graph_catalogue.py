@@ -40,6 +40,7 @@ def create_graph(
     seed: int = 0,
     strategy: str = "sr-crowd",
     player_model: str = "eq2",
+    world: int | None = None,
 ) -> int:
     """Add an empty graph row and return its id; :func:`save_graph` fills it.
 
@@ -53,6 +54,7 @@ def create_graph(
         n_controls=n_controls,
         frames_per_clip=frames_per_clip,
         seed=seed,
+        world=world,
         strategy=strategy,
         player_model=player_model,
         growing=False,
@@ -107,6 +109,7 @@ def entry_of(row: Graph) -> GraphEntry:
         strategy=row.strategy,
         player_model=row.player_model,
         growing=row.growing,
+        world=row.world,
     )
 
 

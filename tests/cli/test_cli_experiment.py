@@ -174,7 +174,7 @@ def test_a_killed_experiment_resumes_to_the_numbers_of_an_uninterrupted_one(
 def test_a_toy_experiment_reports_every_strategy_and_the_ratio_per_seed(tmp_path: Path) -> None:
     ok(tmp_path, "db", "upgrade")
     result = run_json(tmp_path, "--quick", "--seeds", "0,1", "--checkpoints", "600,1200")
-    assert set(results(result)) == {"max-error", "baseline", "sr-heuristic", "sr-crowd"}
+    assert set(results(result)) == {"baseline", "sr-heuristic", "sr-crowd"}  # max-error if asked
     assert result["complete"] and len(results(result)["sr-crowd"]["1"]) == 2
     summary = result["crowds"]["goal-directed"]["summary"]
     per_seed = summary["sr_crowd_vs_baseline"]["per_seed"]
@@ -205,9 +205,9 @@ def test_a_toy_experiment_reports_every_strategy_and_the_ratio_per_seed(tmp_path
 def test_baseline_shared_by_crowds_gives_the_numbers_of_baseline_grown_per_crowd(
     tmp_path: Path,
 ) -> None:
-    """Baseline reads no traces nor seeds: grown once and played by two crowds' bots of
-    two seeds, each crowd meets what it meets on a baseline of its own; each crowd grows
-    its own sr-crowd per seed."""
+    """Baseline reads no traces: grown once per seed (its world) and played by two
+    crowds' bots of that seed, each crowd meets what it meets on a baseline of its own;
+    each crowd grows its own sr-crowd per seed. sr-heuristic comes with sr-crowd."""
     shared, alone = tmp_path / "shared", tmp_path / "alone"
     plan = ("--strategies", "baseline,sr-crowd", "--seeds", "0,1", "--checkpoints", "600,1200",
             "--sessions", "10")  # fmt: skip
@@ -224,7 +224,7 @@ def test_baseline_shared_by_crowds_gives_the_numbers_of_baseline_grown_per_crowd
     engine.dispose()
     name = both["name"]
     assert graphs == {
-        f"{name}.baseline",
+        *(f"{name}.{s}.{seed}" for s in ("baseline", "sr-heuristic") for seed in "01"),
         *(f"{name}.sr-crowd.{bot}.{seed}" for bot in ("goal-directed", "avoider") for seed in "01"),
     }
     # per crowd and checkpoint: the seed mean of sr-crowd / baseline, its interval, a verdict
@@ -283,7 +283,7 @@ def test_the_experiment_benchmark_times_a_fresh_run_and_refuses_resume(tmp_path:
     args = ("--seeds", "0", "--checkpoints", "300", "--sessions", "3", "--strategies", "baseline")
     figures = json.loads(ok(tmp_path, "bench", "experiment", *args))
     assert figures["frames"] >= 300 and figures["wall_s"] > 0 and figures["cpu_s"] > 0
-    assert set(figures["runs"]) == {"baseline"}
+    assert set(figures["runs"]) == {"baseline/0"}
     one_line_error(srg(tmp_path, "bench", "experiment", "--resume"), "fresh experiment")
     one_line_error(srg(tmp_path, "bench", "experiment", "--preset", "huge"), "no preset")
 
@@ -299,7 +299,8 @@ def test_through_stops_at_a_checkpoint_with_a_complete_report_and_resume_goes_on
     first = run_json(tmp_path, *plan, "--sessions", "6", "--through", "600")
     assert first["complete"] and first["through_frames"] == 600
     assert [row["checkpoint_frames"] for row in first["comparison"]["goal-directed"]] == [600]
-    assert checkpoints_stored(tmp_path) == 2 * 2  # both runs, their first checkpoint only
+    # three strategies (sr-heuristic with sr-crowd), two seeds, the first checkpoint only
+    assert checkpoints_stored(tmp_path) == 3 * 2
     whole = run_json(tmp_path, "--resume", "--name", first["name"])
     assert whole["complete"] and whole["through_frames"] is None
     assert len(whole["comparison"]["goal-directed"]) == 2

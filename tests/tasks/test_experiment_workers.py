@@ -51,7 +51,8 @@ def test_the_experiment_grows_on_workers_to_the_embedded_numbers(
     assert "Task srg.grow_epoch[" in log and "Task srg.integrate[" in log
     assert "Task srg.render[" not in log  # the experiment grows without renders
     with cluster.session() as session:
-        assert session.scalar(select(func.count()).select_from(ExperimentCheckpoint)) == 4
+        # baseline, sr-heuristic (sr-crowd's control) and sr-crowd at two checkpoints
+        assert session.scalar(select(func.count()).select_from(ExperimentCheckpoint)) == 6
         assert session.scalar(select(func.count()).select_from(GrowthEpoch)) > 0
 
     embedded_env = {k: v for k, v in os.environ.items() if not k.startswith("SRG_")}

@@ -13,6 +13,7 @@ from database_helpers import migrate
 
 from app.config import get_settings
 from app.core.bots import BotKind, play_sessions
+from app.core.errors import InvalidInput
 from app.core.metrics import CheckpointReport, evaluate_checkpoint
 from app.core.player_models import PlayerModelKind, robust_session_length
 from app.core.publication import Publication
@@ -20,7 +21,12 @@ from app.core.strategies import Strategy
 from app.db.engines import dispose_engines
 from app.services import play
 from app.services.experiment import checkpoint
-from app.services.experiment.plan import ExperimentPlan, create_experiment, parse_checkpoints
+from app.services.experiment.plan import (
+    SELECTION_SEEDS,
+    ExperimentPlan,
+    create_experiment,
+    parse_checkpoints,
+)
 from app.services.experiment.results import PREDICTION_KEYS, prediction_summary
 from app.services.experiment.runs import grow_in_process, run_experiment
 
@@ -67,6 +73,9 @@ def test_prediction_is_for_the_publication_played_from_earlier_traces(
     result = run_experiment(settings, "prediction", grower, progress=progress.append)
     rows = result["crowds"]["goal-directed"]["results"]["sr-crowd"]["1"]
     assert sum(progress) >= 1_500
+    # sr-heuristic, sr-crowd's control, came with it and plays first at each checkpoint
+    assert plan.strategies == (Strategy.SR_HEURISTIC, Strategy.SR_CROWD)
+    played, sessions, predictions = played[1::2], sessions[1::2], predictions[1::2]
     assert any(int(row["relinked_before_publish"]) > 0 for row in rows)  # type: ignore[call-overload]
     for row, publication, prob in zip(rows, played, predictions, strict=True):
         # stationary on the publication's edges: pi = (1 - rho) inflow + rho at the start
@@ -110,8 +119,9 @@ def test_every_run_reaches_a_checkpoint_before_any_grows_towards_the_next(
         grow_in_process(settings, name, to_frames, batch, progress)
 
     run_experiment(settings, "waves", recording_grower)
-    assert [frames for _, frames in grown] == [400, 400, 700, 700]
-    assert {name for name, _ in grown[:2]} == {name for name, _ in grown[2:]}
+    # baseline, sr-heuristic (sr-crowd's control, added) and sr-crowd
+    assert [frames for _, frames in grown] == [400, 400, 400, 700, 700, 700]
+    assert {name for name, _ in grown[:3]} == {name for name, _ in grown[3:]}
 
 
 @pytest.fixture(autouse=True)
@@ -182,24 +192,91 @@ def test_a_plan_stored_with_one_bot_plays_that_crowd() -> None:
     assert plan.bots == (BotKind.AVOIDER,)
 
 
-def test_runs_share_what_reads_no_traces_and_split_what_learns_by_crowd() -> None:
+def test_every_run_is_one_world_shared_by_crowds_unless_it_learns() -> None:
     plan = ExperimentPlan(
         strategies=(Strategy.BASELINE, Strategy.SR_CROWD),
         seeds=(0, 1),
         bots=(BotKind.GOAL_DIRECTED, BotKind.AVOIDER),
     )
-    names = {plan.run_graph("x", run): (run.seeds, run.crowds) for run in plan.runs}
+    runs = {plan.run_graph("x", run): (run.seeds, run.crowds, run.world) for run in plan.runs}
     both = (BotKind.GOAL_DIRECTED, BotKind.AVOIDER)
     goal, avoider = (BotKind.GOAL_DIRECTED,), (BotKind.AVOIDER,)
-    assert names == {
-        "x.baseline": ((0, 1), both),
-        "x.sr-crowd.goal-directed.0": ((0,), goal),
-        "x.sr-crowd.goal-directed.1": ((1,), goal),
-        "x.sr-crowd.avoider.0": ((0,), avoider),
-        "x.sr-crowd.avoider.1": ((1,), avoider),
+    assert runs == {
+        "x.baseline.0": ((0,), both, 0),
+        "x.baseline.1": ((1,), both, 1),
+        "x.sr-heuristic.0": ((0,), both, 0),
+        "x.sr-heuristic.1": ((1,), both, 1),
+        "x.sr-crowd.goal-directed.0": ((0,), goal, 0),
+        "x.sr-crowd.goal-directed.1": ((1,), goal, 1),
+        "x.sr-crowd.avoider.0": ((0,), avoider, 0),
+        "x.sr-crowd.avoider.1": ((1,), avoider, 1),
     }
     alone = ExperimentPlan(strategies=(Strategy.SR_CROWD,), seeds=(0,))
-    assert [alone.run_graph("x", run) for run in alone.runs] == ["x.sr-crowd.0"]
+    assert [alone.run_graph("x", run) for run in alone.runs] == [
+        "x.sr-heuristic.0",
+        "x.sr-crowd.0",
+    ]
+
+
+def test_a_plan_stored_before_worlds_resumes_with_its_old_runs() -> None:
+    """One trace-blind graph per strategy from the canonical start, as it was grown, and
+    no sr-heuristic added to what was stored."""
+    stored = ExperimentPlan(
+        strategies=(Strategy.BASELINE, Strategy.SR_CROWD),
+        seeds=(0, 11),  # a mix of selection and evaluation seeds was allowed then
+        bots=(BotKind.GOAL_DIRECTED, BotKind.AVOIDER),
+        worlds=False,
+    ).to_dict()
+    for key in ("worlds", "selection_seeds"):
+        del stored[key]
+    stored["strategies"] = ["baseline", "sr-crowd"]
+    plan = ExperimentPlan.from_dict(stored)
+    assert not plan.worlds and plan.selection_seeds == SELECTION_SEEDS
+    assert plan.strategies == (Strategy.BASELINE, Strategy.SR_CROWD)
+    runs = {plan.run_graph("x", run): (run.seeds, run.world) for run in plan.runs}
+    assert runs == {
+        "x.baseline": ((0, 11), None),
+        "x.sr-crowd.goal-directed.0": ((0,), None),
+        "x.sr-crowd.goal-directed.11": ((11,), None),
+        "x.sr-crowd.avoider.0": ((0,), None),
+        "x.sr-crowd.avoider.11": ((11,), None),
+    }
+    assert ExperimentPlan.from_dict(json.loads(json.dumps(plan.to_dict()))) == plan
+
+
+def test_sr_heuristic_runs_by_default_and_beside_sr_crowd_max_error_when_asked() -> None:
+    assert ExperimentPlan().strategies == (
+        Strategy.BASELINE,
+        Strategy.SR_HEURISTIC,
+        Strategy.SR_CROWD,
+    )
+    assert ExperimentPlan(strategies=(Strategy.MAX_ERROR, Strategy.SR_CROWD)).strategies == (
+        Strategy.MAX_ERROR,
+        Strategy.SR_HEURISTIC,
+        Strategy.SR_CROWD,
+    )
+    assert ExperimentPlan(strategies=(Strategy.BASELINE,)).strategies == (Strategy.BASELINE,)
+
+
+def test_the_plan_records_its_selection_seeds_and_role() -> None:
+    evaluation = ExperimentPlan(seeds=(0, 1, 2))
+    selection = ExperimentPlan(seeds=SELECTION_SEEDS[:3])
+    assert (evaluation.role, selection.role) == ("evaluation", "selection")
+    assert evaluation.to_dict()["selection_seeds"] == list(SELECTION_SEEDS)
+    assert ExperimentPlan.from_dict(selection.to_dict()) == selection
+    chosen_elsewhere = ExperimentPlan(seeds=(3,), selection_seeds=(3, 4))
+    assert ExperimentPlan.from_dict(chosen_elsewhere.to_dict()).role == "selection"
+
+
+def test_a_plan_mixing_selection_and_evaluation_seeds_is_refused_in_one_line() -> None:
+    with pytest.raises(InvalidInput, match="seeds 10, 12 are selection seeds") as refused:
+        ExperimentPlan(seeds=(0, 10, 1, 12))
+    assert "\n" not in str(refused.value) and "0, 1 are not" in str(refused.value)
+
+
+def test_seeds_are_worlds_and_not_negative() -> None:
+    with pytest.raises(InvalidInput, match="non-negative: got -1"):
+        ExperimentPlan(seeds=(0, -1))
 
 
 @pytest.mark.parametrize("bots", [(), (BotKind.AVOIDER, BotKind.AVOIDER)])

@@ -3,13 +3,20 @@
 The plan is stored as JSON with the experiment, and a resume runs the stored plan
 again, so every option that changes a figure lives here, the high-error threshold
 included (docs/experiment.md).
+
+A seed is a world: it seeds the start state of every graph of its runs
+(``Dynamics.initial_state``) as well as the bots that play them, so that the interval
+over seeds samples the graphs' variability, trace-blind strategies' included
+(docs/experiment.md, "World seeds"). Models and settings are chosen on
+:data:`SELECTION_SEEDS`; an experiment runs either on them or on none of them
+(docs/experiment.md, "Selection and evaluation seeds").
 """
 
 from __future__ import annotations
 
 from collections.abc import Sequence
 from dataclasses import asdict, dataclass, fields, replace
-from typing import Any
+from typing import Any, Literal
 
 from sqlalchemy.orm import Session
 
@@ -34,6 +41,13 @@ from app.store.experiments import (
     experiment_plan,
 )
 
+#: the seeds on which the project's models and settings are chosen, fixed before any
+#: evaluation run: a figure reported as evidence comes from other seeds
+SELECTION_SEEDS = (10, 11, 12, 13, 14)
+
+#: what an experiment's seeds are for: choosing models and settings, or judging them
+SeedRole = Literal["selection", "evaluation"]
+
 
 class ExperimentExists(Conflict):
     """An experiment of that name is stored: resume it or choose another name."""
@@ -45,15 +59,28 @@ class NothingToResume(NotFound):
 
 @dataclass(frozen=True)
 class ExperimentPlan:
+    """What an experiment runs (docs/experiment.md).
+
+    A plan with sr-crowd always runs sr-heuristic too: it is sr-crowd's control, the
+    same STATERANK growth under the heuristic player model, so that a gain sr-crowd
+    shares with it is told apart as STATERANK's rather than the players'. It is added
+    (before sr-crowd) when not given. max-error runs only when asked for.
+
+    Every seed is a world (``worlds``): the graphs of its runs start from
+    ``initial_state(seed)``, trace-blind strategies get a run per seed. A plan stored
+    before world seeds (``worlds=False``) keeps its layout: one trace-blind graph per
+    strategy from the canonical start, its strategies and seeds as stored.
+    """
+
     dynamics: str = "toy"
     preset: str | None = None
     fluid: str | None = None
     strategies: tuple[Strategy, ...] = (
-        Strategy.MAX_ERROR,
         Strategy.BASELINE,
         Strategy.SR_HEURISTIC,
         Strategy.SR_CROWD,
     )
+    #: evaluation seeds unless all of them are :attr:`selection_seeds`
     seeds: tuple[int, ...] = (0, 1, 2)
     checkpoints: tuple[int, ...] = (2_000, 5_000, 10_000, 20_000)
     sessions: int = 30
@@ -69,6 +96,15 @@ class ExperimentPlan:
     #: fixed when the experiment is created (the calibration's, unless set), so that every
     #: checkpoint, resumed or not, counts high-error steps against one threshold
     high_error_threshold: float | None = None
+    #: whether each seed is a world (its graphs start from ``initial_state(seed)``)
+    worlds: bool = True
+    #: the seeds models and settings are chosen on (:data:`SELECTION_SEEDS` when made)
+    selection_seeds: tuple[int, ...] = SELECTION_SEEDS
+
+    @property
+    def role(self) -> SeedRole:
+        """``selection`` when the seeds are selection seeds, else ``evaluation``."""
+        return "selection" if set(self.seeds) <= set(self.selection_seeds) else "evaluation"
 
     def checkpoint_index(self, frames: int | None) -> int:
         """The index of the checkpoint at ``frames`` (the last when None)."""
@@ -88,6 +124,9 @@ class ExperimentPlan:
             raise InvalidInput("give one or more distinct strategies")
         if not self.seeds or len(set(self.seeds)) != len(self.seeds):
             raise InvalidInput("give one or more distinct seeds")
+        if self.worlds:
+            self._check_world_seeds()
+            object.__setattr__(self, "strategies", _with_control(self.strategies))
         if not self.bots or len(set(self.bots)) != len(self.bots):
             raise InvalidInput("give one or more distinct bots")
         if min(self.sessions, self.batch_size, self.fixed_graph_sessions) < 1:
@@ -98,6 +137,20 @@ class ExperimentPlan:
             raise InvalidInput("the high-error threshold must be positive")
         _check_checkpoints(self.checkpoints)
 
+    def _check_world_seeds(self) -> None:
+        """Seeds are worlds (``default_rng`` takes no negative one), all selection seeds
+        or none of them."""
+        negative = [s for s in self.seeds if s < 0]
+        if negative:
+            raise InvalidInput(f"seeds are worlds, non-negative: got {_listed(negative)}")
+        chosen = [s for s in self.seeds if s in self.selection_seeds]
+        if chosen and len(chosen) < len(self.seeds):
+            others = [s for s in self.seeds if s not in self.selection_seeds]
+            raise InvalidInput(
+                f"seeds {_listed(chosen)} are selection seeds ({_listed(self.selection_seeds)}) "
+                f"and {_listed(others)} are not: give only selection seeds or none of them"
+            )
+
     @classmethod
     def quick(cls, dynamics: str = "toy", **changes: Any) -> ExperimentPlan:
         """Minutes, not hours: three small checkpoints."""
@@ -105,26 +158,38 @@ class ExperimentPlan:
 
     @property
     def runs(self) -> list[Run]:
-        """One run of each strategy that reads no traces, played by every seed's bots of
-        every crowd: its growth reads neither traces nor seeds, so a graph per seed or per
-        crowd would be the same graph grown again. One run per crowd and seed of each
-        strategy that learns from traces, played by its own crowd with its seed's bots."""
+        """Every run is one world seed. A strategy that reads no traces has one run per
+        seed, played by that seed's bots of every crowd: its growth reads no traces, so
+        a graph per crowd would be the same graph grown again. A strategy that learns
+        from traces has one run per crowd and seed, played by its own crowd.
+
+        A plan stored before world seeds has one run of each trace-blind strategy,
+        from the canonical start, played by every seed's bots of every crowd."""
+        world = self.worlds
         return [
             run
             for strategy in self.strategies
             for run in (
-                [Run(strategy, (seed,), (bot,)) for bot in self.bots for seed in self.seeds]
+                [
+                    Run(strategy, (seed,), (bot,), seed if world else None)
+                    for bot in self.bots
+                    for seed in self.seeds
+                ]
                 if strategy.learns_from_traces
+                else [Run(strategy, (seed,), self.bots, seed) for seed in self.seeds]
+                if world
                 else [Run(strategy, self.seeds, self.bots)]
             )
         ]
 
     def run_graph(self, experiment: str, run: Run) -> str:
-        """The stored graph of ``run``: ``EXPERIMENT.STRATEGY`` for a run that reads no
-        traces; ``EXPERIMENT.STRATEGY.SEED`` for one that learns, with the crowd's name
-        before the seed in a plan with several crowds."""
+        """The stored graph of ``run``: ``EXPERIMENT.STRATEGY.SEED``, with the crowd's
+        name before the seed for a run that learns in a plan with several crowds; a
+        trace-blind run of a plan stored before world seeds is ``EXPERIMENT.STRATEGY``."""
         if not run.strategy.learns_from_traces:
-            return f"{experiment}.{run.strategy.value}"
+            if not self.worlds:
+                return f"{experiment}.{run.strategy.value}"
+            return run_graph_name(experiment, run.strategy, run.seeds[0])
         crowd = run.crowds[0] if len(self.bots) > 1 else None
         return run_graph_name(experiment, run.strategy, run.seeds[0], crowd)
 
@@ -134,6 +199,7 @@ class ExperimentPlan:
         data["seeds"], data["checkpoints"] = list(self.seeds), list(self.checkpoints)
         data["player_model"] = self.player_model.value
         data["bots"] = [b.value for b in self.bots]
+        data["selection_seeds"] = list(self.selection_seeds)
         return data
 
     @classmethod
@@ -149,23 +215,30 @@ class ExperimentPlan:
         bots = data.get("bots", [data["bot"]] if "bot" in data else None)
         if bots is not None:
             values["bots"] = tuple(parse_bot(b) for b in bots)
+        # plans stored before world seeds resume as they were: one trace-blind graph
+        # per strategy, from the canonical start
+        values["worlds"] = bool(data.get("worlds", False))
+        if "selection_seeds" in values:
+            values["selection_seeds"] = tuple(int(s) for s in values["selection_seeds"])
         return cls(**values)
 
 
 @dataclass(frozen=True)
 class Run:
-    """One stored graph of an experiment: a strategy, and the seeds and crowds whose bots
-    play it (each pair gets its own checkpoint rows)."""
+    """One stored graph of an experiment: a strategy, the seeds and crowds whose bots
+    play it (each pair gets its own checkpoint rows), and the world seed its start
+    state is made from (None: the canonical start, in plans stored before worlds)."""
 
     strategy: Strategy
     seeds: tuple[int, ...]
     crowds: tuple[BotKind, ...]
+    world: int | None = None
 
 
 def run_graph_name(
     experiment: str, strategy: Strategy, seed: int, crowd: BotKind | None = None
 ) -> str:
-    """The graph of a learning run (:meth:`ExperimentPlan.run_graph`)."""
+    """The graph of a run of one seed (:meth:`ExperimentPlan.run_graph`)."""
     middle = strategy.value if crowd is None else f"{strategy.value}.{crowd.value}"
     return f"{experiment}.{middle}.{seed}"
 
@@ -227,6 +300,18 @@ def parse_checkpoints(text: str) -> tuple[int, ...]:
 def _check_name(name: str) -> None:
     # 120, not the column's 200: the run graphs' names add ".<strategy>[.<crowd>].<seed>"
     check_name(name, what="experiment", max_length=120)
+
+
+def _with_control(strategies: tuple[Strategy, ...]) -> tuple[Strategy, ...]:
+    """``strategies`` with sr-heuristic before sr-crowd when sr-crowd has not got it."""
+    if Strategy.SR_CROWD not in strategies or Strategy.SR_HEURISTIC in strategies:
+        return strategies
+    at = strategies.index(Strategy.SR_CROWD)
+    return (*strategies[:at], Strategy.SR_HEURISTIC, *strategies[at:])
+
+
+def _listed(values: Sequence[int]) -> str:
+    return ", ".join(str(v) for v in values)
 
 
 def _check_checkpoints(values: Sequence[int]) -> None:

@@ -157,7 +157,8 @@ def run_one(
     last: int | None = None,
 ) -> None:
     """The plan's run ``run_index`` through its checkpoints (up to index ``last``, all
-    when None), skipping those already stored (a resume)."""
+    when None), skipping those already stored (a resume). Its graph starts from the
+    run's world (``Run.world``)."""
     plan = stored_plan(settings, name)
     run = plan.runs[run_index]
     strategy = run.strategy
@@ -180,6 +181,7 @@ def run_one(
                 strategy=strategy.value,
                 seed=run.seeds[0],
                 player_model=plan.player_model.value,
+                world=run.world,
             )
         if progress is not None:
             progress(int(summary["size_frames"]))  # type: ignore[call-overload]
