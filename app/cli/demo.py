@@ -18,7 +18,7 @@ def demo(
     preset: str = typer.Option(QUICK_LIQUID_PRESET, help="liquid preset: tiny, small or paper"),
     fluid: str | None = typer.Option(None, help="liquid fluid: low (default) or high"),
     checkpoints: str = typer.Option(
-        "300,600,1000,1500", help="graph sizes (frames) where the bots play both graphs"
+        "300,600,1000,1500", help="graph sizes (frames) where the bots play the graphs"
     ),
     sessions: int = typer.Option(30, help="bot sessions per checkpoint"),
     seed: int = typer.Option(0),
@@ -27,7 +27,9 @@ def demo(
         None, "--result", help="also write the JSON result to this file"
     ),
 ) -> None:
-    """BASELINE and SR-CROWD graphs grown side by side; watch the error fall as bots play.
+    """BASELINE, SR-HEURISTIC and SR-CROWD graphs grown side by side from one initial
+    tree; watch the error fall as bots play, and what the traces add (sr-crowd /
+    sr-heuristic) beside what STATERANK and traces add together (sr-crowd / baseline).
 
     Ends with the SR-CROWD graph published with its animations, ready to play.
     """
@@ -39,6 +41,7 @@ def demo(
     from app.db.engines import require_intact
     from app.liquid.devices import LiquidDevices
     from app.services.demo import (
+        DEMO_STRATEGIES,
         demo_plan,
         demo_rows,
         publish_playable,
@@ -66,32 +69,30 @@ def demo(
     make_dynamics(plan.dynamics, plan.preset, plan.fluid, devices=devices)  # preset, calibration
     jobs = min(os.cpu_count() or 1, len(plan.runs))
     total = len(plan.runs) * plan.checkpoints[-1]
-    with progress_bar(total, "baseline and sr-crowd: frames grown") as advance:
+    strategies = [s.value for s in DEMO_STRATEGIES]
+    with progress_bar(total, f"{', '.join(strategies)}: frames grown") as advance:
         result = run_demo(
             settings, name, plan, partial(grow_in_process, settings), jobs=jobs, progress=advance
         )
     with progress_bar(unrendered_edges(settings, name, plan), "animations rendered") as rendered:
         graph, published = publish_playable(settings, name, plan, rendered)
-    table = Table(title=f"{name}: what goal-directed bots saw at each graph size")
-    for column in (
-        "frames",
-        "baseline error",
-        "sr-crowd error",
-        "sr-crowd / baseline",
-        "baseline high-error",
-        "sr-crowd high-error",
-    ):
-        table.add_column(column, justify="right")
-    for row in demo_rows(result):
-        table.add_row(
+    rows = demo_rows(result)
+    errors = Table(title=f"{name}: mean error per step that goal-directed bots met")
+    shares = Table(title=f"{name}: share of steps visibly wrong (error above the threshold)")
+    for column in ("frames", *strategies, "sr-crowd / sr-heuristic", "sr-crowd / baseline"):
+        errors.add_column(column, justify="right")
+    for column in ("frames", *strategies):
+        shares.add_column(column, justify="right")
+    for row in rows:
+        ratios = (row.crowd_vs_heuristic, row.crowd_vs_baseline)
+        errors.add_row(
             str(row.frames),
-            f"{row.baseline_error:.4f}",
-            f"{row.sr_crowd_error:.4f}",
-            f"{row.ratio:.2f}",
-            f"{row.baseline_high_error:.3f}",
-            f"{row.sr_crowd_high_error:.3f}",
+            *(f"{row.error[s]:.4f}" for s in strategies),
+            *("n/a" if ratio is None else f"{ratio:.2f}" for ratio in ratios),
         )
-    Console().print(table)
+        shares.add_row(str(row.frames), *(f"{row.high_error[s]:.3f}" for s in strategies))
+    Console().print(errors)
+    Console().print(shares)
     report = write_demo_report(
         settings,
         result,

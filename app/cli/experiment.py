@@ -78,7 +78,7 @@ def experiment(
     from app.config import get_settings
     from app.core.strategies import Strategy
     from app.db.engines import require_intact
-    from app.reports.experiment import interval_text, write_report
+    from app.reports.experiment import RATIO_LABELS, interval_text, write_report
     from app.services.crowd_model_ablation import eq2_ingredients
     from app.services.experiment.plan import create_experiment, stored_plan
     from app.services.experiment.runs import Grower, grow_in_process, run_experiment
@@ -140,11 +140,19 @@ def experiment(
         emit(result, as_json=True)
     for bot, rows in result["comparison"].items():
         for row in rows:
+            ratios = [
+                f"{label} {interval_text(row[key], 3)} ({row[key]['verdict']})"
+                for key, label in RATIO_LABELS.items()
+                if key in row
+            ]
             typer.echo(
-                f"{bot} at {row['checkpoint_frames']} frames: sr-crowd / baseline error "
-                f"{interval_text(row['error_ratio'], 3)}: {row['error_verdict']}",
+                f"{bot} at {row['checkpoint_frames']} frames, error: {'; '.join(ratios)}",
                 err=json_output,
             )
+        judged = [target for row in rows for target in row.get("targets", [])]
+        if judged:
+            met = sum(target["met"] for target in judged)
+            typer.echo(f"{bot}: {met} of {len(judged)} targets met", err=json_output)
     typer.echo(f"report: {report}", err=True)
 
 

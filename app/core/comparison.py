@@ -1,66 +1,58 @@
-"""One strategy against another with its uncertainty: a ratio of per-step means, averaged
-over seeds, with a two-level bootstrap interval (docs/experiment.md, "Crowds and intervals").
+"""Strategies compared over seeds, with their uncertainty, and the targets they are judged
+against (docs/experiment.md, "Crowds and intervals").
 
-A run's figure at a checkpoint is a mean per step over a few dozen sessions, and on a
-refined graph a handful of blend steps carry all of it, so one run's ratio moves a lot
-between samples; seeds move it more. The interval resamples both: the seeds, and inside
-each seed the sessions of either arm, independently.
+A seed pairs the arms: the same initial tree, the same bots' seeds. Per seed an arm gives
+one number per checkpoint (its per-step mean error, or its share of steps above the
+high-error threshold); the seeds are the replicates. Errors are compared by their ratio,
+with a Student t interval on the log of the per-seed ratios; visibly-wrong shares, which
+are often 0, by their difference, with a Student t interval on the per-seed differences.
+With a handful of seeds a t interval is the honest one (a bootstrap over three seeds sees
+ten distinct resamples and comes out too narrow).
 """
 
 from __future__ import annotations
 
-from collections.abc import Sequence
+import math
+from collections.abc import Mapping, Sequence
 from dataclasses import dataclass
 
 import numpy as np
 
 from app.core.bots import BotKind
+from app.core.seed_interval import seed_interval
+from app.core.strategies import Strategy
 
-#: sr-crowd must reach these fractions of baseline's figures at the last checkpoint
-#: (the paper: about 0.5 and 0.1; our bar, set before any liquid run: 0.5 and 0.2)
+#: coverage of every interval reported
+LEVEL = 0.95
+#: at the last checkpoint, sr-crowd's mean error must be at most this fraction of
+#: sr-heuristic's and of baseline's (the paper: about 0.5 of baseline's; our bar, set
+#: before any liquid run)
 ERROR_RATIO_TARGET = 0.5
+#: sr-crowd's visibly-wrong share at most this fraction of baseline's (the paper: 0.1)
 HIGH_ERROR_RATIO_TARGET = 0.2
 #: crowds without an aim (they hesitate, or pick at random) go nearly everywhere in the
-#: graph, so refining for them only has to beat baseline by more than the noise
+#: graph, so refining for them only has to beat sr-heuristic by more than the noise
 AIMLESS_CROWDS = frozenset({BotKind.HESITANT, BotKind.RANDOM})
-#: the high-error target applies where baseline's players spend more than this share of
-#: their steps above the threshold (below it there is little left to divide)
+#: the share target against baseline applies where baseline's players spend more than
+#: this share of their steps above the threshold (below it there is little left to divide)
 HIGH_ERROR_FLOOR = 0.05
+#: from this graph size on, sr-crowd's mean error must not rise above sr-heuristic's
+#: at any checkpoint ("no dip")
+NO_DIP_FROM_FRAMES = 5_000
+
+CROWD, HEURISTIC = Strategy.SR_CROWD.value, Strategy.SR_HEURISTIC.value
+BASELINE = Strategy.BASELINE.value
 
 
 @dataclass(frozen=True)
-class SessionSample:
-    """One arm's play at one checkpoint of one seed: per session, the sum of a per-step
-    quantity (the error, or 1 for a step above the threshold) and its number of steps."""
+class SeedComparison:
+    """Two arms compared over seeds: the point estimate, its Student t interval, and the
+    per-seed values it comes from.
 
-    totals: np.ndarray
-    steps: np.ndarray
-
-    @classmethod
-    def of(cls, step_values: np.ndarray, session_steps: np.ndarray) -> SessionSample:
-        """Per-step values (sessions back to back) cut into sessions of the given lengths."""
-        values = np.asarray(step_values, dtype=np.float64)
-        steps = np.asarray(session_steps, dtype=np.int64)
-        if steps.ndim != 1 or np.any(steps < 1) or steps.sum() != values.size:
-            raise ValueError(
-                f"session lengths (sum {int(steps.sum())}) must be positive and cover the "
-                f"{values.size} steps"
-            )
-        starts = np.concatenate([[0], np.cumsum(steps)[:-1]])
-        return cls(np.add.reduceat(values, starts), steps)
-
-    @property
-    def rate(self) -> float:
-        """The per-step mean over all sessions."""
-        return float(self.totals.sum() / self.steps.sum())
-
-
-@dataclass(frozen=True)
-class RatioInterval:
-    """Mean over seeds of numerator / denominator, and its bootstrap interval.
-
-    ``mean``, ``low`` and ``high`` are None where a seed's denominator is 0 (the ratio
-    is undefined); ``high`` is inf where resampled denominators reach 0.
+    For a ratio ``neutral`` is 1 and ``mean`` is the geometric mean of the per-seed
+    ratios; for a difference ``neutral`` is 0 and ``mean`` the arithmetic mean. ``mean``,
+    ``low`` and ``high`` are None where the estimate is undefined (a seed's ratio is 0
+    or has a denominator of 0); ``low`` and ``high`` are None below two seeds.
     """
 
     mean: float | None
@@ -68,116 +60,252 @@ class RatioInterval:
     high: float | None
     per_seed: list[float | None]
     level: float
+    method: str
+    neutral: float
 
-    def verdict(self, numerator: str, denominator: str) -> str:
-        """Whether the difference is larger than the noise, in words."""
+    def verdict(self, first: str, second: str) -> str:
+        """Whether ``first`` and ``second`` part by more than the noise, in words."""
+        if self.mean is None:
+            return f"undefined: in some seed {first} or {second} met no such step"
         if self.low is None or self.high is None:
-            return f"undefined: {denominator} met no such step in some seed"
-        if self.high < 1.0:
-            return f"{numerator} below {denominator} by more than the noise"
-        if self.low > 1.0:
-            return f"{numerator} above {denominator} by more than the noise"
-        return f"within the noise: the {self.level:.0%} interval spans 1"
+            return f"no interval from {len(self.per_seed)} seed"
+        if self.high < self.neutral:
+            return f"{first} below {second} by more than the noise"
+        if self.low > self.neutral:
+            return f"{first} above {second} by more than the noise"
+        return f"within the noise: the {self.level:.0%} interval spans {self.neutral:g}"
 
-    def to_dict(self) -> dict[str, object]:
+    def to_dict(self, first: str, second: str) -> dict[str, object]:
         return {
             "mean": self.mean,
             "low": self.low,
             "high": self.high,
             "per_seed": self.per_seed,
             "level": self.level,
+            "method": self.method,
+            "verdict": self.verdict(first, second),
         }
 
 
 def ratio_interval(
-    numerator: Sequence[SessionSample],
-    denominator: Sequence[SessionSample],
-    *,
-    level: float = 0.95,
-    resamples: int = 4000,
-    seed: int = 0,
-) -> RatioInterval:
-    r"""Mean over seeds of the ratio of per-step means, with a two-level bootstrap interval.
+    numerator: Sequence[float], denominator: Sequence[float], *, level: float = LEVEL
+) -> SeedComparison:
+    r"""Geometric mean over seeds of numerator / denominator, with a Student t interval.
 
-    .. math:: R = \frac{1}{S} \sum_s \frac{\bar x_s}{\bar y_s}
+    .. math:: r_s = \bar x_s / \bar y_s, \quad m = \frac{1}{S} \sum_s \log r_s, \quad
+              \exp\Big(m \pm t_{(1+\ell)/2,\,S-1} \frac{s}{\sqrt S}\Big)
 
-    where :math:`\bar x_s`, :math:`\bar y_s` are the per-step means of the two arms at
-    seed s (the seeds pair the arms: same initial graph, same bot seeds). Each bootstrap
-    replicate draws S seeds with replacement and, inside each drawn seed, each arm's
-    sessions with replacement; the interval is the replicates' central ``level`` range
-    (percentile method, the outer order statistics, so no interpolation towards inf).
-
-    With few seeds the outer level sees few distinct draws (3 seeds: 10 multisets), so
-    the interval is narrower than a t-interval over seeds would be; ``per_seed`` is kept
-    beside it so that a reader sees the spread itself.
+    where :math:`\bar x_s`, :math:`\bar y_s` are the two arms' per-step means at seed s,
+    :math:`s` the sample standard deviation of the :math:`\log r_s` and :math:`\ell` the
+    ``level``; the point estimate is :math:`\exp m`, the geometric mean of the ratios.
+    On the log scale a ratio of 1/2 and one of 2 are equally far from 1.
 
     Parameters
     ----------
-    numerator, denominator : sequences of SessionSample, one per seed, paired by index
+    numerator, denominator : sequences of float, one per-step mean per seed, paired by index
     level : float
         Coverage of the interval, in (0, 1).
-    resamples : int
-        Bootstrap replicates.
-    seed : int
-        Seed of the resampling (the interval is reproducible).
     """
-    if len(numerator) != len(denominator) or not numerator:
-        raise ValueError("give one sample per seed for both arms, paired")
-    if not 0.0 < level < 1.0:
-        raise ValueError(f"level must lie in (0, 1), got {level}")
-    per_seed = [_ratio(n.rate, d.rate) for n, d in zip(numerator, denominator, strict=True)]
-    defined = [r for r in per_seed if r is not None]
-    if len(defined) < len(per_seed):
-        return RatioInterval(None, None, None, per_seed, level)
-    rng = np.random.default_rng(seed)
-    with np.errstate(divide="ignore", invalid="ignore"):
-        replicates = np.column_stack(
-            [
-                _resampled_rates(n, resamples, rng) / _resampled_rates(d, resamples, rng)
-                for n, d in zip(numerator, denominator, strict=True)
-            ]
+    _check_pairs(numerator, denominator)
+    per_seed = [n / d if d > 0.0 else None for n, d in zip(numerator, denominator, strict=True)]
+    method = f"Student t on log ratios over seeds, {level * 100:g} %"
+    if any(r is None or r <= 0.0 for r in per_seed):
+        return SeedComparison(None, None, None, per_seed, level, method, 1.0)
+    spread = seed_interval(np.log(np.array(per_seed, dtype=np.float64))[:, None], level=level)
+    mean, low, high = (_finite(math.exp(float(v[0]))) for v in spread[:3])
+    return SeedComparison(mean, low, high, per_seed, level, method, 1.0)
+
+
+def difference_interval(
+    first: Sequence[float], second: Sequence[float], *, level: float = LEVEL
+) -> SeedComparison:
+    r"""Mean over seeds of first - second, with its Student t interval.
+
+    .. math:: \bar d \pm t_{(1+\ell)/2,\,S-1} \frac{s}{\sqrt S}, \quad d_s = x_s - y_s
+
+    For shares of steps, which are often 0 where a ratio would be undefined.
+
+    Parameters
+    ----------
+    first, second : sequences of float, one value per seed, paired by index
+    level : float
+        Coverage of the interval, in (0, 1).
+    """
+    _check_pairs(first, second)
+    per_seed: list[float | None] = [float(a - b) for a, b in zip(first, second, strict=True)]
+    spread = seed_interval(np.array(per_seed, dtype=np.float64)[:, None], level=level)
+    mean, low, high = (_finite(float(v[0])) for v in spread[:3])
+    method = f"Student t on differences over seeds, {level * 100:g} %"
+    return SeedComparison(mean, low, high, per_seed, level, method, 0.0)
+
+
+def _check_pairs(first: Sequence[float], second: Sequence[float]) -> None:
+    if len(first) != len(second) or not first:
+        raise ValueError("give one value per seed for both arms, paired")
+
+
+def _finite(value: float) -> float | None:
+    return value if math.isfinite(value) else None
+
+
+def _end(comparison: SeedComparison | None, end: str) -> float | None:
+    """``mean``, ``low`` or ``high`` of a comparison; None where the plan lacks it."""
+    return None if comparison is None else getattr(comparison, end)
+
+
+@dataclass(frozen=True)
+class CheckpointComparison:
+    """sr-crowd, sr-heuristic and baseline at one checkpoint of one crowd: the ratios of
+    their mean errors, their visibly-wrong shares (mean over seeds) and sr-crowd's minus
+    sr-heuristic's share. A comparison whose arms the plan lacks is None (a share absent)."""
+
+    frames: int
+    crowd_vs_heuristic: SeedComparison | None
+    crowd_vs_baseline: SeedComparison | None
+    heuristic_vs_baseline: SeedComparison | None
+    high_error_fraction: dict[str, float]
+    high_error_difference: SeedComparison | None
+
+
+def compare_checkpoint(
+    frames: int,
+    errors: Mapping[str, Sequence[float]],
+    shares: Mapping[str, Sequence[float]],
+    *,
+    level: float = LEVEL,
+) -> CheckpointComparison:
+    """The comparisons at one checkpoint from, per strategy, each seed's per-step mean
+    error and share of steps above the threshold (seeds in the same order everywhere)."""
+
+    def ratio(numerator: str, denominator: str) -> SeedComparison | None:
+        if numerator not in errors or denominator not in errors:
+            return None
+        return ratio_interval(errors[numerator], errors[denominator], level=level)
+
+    both = CROWD in shares and HEURISTIC in shares
+    return CheckpointComparison(
+        frames=frames,
+        crowd_vs_heuristic=ratio(CROWD, HEURISTIC),
+        crowd_vs_baseline=ratio(CROWD, BASELINE),
+        heuristic_vs_baseline=ratio(HEURISTIC, BASELINE),
+        high_error_fraction={
+            s: float(np.mean(shares[s])) for s in (BASELINE, HEURISTIC, CROWD) if s in shares
+        },
+        high_error_difference=(
+            difference_interval(shares[CROWD], shares[HEURISTIC], level=level) if both else None
+        ),
+    )
+
+
+@dataclass(frozen=True)
+class Target:
+    """One bar, the number it judges (None: not measured, so not met) and whether it is met."""
+
+    description: str
+    frames: int
+    value: float | None
+    relation: str  # "<=" or "<"
+    bar: float
+
+    @property
+    def met(self) -> bool:
+        if self.value is None:
+            return False
+        return self.value <= self.bar if self.relation == "<=" else self.value < self.bar
+
+    def to_dict(self) -> dict[str, object]:
+        return {
+            "target": self.description,
+            "frames": self.frames,
+            "value": self.value,
+            "relation": self.relation,
+            "bar": self.bar,
+            "met": self.met,
+        }
+
+
+def targets(crowd: str, checkpoints: Sequence[CheckpointComparison]) -> list[Target]:
+    """Every target for ``crowd``'s players over the checkpoints (the last one is the
+    experiment's last), in checkpoint order.
+
+    A crowd with an aim: at the last checkpoint sr-crowd / sr-heuristic mean <=
+    :data:`ERROR_RATIO_TARGET` with the interval's upper end below 1, and sr-crowd /
+    baseline mean <= :data:`ERROR_RATIO_TARGET`; from :data:`NO_DIP_FROM_FRAMES` on,
+    sr-crowd / sr-heuristic mean <= 1 at every checkpoint. An aimless crowd
+    (:data:`AIMLESS_CROWDS`): the upper end against sr-heuristic below 1 at the last
+    checkpoint. Every crowd, at every checkpoint: sr-crowd's visibly-wrong share no
+    higher than sr-heuristic's beyond the noise (the difference's low end <= 0), and at
+    most :data:`HIGH_ERROR_RATIO_TARGET` of baseline's wherever baseline's is above
+    :data:`HIGH_ERROR_FLOOR`. A target whose arms the plan lacks is not met.
+    """
+    if not checkpoints:
+        return []
+    last = checkpoints[-1]
+    judged: list[Target] = []
+    for point in checkpoints:
+        versus_heuristic = point.crowd_vs_heuristic
+        if point is last:
+            if crowd not in AIMLESS_CROWDS:
+                judged.append(
+                    Target(
+                        "sr-crowd / sr-heuristic error, mean",
+                        point.frames,
+                        _end(versus_heuristic, "mean"),
+                        "<=",
+                        ERROR_RATIO_TARGET,
+                    )
+                )
+            judged.append(
+                Target(
+                    "sr-crowd / sr-heuristic error, interval's upper end",
+                    point.frames,
+                    _end(versus_heuristic, "high"),
+                    "<",
+                    1.0,
+                )
+            )
+            if crowd not in AIMLESS_CROWDS:
+                versus_baseline = point.crowd_vs_baseline
+                judged.append(
+                    Target(
+                        "sr-crowd / baseline error, mean",
+                        point.frames,
+                        _end(versus_baseline, "mean"),
+                        "<=",
+                        ERROR_RATIO_TARGET,
+                    )
+                )
+        if crowd not in AIMLESS_CROWDS and point.frames >= NO_DIP_FROM_FRAMES:
+            judged.append(
+                Target(
+                    "sr-crowd / sr-heuristic error, mean (no dip)",
+                    point.frames,
+                    _end(versus_heuristic, "mean"),
+                    "<=",
+                    1.0,
+                )
+            )
+        difference = point.high_error_difference
+        judged.append(
+            Target(
+                "visibly-wrong share, sr-crowd - sr-heuristic, interval's low end",
+                point.frames,
+                _end(difference, "low"),
+                "<=",
+                0.0,
+            )
         )
-        drawn = rng.integers(0, len(per_seed), size=(resamples, len(per_seed)))
-        means = np.take_along_axis(replicates, drawn, axis=1).mean(axis=1)
-    tail = (1.0 - level) / 2.0
-    low = float(np.nanquantile(means, tail, method="lower"))
-    high = float(np.nanquantile(means, 1.0 - tail, method="higher"))
-    return RatioInterval(float(np.mean(defined)), low, high, per_seed, level)
+        judged += _share_against_baseline(point)
+    return judged
 
 
-def _resampled_rates(sample: SessionSample, resamples: int, rng: np.random.Generator) -> np.ndarray:
-    """Per-step means of ``resamples`` draws of the sample's sessions with replacement."""
-    drawn = rng.integers(0, sample.steps.size, size=(resamples, sample.steps.size))
-    return np.asarray(sample.totals[drawn].sum(axis=1) / sample.steps[drawn].sum(axis=1))
-
-
-def _ratio(numerator: float, denominator: float) -> float | None:
-    return numerator / denominator if denominator > 0.0 else None
-
-
-def error_ratio_target(crowd: str) -> float | None:
-    """The bar on the error ratio's mean for ``crowd``'s players (None: no bar on its size,
-    only its interval below 1): :data:`ERROR_RATIO_TARGET` for a crowd with an aim."""
-    return None if crowd in AIMLESS_CROWDS else ERROR_RATIO_TARGET
-
-
-def meets_targets(
-    errors: RatioInterval,
-    high: RatioInterval,
-    baseline_high: float,
-    error_target: float | None = ERROR_RATIO_TARGET,
-) -> bool:
-    """The error ratio's interval's upper end below 1 and its mean at most
-    ``error_target`` (when there is one), and the high-error ratio's mean at most
-    :data:`HIGH_ERROR_RATIO_TARGET` wherever baseline's high-error fraction is above
-    :data:`HIGH_ERROR_FLOOR`."""
-    error_met = (
-        errors.mean is not None
-        and errors.high is not None
-        and (error_target is None or errors.mean <= error_target)
-        and errors.high < 1.0
-    )
-    high_met = baseline_high <= HIGH_ERROR_FLOOR or (
-        high.mean is not None and high.mean <= HIGH_ERROR_RATIO_TARGET
-    )
-    return error_met and high_met
+def _share_against_baseline(point: CheckpointComparison) -> list[Target]:
+    """sr-crowd's share / baseline's where baseline's is above the floor (not met
+    where either is absent: then whether it applies is unknown)."""
+    base = point.high_error_fraction.get(BASELINE)
+    crowd = point.high_error_fraction.get(CROWD)
+    if base is not None and base <= HIGH_ERROR_FLOOR:
+        return []
+    value = None if base is None or crowd is None else crowd / base
+    description = "visibly-wrong share, sr-crowd / baseline"
+    return [Target(description, point.frames, value, "<=", HIGH_ERROR_RATIO_TARGET)]

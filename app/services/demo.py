@@ -1,12 +1,13 @@
 """`srg demo`: the product's main job on the embedded default.
 
-The demo is a small experiment (:mod:`app.services.experiment`): two graphs grow side by
-side from the same initial tree, one with BASELINE and one with SR-CROWD, and at each
-checkpoint goal-directed bots play both. A newcomer sees the error players meet fall
-faster on the graph that learns from play (the sizes are chosen from measurements:
-docs/experiment.md). The SR-CROWD graph is then published with its animations, ready to
-play in the browser. Its checkpoints are stored, so an interrupted demo goes on from the
-last one when run again.
+The demo is a small experiment (:mod:`app.services.experiment`): three graphs grow side
+by side from the same initial tree, with BASELINE, SR-HEURISTIC and SR-CROWD, and at each
+checkpoint goal-directed bots play all three. A newcomer sees the error players meet fall
+faster on the graph that learns from play: SR-CROWD against SR-HEURISTIC is what the
+traces add to the same STATERANK growth, SR-CROWD against BASELINE what both add (the
+sizes are chosen from measurements: docs/experiment.md). The SR-CROWD graph is then
+published with its animations, ready to play in the browser. Its checkpoints are
+stored, so an interrupted demo goes on from the last one when run again.
 """
 
 from __future__ import annotations
@@ -45,24 +46,24 @@ from app.store.animations import (
 )
 from app.store.graph_catalogue import graph_entry, graph_exists
 
-#: graph sizes (frames) where bots play: on `tiny` the two strategies part by 1,500
+#: graph sizes (frames) where bots play: on `tiny` sr-crowd and baseline part by 1,500
 DEMO_CHECKPOINTS = (300, 600, 1_000, 1_500)
 PLAYABLE = Strategy.SR_CROWD
+#: what the demo grows, in the order of its table: sr-heuristic is sr-crowd's control
+DEMO_STRATEGIES = (Strategy.BASELINE, Strategy.SR_HEURISTIC, PLAYABLE)
 
 
 @dataclass(frozen=True)
 class DemoRow:
-    """Both graphs at one checkpoint, as the demo's table shows them."""
+    """The graphs at one checkpoint, as the demo's table shows them: per strategy the
+    mean error per step and the visibly-wrong share, and sr-crowd's error ratios (the
+    experiment's comparison, of the demo's one seed; None where undefined)."""
 
     frames: int
-    baseline_error: float
-    sr_crowd_error: float
-    baseline_high_error: float
-    sr_crowd_high_error: float
-
-    @property
-    def ratio(self) -> float:
-        return self.sr_crowd_error / self.baseline_error if self.baseline_error > 0 else 1.0
+    error: dict[str, float]
+    high_error: dict[str, float]
+    crowd_vs_heuristic: float | None
+    crowd_vs_baseline: float | None
 
 
 def demo_plan(
@@ -78,7 +79,7 @@ def demo_plan(
         dynamics=dynamics,
         preset=preset if dynamics == "liquid" else None,
         fluid=fluid,
-        strategies=(Strategy.BASELINE, PLAYABLE),
+        strategies=DEMO_STRATEGIES,
         seeds=(seed,),
         checkpoints=checkpoints,
         sessions=sessions,
@@ -95,7 +96,7 @@ def run_demo(
     jobs: int,
     progress: Advance | None = None,
 ) -> dict[str, Any]:
-    """Grow, play and measure both graphs (resuming a stored demo): the result."""
+    """Grow, play and measure the graphs (resuming a stored demo): the result."""
     try:
         stored = stored_plan(settings, name)
     except NothingToResume:
@@ -127,19 +128,22 @@ def unrendered_edges(settings: Settings, name: str, plan: ExperimentPlan) -> int
 
 
 def demo_rows(result: dict[str, Any]) -> list[DemoRow]:
-    (played,) = result["crowds"].values()  # the demo's one crowd
-    baseline, crowd = (
-        next(iter(played["results"][s.value].values())) for s in (Strategy.BASELINE, PLAYABLE)
-    )
+    """One row per checkpoint of a complete demo's result."""
+    ((bot, played),) = result["crowds"].items()  # the demo's one crowd and seed
+    checkpoints = {
+        strategy: next(iter(by_seed.values())) for strategy, by_seed in played["results"].items()
+    }
     return [
         DemoRow(
-            frames=int(c["size_frames"]),
-            baseline_error=float(b["observed_mean_error"]),
-            sr_crowd_error=float(c["observed_mean_error"]),
-            baseline_high_error=float(b["high_error_fraction"]),
-            sr_crowd_high_error=float(c["high_error_fraction"]),
+            frames=int(compared["checkpoint_frames"]),
+            error={s: float(rows[i]["observed_mean_error"]) for s, rows in checkpoints.items()},
+            high_error={
+                s: float(rows[i]["high_error_fraction"]) for s, rows in checkpoints.items()
+            },
+            crowd_vs_heuristic=compared["crowd_vs_heuristic"]["mean"],
+            crowd_vs_baseline=compared["crowd_vs_baseline"]["mean"],
         )
-        for b, c in zip(baseline, crowd, strict=True)
+        for i, compared in enumerate(result["comparison"][bot])
     ]
 
 

@@ -227,17 +227,20 @@ def test_baseline_shared_by_crowds_gives_the_numbers_of_baseline_grown_per_crowd
         *(f"{name}.{s}.{seed}" for s in ("baseline", "sr-heuristic") for seed in "01"),
         *(f"{name}.sr-crowd.{bot}.{seed}" for bot in ("goal-directed", "avoider") for seed in "01"),
     }
-    # per crowd and checkpoint: the seed mean of sr-crowd / baseline, its interval, a verdict
+    # per crowd and checkpoint: sr-crowd / baseline over seeds, its interval, a verdict
     for rows in both["comparison"].values():
         assert [row["checkpoint_frames"] for row in rows] == [600, 1200]
         for row in rows:
-            ratio = row["error_ratio"]
+            ratio = row["crowd_vs_baseline"]
             assert ratio["low"] <= ratio["mean"] <= ratio["high"]
             assert len(ratio["per_seed"]) == 2
-            assert row["error_verdict"]
+            assert ratio["verdict"] and ratio["method"].startswith("Student t")
+            assert set(row["high_error_fraction"]) >= {"baseline", "sr-crowd"}
         assert isinstance(rows[-1]["meets_targets"], bool)
+        assert all(isinstance(t["met"], bool) for row in rows for t in row["targets"])
     report = (shared / "experiment" / name / "report.md").read_text()
-    assert "## sr-crowd against baseline, per crowd" in report
+    assert "## sr-crowd against sr-heuristic and baseline, per crowd" in report
+    assert "Intervals: ratios, Student t on log ratios over seeds" in report
     assert "## Crowd `avoider`" in report and "## Crowd `goal-directed`" in report
 
 
@@ -306,7 +309,8 @@ def test_through_stops_at_a_checkpoint_with_a_complete_report_and_resume_goes_on
     assert len(whole["comparison"]["goal-directed"]) == 2
     at_600 = first["comparison"]["goal-directed"][0]
     assert "meets_targets" in at_600  # the last checkpoint of what was asked
-    assert whole["comparison"]["goal-directed"][0]["error_ratio"] == at_600["error_ratio"]
+    again_at_600 = whole["comparison"]["goal-directed"][0]
+    assert again_at_600["crowd_vs_baseline"] == at_600["crowd_vs_baseline"]
 
 
 def test_a_second_experiment_of_one_name_needs_resume(tmp_path: Path) -> None:

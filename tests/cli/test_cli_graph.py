@@ -117,7 +117,7 @@ def _trace_count(settings: Settings) -> int:
         engine.dispose()
 
 
-def test_the_demo_grows_both_graphs_side_by_side_and_publishes_one_to_play(
+def test_the_demo_grows_three_graphs_side_by_side_and_publishes_one_to_play(
     tmp_path: Path,
 ) -> None:
     out = tmp_path / "report"
@@ -127,7 +127,12 @@ def test_the_demo_grows_both_graphs_side_by_side_and_publishes_one_to_play(
     printed = ok(tmp_path, *args, "--out", str(out), "--result", str(result_json))
     result = json.loads(result_json.read_text())
     played = result["crowds"]["goal-directed"]["results"]
-    assert set(played) == {"baseline", "sr-crowd"}
+    assert set(played) == {"baseline", "sr-heuristic", "sr-crowd"}
+    # sr-crowd / sr-heuristic (what the traces add) beside sr-crowd / baseline, per checkpoint
+    compared = result["comparison"]["goal-directed"]
+    assert [row["checkpoint_frames"] for row in compared] == [300, 900]
+    assert all(row["crowd_vs_heuristic"]["per_seed"] for row in compared)
+    assert "sr-heuristic" in printed
     sizes = [row["size_frames"] for row in played["sr-crowd"]["0"]]
     assert sizes == [300, 900]
     report = (out / "report.md").read_text()

@@ -1,8 +1,9 @@
 """An experiment's stored checkpoints read back: the result dict, its summary and ratios.
 
-The summary compares strategies at the last checkpoint (mean over seeds) and sr-crowd
-with baseline seed by seed, against targets set before any liquid run
-(docs/experiment.md); ``app.reports.experiment`` renders the result.
+The comparison puts sr-crowd against sr-heuristic (the paper's claim: what the traces
+add) and both against baseline, per crowd and checkpoint over seeds, against targets set
+before any liquid run (docs/experiment.md); the summary gives the last checkpoint's
+figures per strategy and the ratios seed by seed. ``app.reports.experiment`` renders it.
 """
 
 from __future__ import annotations
@@ -14,13 +15,15 @@ import numpy as np
 
 from app.config import Settings
 from app.core.comparison import (
-    SessionSample,
-    error_ratio_target,
-    meets_targets,
-    ratio_interval,
+    BASELINE,
+    CROWD,
+    HEURISTIC,
+    CheckpointComparison,
+    Target,
+    compare_checkpoint,
+    targets,
 )
 from app.core.metrics import relative_difference
-from app.core.strategies import Strategy
 from app.db.sessions import transaction
 from app.services.experiment.plan import ExperimentPlan, stored_experiment_id, stored_plan
 from app.services.loading import artifact_store
@@ -33,7 +36,8 @@ UNCOMPARABLE_KEYS = ("grow_seconds", "checkpoint_seconds", "resident_mb", "publi
 #: the high-error fraction is also reported at these multiples of the threshold, fixed
 #: beforehand like the visible-error criterion's own halved and doubled limits
 THRESHOLD_SENSITIVITY = {"half": 0.5, "double": 2.0}
-#: the sr-crowd / baseline ratios of the summary, and the figures they divide
+#: the per-seed ratios of the summary (sr-crowd / sr-heuristic, sr-crowd / baseline), and
+#: the figures they divide
 RATIOS = {
     "error_ratio": "observed_mean_error",
     "high_error_ratio": "high_error_fraction",
@@ -62,9 +66,9 @@ def collect(
 
     ``crowds.<bot>`` holds what that crowd met on every run it played, in the shape of a
     one-crowd experiment (``results.<strategy>.<seed>[i]`` and its ``summary``;
-    ``app.reports.experiment.crowd_view`` adds the plan); ``comparison.<bot>`` is
-    sr-crowd against baseline at every checkpoint, mean over seeds with its interval
-    (:func:`compare_with_baseline`).
+    ``app.reports.experiment.crowd_view`` adds the plan); ``comparison.<bot>[i]`` is
+    sr-crowd against sr-heuristic and both against baseline at checkpoint i, over seeds
+    with intervals, and the targets (:func:`compare_strategies`).
     """
     plan = stored_plan(settings, name)
     if through is not None:
@@ -76,10 +80,10 @@ def collect(
         bot.value: {s.value: {str(seed): [] for seed in plan.seeds} for s in plan.strategies}
         for bot in plan.bots
     }
-    samples: dict[tuple[str, str, str], list[tuple[np.ndarray, np.ndarray, float]]] = {}
+    samples: dict[tuple[str, str, str, int], tuple[np.ndarray, float]] = {}
     artifacts = artifact_store(settings)
     for row in rows:
-        errors, sessions = _step_errors(artifacts, row.arrays)
+        errors = _step_errors(artifacts, row.arrays)
         threshold = float(row.figures["high_error_threshold"])
         derived = {
             f"high_error_fraction_at_{label}_threshold": float(np.mean(errors > factor * threshold))
@@ -93,9 +97,7 @@ def collect(
         crowds[row.bot][row.strategy][str(row.seed)].append(
             {**row.figures, **derived, "arrays": row.arrays}
         )
-        samples.setdefault((row.bot, row.strategy, str(row.seed)), []).append(
-            (errors, sessions, threshold)
-        )
+        samples[(row.bot, row.strategy, str(row.seed), row.checkpoint)] = (errors, threshold)
     complete = all(
         len(by_seed) == len(plan.checkpoints)
         for results in crowds.values()
@@ -110,74 +112,76 @@ def collect(
             bot: {"results": results, "summary": summarise(results) if complete else {}}
             for bot, results in crowds.items()
         },
-        "comparison": compare_with_baseline(plan, samples) if complete else {},
+        "comparison": compare_strategies(plan, samples) if complete else {},
         "seconds": None if seconds is None else round(seconds, 2),
         "through_frames": None if through is None else plan.checkpoints[-1],
     }
 
 
-def _step_errors(artifacts: ArtifactStore, digest: str) -> tuple[np.ndarray, np.ndarray]:
-    """A checkpoint's per-step errors and its sessions' lengths, decoding nothing else;
-    checkpoints stored before the lengths were kept count as one session."""
-    try:
-        arrays = artifacts.get_arrays(digest, ("step_errors", "session_steps"))
-    except KeyError:
-        errors = artifacts.get_arrays(digest, ("step_errors",))["step_errors"]
-        return errors, np.array([errors.size])
-    return arrays["step_errors"], arrays["session_steps"]
+def _step_errors(artifacts: ArtifactStore, digest: str) -> np.ndarray:
+    """A checkpoint's per-step errors, decoding nothing else."""
+    return artifacts.get_arrays(digest, ("step_errors",))["step_errors"]
 
 
-def compare_with_baseline(
-    plan: ExperimentPlan,
-    samples: dict[tuple[str, str, str], list[tuple[np.ndarray, np.ndarray, float]]],
+def compare_strategies(
+    plan: ExperimentPlan, samples: dict[tuple[str, str, str, int], tuple[np.ndarray, float]]
 ) -> dict[str, list[dict[str, Any]]]:
-    """Per crowd and checkpoint, sr-crowd / baseline of the observed error and of the
-    high-error fraction: mean over seeds, 95 % interval, verdict, and at the last
-    checkpoint whether the targets are met; empty without both strategies."""
-    names = {s.value for s in plan.strategies}
-    if not {Strategy.BASELINE.value, Strategy.SR_CROWD.value} <= names:
+    """Per crowd and checkpoint, sr-crowd / sr-heuristic (the headline: what the traces
+    add), sr-crowd / baseline and sr-heuristic / baseline of the mean error per step,
+    each strategy's visibly-wrong share and sr-crowd's minus sr-heuristic's, with their
+    intervals over seeds (:mod:`app.core.comparison`); each row holds the targets judged
+    at its checkpoint, and the last row whether all of them are met.
+
+    ``samples``: one checkpoint's per-step errors and threshold per (crowd, strategy,
+    seed, checkpoint index). A comparison whose arms the plan lacks is left out; empty
+    without two of the three strategies.
+    """
+    planned = {s.value for s in plan.strategies}
+    compared = [s for s in (BASELINE, HEURISTIC, CROWD) if s in planned]
+    if len(compared) < 2:
         return {}
     comparison: dict[str, list[dict[str, Any]]] = {}
     for bot in (b.value for b in plan.bots):
-        rows: list[dict[str, Any]] = []
+        points = []
         for index, frames in enumerate(plan.checkpoints):
-            arms = [
-                [samples[(bot, strategy, str(seed))][index] for seed in plan.seeds]
-                for strategy in (Strategy.SR_CROWD.value, Strategy.BASELINE.value)
-            ]
-            errors, high = (
-                ratio_interval(
-                    *[[SessionSample.of(measure(e, t), n) for e, n, t in arm] for arm in arms]
-                )
-                for measure in (_error, _high_error)
-            )
-            baseline_high = float(np.mean([np.mean(e > t) for e, _, t in arms[1]]))
-            row: dict[str, Any] = {
-                "checkpoint_frames": frames,
-                "error_ratio": errors.to_dict(),
-                "error_verdict": errors.verdict("sr-crowd", "baseline"),
-                "high_error_ratio": high.to_dict(),
-                "high_error_verdict": high.verdict("sr-crowd", "baseline"),
-                "baseline_high_error_fraction": baseline_high,
+            played = {
+                strategy: [samples[(bot, strategy, str(seed), index)] for seed in plan.seeds]
+                for strategy in compared
             }
-            if index == len(plan.checkpoints) - 1:
-                target = error_ratio_target(bot)
-                row["meets_targets"] = meets_targets(errors, high, baseline_high, target)
-            rows.append(row)
+            points.append(
+                compare_checkpoint(
+                    frames,
+                    {s: [float(np.mean(e)) for e, _ in runs] for s, runs in played.items()},
+                    {s: [float(np.mean(e > t)) for e, t in runs] for s, runs in played.items()},
+                )
+            )
+        judged = targets(bot, points) if CROWD in compared else []
+        rows = [_comparison_row(point, judged) for point in points]
+        if judged:
+            rows[-1]["meets_targets"] = all(target.met for target in judged)
         comparison[bot] = rows
     return comparison
 
 
-def _error(errors: np.ndarray, threshold: float) -> np.ndarray:
-    return errors
-
-
-def _high_error(errors: np.ndarray, threshold: float) -> np.ndarray:
-    return (errors > threshold).astype(np.float64)
+def _comparison_row(point: CheckpointComparison, judged: list[Target]) -> dict[str, Any]:
+    row: dict[str, Any] = {"checkpoint_frames": point.frames}
+    for key, first, second, compared in (
+        ("crowd_vs_heuristic", CROWD, HEURISTIC, point.crowd_vs_heuristic),
+        ("crowd_vs_baseline", CROWD, BASELINE, point.crowd_vs_baseline),
+        ("heuristic_vs_baseline", HEURISTIC, BASELINE, point.heuristic_vs_baseline),
+        ("high_error_difference", CROWD, HEURISTIC, point.high_error_difference),
+    ):
+        if compared is not None:
+            row[key] = compared.to_dict(first, second)
+    row["high_error_fraction"] = point.high_error_fraction
+    if judged:
+        row["targets"] = [t.to_dict() for t in judged if t.frames == point.frames]
+    return row
 
 
 def summarise(results: dict[str, dict[str, list[dict[str, Any]]]]) -> dict[str, object]:
-    """Last-checkpoint figures per strategy (mean over seeds) and sr-crowd / baseline ratios."""
+    """Last-checkpoint figures per strategy (mean over seeds) and sr-crowd's ratios to
+    sr-heuristic's and baseline's per seed."""
     last: dict[str, dict[str, float]] = {}
     for strategy, by_seed in results.items():
         finals = [rows[-1] for rows in by_seed.values()]
@@ -203,15 +207,17 @@ def summarise(results: dict[str, dict[str, list[dict[str, Any]]]]) -> dict[str, 
         "last_checkpoint_mean_over_seeds": last,
         "prediction": prediction_summary(results),
     }
-    if "baseline" in results and "sr-crowd" in results:
+    for other in (HEURISTIC, BASELINE):
+        if other not in results or CROWD not in results:
+            continue
         per_seed: list[dict[str, Any]] = []
-        for seed, rows in results["sr-crowd"].items():
-            crowd, base = rows[-1], results["baseline"][seed][-1]
-            ratios = {name: _ratio(crowd[key], base[key]) for name, key in RATIOS.items()}
+        for seed, rows in results[CROWD].items():
+            crowd, versus = rows[-1], results[other][seed][-1]
+            ratios = {name: _ratio(crowd[key], versus[key]) for name, key in RATIOS.items()}
             per_seed.append({"seed": seed, **ratios})
-        # the targets are judged once, on the mean over seeds with its interval
-        # (compare_with_baseline): these are the seeds it averages
-        summary["sr_crowd_vs_baseline"] = {"per_seed": per_seed}
+        # the targets are judged once, on the seeds together with their interval
+        # (compare_strategies): these are the seeds it combines
+        summary[f"sr_crowd_vs_{other.replace('-', '_')}"] = {"per_seed": per_seed}
     return summary
 
 
