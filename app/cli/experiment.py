@@ -33,7 +33,7 @@ def experiment(
     sessions: int | None = typer.Option(None, help="bot sessions per checkpoint (default 30)"),
     player_model: str | None = typer.Option(
         None,
-        help="crowd model sr-crowd learns: eq2 (the paper's), knn or logit "
+        help="crowd model sr-crowd learns: shrunk, knn, eq2 (the paper's) or logit "
         "(default SRG_PLAYER_MODEL)",
     ),
     bots: str | None = typer.Option(
