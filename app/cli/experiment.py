@@ -41,6 +41,16 @@ def experiment(
         help="comma-separated crowds (bots) that play: goal-directed (default), heuristic, "
         "random, hesitant, avoider; each grows its own sr-crowd runs",
     ),
+    pooled: bool = typer.Option(
+        False,
+        "--pooled",
+        help="the crowds play as one: sr-crowd learns from all their traces, one run per seed",
+    ),
+    judges: str | None = typer.Option(
+        None,
+        help="comma-separated bots that play every run at every checkpoint and teach none "
+        "(their traces are not stored); not among --bots",
+    ),
     fixed_graph_sessions: int | None = typer.Option(
         None, help="bot sessions per half of the fixed-graph prediction setting (default 100)"
     ),
@@ -87,12 +97,12 @@ def experiment(
     if jobs is not None and jobs < 1:
         raise InvalidInput(f"--jobs must be positive, got {jobs}")
     options = (dynamics, preset, fluid, strategies, seeds, checkpoints, sessions)
-    model_options = (player_model, bots, fixed_graph_sessions)
+    model_options = (player_model, bots, judges, fixed_graph_sessions)
     name = name or "-".join(x for x in ("experiment", dynamics or "toy", preset, fluid) if x)
     settings = get_settings()
     require_intact(settings)
     if resume:
-        if quick or any(option is not None for option in (*options, *model_options)):
+        if quick or pooled or any(option is not None for option in (*options, *model_options)):
             raise InvalidInput(
                 "--resume runs the stored plan: give only --name, --jobs, --through, --json, "
                 "--result, --out"
@@ -106,6 +116,8 @@ def experiment(
             player_model or settings.growth.player_model,
             bots,
             fixed_graph_sessions,
+            pooled=pooled,
+            judges=judges,
         )
     last = plan.checkpoint_index(through)  # refused before the plan is stored
     if not settings.eager:
@@ -168,6 +180,9 @@ def _experiment_plan(
     player_model: str | None,
     bots: str | None,
     fixed_graph_sessions: int | None,
+    *,
+    pooled: bool = False,
+    judges: str | None = None,
 ) -> ExperimentPlan:
     from app.core.bots import parse_bot
     from app.core.player_models import parse_player_model
@@ -190,6 +205,10 @@ def _experiment_plan(
         changes["player_model"] = parse_player_model(player_model)
     if bots is not None:
         changes["bots"] = tuple(parse_bot(b.strip()) for b in bots.split(","))
+    if judges is not None:
+        changes["judges"] = tuple(parse_bot(b.strip()) for b in judges.split(","))
+    if pooled:
+        changes["pooled"] = True
     if fixed_graph_sessions is not None:
         if fixed_graph_sessions < 1:
             raise InvalidInput(

@@ -333,3 +333,72 @@ def test_prediction_summary_keeps_figures_a_row_lacks_as_none() -> None:
     summary = prediction_summary({"baseline": {"0": [row]}})
     assert summary["grown_graph"]["baseline"]["predicted_mass_unvisited"] == [None]
     assert summary["fixed_graph"] == {}
+
+
+# ---- pooled crowds and judges -------------------------------------------------------------
+def test_pooled_crowds_teach_one_learning_run_per_seed_and_judges_play_every_run() -> None:
+    plan = ExperimentPlan(
+        strategies=(Strategy.SR_CROWD,),
+        seeds=(0, 1),
+        bots=(BotKind.GOAL_DIRECTED, BotKind.HESITANT),
+        pooled=True,
+        judges=(BotKind.AVOIDER,),
+    )
+    both = (BotKind.GOAL_DIRECTED, BotKind.HESITANT)
+    runs = {plan.run_graph("x", run): (run.seeds, run.crowds) for run in plan.runs}
+    assert runs == {
+        "x.sr-heuristic.0": ((0,), both),
+        "x.sr-heuristic.1": ((1,), both),
+        "x.sr-crowd.0": ((0,), both),
+        "x.sr-crowd.1": ((1,), both),
+    }
+    assert plan.players == (*both, BotKind.AVOIDER)
+    assert ExperimentPlan.from_dict(plan.to_dict()) == plan
+
+
+@pytest.mark.parametrize(
+    "changes",
+    [
+        {"judges": (BotKind.GOAL_DIRECTED,)},
+        {"judges": (BotKind.AVOIDER, BotKind.AVOIDER)},
+        {"judges": (BotKind.AVOIDER,), "bots": (BotKind.GOAL_DIRECTED, BotKind.HESITANT)},
+    ],
+)
+def test_judges_are_other_bots_and_judge_one_learning_run_per_seed(
+    changes: dict[str, Any],
+) -> None:
+    with pytest.raises(InvalidInput, match="judges"):
+        ExperimentPlan(**changes)
+
+
+def test_judges_measure_every_run_and_teach_none(
+    monkeypatch: pytest.MonkeyPatch, tmp_path: Path
+) -> None:
+    """The judge's rows are there for every strategy; sr-crowd's graph learns only from
+    its crowd's stored traces, so the judge's play leaves what it grows unchanged."""
+    monkeypatch.setenv("SRG_VAR_DIR", str(tmp_path))
+    monkeypatch.delenv("SRG_DATABASE_URL", raising=False)
+    migrate(get_settings().resolved_database_url)
+    settings = get_settings()
+    common = {
+        "strategies": (Strategy.SR_CROWD,), "seeds": (1,), "checkpoints": (400, 700),
+        "sessions": 4, "mean_steps": 10,
+    }  # fmt: skip
+    judged = ExperimentPlan(**common, judges=(BotKind.AVOIDER,))
+    create_experiment(settings, "judged", judged)
+    create_experiment(settings, "unjudged", ExperimentPlan(**common))
+    results = {
+        name: run_experiment(settings, name, partial(grow_in_process, settings))
+        for name in ("judged", "unjudged")
+    }
+    crowds = results["judged"]["crowds"]
+    assert set(crowds) == {"goal-directed", "avoider"}
+    for strategy in ("sr-heuristic", "sr-crowd"):
+        assert len(crowds["avoider"]["results"][strategy]["1"]) == 2
+    sizes = {
+        name: [row["observed_mean_error"] for row in result["crowds"]["goal-directed"]
+               ["results"]["sr-crowd"]["1"]]
+        for name, result in results.items()
+    }  # fmt: skip
+    assert sizes["judged"] == sizes["unjudged"]
+    assert results["judged"]["comparison"]["avoider"][0]["crowd_vs_heuristic"]["per_seed"]

@@ -15,7 +15,7 @@ import numpy as np
 from sqlalchemy.orm import Session
 
 from app.config import Settings
-from app.core.bots import BotKind
+from app.core.bots import BotKind, play_sessions
 from app.core.metrics import (
     evaluate_checkpoint,
     observed_edge_density,
@@ -92,10 +92,11 @@ def checkpoint_figures(
             bot,
             seed=seed,
             index=index,
-            fixed_graph=strategy is Strategy.BASELINE and last,
+            fixed_graph=strategy is Strategy.BASELINE and last and bot in run.crowds,
+            teaches=bot in run.crowds,
         )
         for seed in run.seeds
-        for bot in run.crowds
+        for bot in (*run.crowds, *plan.judges)
     ]
 
 
@@ -124,22 +125,29 @@ def _crowd_figures(
     seed: int,
     index: int,
     fixed_graph: bool,
+    teaches: bool,
 ) -> tuple[tuple[int, BotKind], dict[str, Any], dict[str, np.ndarray]]:
-    """One seed's bots of one crowd play the publication; their traces are stored and
-    their figures taken."""
+    """One seed's bots of one crowd play the publication and their figures are taken;
+    their traces are stored when they ``teach`` (a judge's are not)."""
     published, publication, loaded = on.published, on.publication, on.loaded
     model, predicted = on.model, on.predicted
-    traces = bots_play(
-        session,
-        published.publication_id,
-        publication,
-        bot,
-        player=BOT_PLAYER,
-        key=f"{published.publication_id}.{seed}.{bot.value}",
-        sessions=plan.sessions,
-        mean_steps=plan.mean_steps,
-        seed=seed * 10_000 + index,
-    )
+    bot_seed = seed * 10_000 + index
+    if teaches:
+        traces = bots_play(
+            session,
+            published.publication_id,
+            publication,
+            bot,
+            player=BOT_PLAYER,
+            key=f"{published.publication_id}.{seed}.{bot.value}",
+            sessions=plan.sessions,
+            mean_steps=plan.mean_steps,
+            seed=bot_seed,
+        )
+    else:
+        traces = play_sessions(
+            publication, bot, sessions=plan.sessions, mean_steps=plan.mean_steps, seed=bot_seed
+        )
     n = publication.n_controls
     report = evaluate_checkpoint(
         traces,

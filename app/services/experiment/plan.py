@@ -96,6 +96,12 @@ class ExperimentPlan:
     #: fixed when the experiment is created (the calibration's, unless set), so that every
     #: checkpoint, resumed or not, counts high-error steps against one threshold
     high_error_threshold: float | None = None
+    #: the crowds play as one: one run per seed of each strategy that learns, taught by
+    #: every crowd's traces (docs/experiment.md, "Judges")
+    pooled: bool = False
+    #: crowds that play every run at every checkpoint and teach none: their traces are
+    #: not stored, so a learned model is judged by players it never saw
+    judges: tuple[BotKind, ...] = ()
     #: whether each seed is a world (its graphs start from ``initial_state(seed)``)
     worlds: bool = True
     #: the seeds models and settings are chosen on (:data:`SELECTION_SEEDS` when made)
@@ -129,6 +135,12 @@ class ExperimentPlan:
             object.__setattr__(self, "strategies", _with_control(self.strategies))
         if not self.bots or len(set(self.bots)) != len(self.bots):
             raise InvalidInput("give one or more distinct bots")
+        if len(set(self.judges)) != len(self.judges) or set(self.judges) & set(self.bots):
+            raise InvalidInput("judges must be distinct bots that are not among the crowds")
+        if self.judges and len(self.bots) > 1 and not self.pooled:
+            raise InvalidInput(
+                "judges play one learning run per seed: give one crowd, or pool the crowds"
+            )
         if min(self.sessions, self.batch_size, self.fixed_graph_sessions) < 1:
             raise InvalidInput("sessions and batch size must be positive")
         if self.mean_steps < 2:
@@ -157,11 +169,18 @@ class ExperimentPlan:
         return cls(dynamics=dynamics, **{"checkpoints": (1_000, 3_000, 6_000), **changes})
 
     @property
+    def players(self) -> tuple[BotKind, ...]:
+        """Everyone whose play is measured: the crowds, then the judges."""
+        return self.bots + self.judges
+
+    @property
     def runs(self) -> list[Run]:
         """Every run is one world seed. A strategy that reads no traces has one run per
         seed, played by that seed's bots of every crowd: its growth reads no traces, so
         a graph per crowd would be the same graph grown again. A strategy that learns
-        from traces has one run per crowd and seed, played by its own crowd.
+        from traces has one run per crowd and seed, played by its own crowd (with
+        ``pooled``, one run per seed, played and taught by every crowd). Judges play
+        every run without teaching any.
 
         A plan stored before world seeds has one run of each trace-blind strategy,
         from the canonical start, played by every seed's bots of every crowd."""
@@ -170,7 +189,9 @@ class ExperimentPlan:
             run
             for strategy in self.strategies
             for run in (
-                [
+                [Run(strategy, (seed,), self.bots, seed) for seed in self.seeds]
+                if strategy.learns_from_traces and self.pooled
+                else [
                     Run(strategy, (seed,), (bot,), seed if world else None)
                     for bot in self.bots
                     for seed in self.seeds
@@ -190,7 +211,7 @@ class ExperimentPlan:
             if not self.worlds:
                 return f"{experiment}.{run.strategy.value}"
             return run_graph_name(experiment, run.strategy, run.seeds[0])
-        crowd = run.crowds[0] if len(self.bots) > 1 else None
+        crowd = run.crowds[0] if len(self.bots) > 1 and not self.pooled else None
         return run_graph_name(experiment, run.strategy, run.seeds[0], crowd)
 
     def to_dict(self) -> dict[str, Any]:
@@ -199,6 +220,7 @@ class ExperimentPlan:
         data["seeds"], data["checkpoints"] = list(self.seeds), list(self.checkpoints)
         data["player_model"] = self.player_model.value
         data["bots"] = [b.value for b in self.bots]
+        data["judges"] = [b.value for b in self.judges]
         data["selection_seeds"] = list(self.selection_seeds)
         return data
 
@@ -215,6 +237,7 @@ class ExperimentPlan:
         bots = data.get("bots", [data["bot"]] if "bot" in data else None)
         if bots is not None:
             values["bots"] = tuple(parse_bot(b) for b in bots)
+        values["judges"] = tuple(parse_bot(b) for b in data.get("judges", ()))
         # plans stored before world seeds resume as they were: one trace-blind graph
         # per strategy, from the canonical start
         values["worlds"] = bool(data.get("worlds", False))

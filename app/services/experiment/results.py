@@ -78,7 +78,7 @@ def collect(
     rows = [row for row in rows if row.checkpoint < len(plan.checkpoints)]
     crowds: dict[str, dict[str, dict[str, list[dict[str, Any]]]]] = {
         bot.value: {s.value: {str(seed): [] for seed in plan.seeds} for s in plan.strategies}
-        for bot in plan.bots
+        for bot in plan.players
     }
     samples: dict[tuple[str, str, str, int], tuple[np.ndarray, float]] = {}
     artifacts = artifact_store(settings)
@@ -141,7 +141,7 @@ def compare_strategies(
     if len(compared) < 2:
         return {}
     comparison: dict[str, list[dict[str, Any]]] = {}
-    for bot in (b.value for b in plan.bots):
+    for bot in (b.value for b in plan.players):
         points = []
         for index, frames in enumerate(plan.checkpoints):
             played = {
