@@ -2,8 +2,8 @@
 
 An experiment measures each figure once per seed at every checkpoint; a plot of the mean
 draws this interval beside it. With a handful of seeds the t interval is the honest one: a
-bootstrap over three values sees ten distinct resamples and comes out too narrow
-(:func:`app.core.comparison.ratio_interval` says the same of its outer level).
+bootstrap over three values sees ten distinct resamples and comes out too narrow, so the
+strategies' ratios take it too, on their logs (:func:`app.core.comparison.ratio_interval`).
 """
 
 from __future__ import annotations
