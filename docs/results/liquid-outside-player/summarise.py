@@ -1,4 +1,4 @@
-"""The table of README.md from the rounds files: per round, each graph's error and
+"""The table of docs/results/history.md from the rounds files: per round, each graph's error and
 sr-crowd / baseline with a paired bootstrap interval over the sessions.
 
     python summarise.py rounds-repeat0.jsonl [rounds-repeat1.jsonl ...]
