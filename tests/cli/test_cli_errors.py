@@ -218,6 +218,25 @@ def test_bad_experiment_names_are_refused_by_the_same_rule(
     one_line_error(srg(tmp_path, "experiment", "--quick", f"--name={name}"), fragment)
 
 
+@pytest.mark.parametrize(
+    ("args", "fragment"),
+    [
+        (["--judges", "nobody"], "unknown bot 'nobody'"),
+        (["--judges", "goal-directed"], "judges must be distinct bots"),
+        (["--judges", "avoider", "--bots", "goal-directed,hesitant"], "pool the crowds"),
+        (["--seeds", "0,10"], "selection seeds"),
+        (["--seeds", "-1"], "non-negative"),
+        (["--player-model", "mystery"], "unknown player model 'mystery'"),
+    ],
+)
+def test_bad_experiment_plans_are_one_line_and_store_nothing(
+    tmp_path: Path, args: list[str], fragment: str
+) -> None:
+    srg(tmp_path, "db", "upgrade")
+    one_line_error(srg(tmp_path, "experiment", "--quick", *args), fragment)
+    assert "experiment" not in srg(tmp_path, "status").stdout
+
+
 # ---- init options ----------------------------------------------------------------------
 @pytest.mark.parametrize(
     ("args", "fragment"),
