@@ -140,10 +140,8 @@ def crowd_player_model(
         raise ValueError(f"vertex_control has {vertex_control.size} entries, expected {n_vertices}")
     if fallback.shape != counts.shape:
         raise ValueError(f"fallback must have shape {counts.shape}, got {fallback.shape}")
-    if np.any(fallback < 0.0) or not np.allclose(fallback.sum(axis=1), 1.0):
-        raise ValueError("fallback rows must be probability distributions (non-negative, sum 1)")
-    if not np.all(np.isfinite(counts)) or np.any(counts < 0.0):
-        raise ValueError("control_counts must be finite and non-negative")
+    check_distributions(fallback, "fallback")
+    check_counts(counts)
     if radius <= 0.0:
         raise ValueError(f"radius must be positive, got {radius}")
     if eps < 0.0:
@@ -245,8 +243,7 @@ def observed_player_model(control_counts: np.ndarray, *, fallback: np.ndarray) -
         raise ValueError(
             f"control_counts {counts.shape} and fallback {fallback.shape} must be one (V, N)"
         )
-    if not np.all(np.isfinite(counts)) or np.any(counts < 0.0):
-        raise ValueError("control_counts must be finite and non-negative")
+    check_counts(counts)
     visits = counts.sum(axis=1)
     visited = visits > 0.0
     model = fallback.copy()
@@ -377,6 +374,18 @@ def robust_session_length(
     else:
         estimate = default
     return float(np.clip(estimate, floor, ceiling))
+
+
+def check_distributions(rows: np.ndarray, what: str) -> None:
+    """Raise ValueError unless every row of ``rows`` is a probability distribution."""
+    if np.any(rows < 0.0) or not np.allclose(rows.sum(axis=1), 1.0):
+        raise ValueError(f"{what} rows must be probability distributions (non-negative, sum 1)")
+
+
+def check_counts(counts: np.ndarray) -> None:
+    """Raise ValueError unless control counts are finite and non-negative."""
+    if not np.all(np.isfinite(counts)) or np.any(counts < 0.0):
+        raise ValueError("control_counts must be finite and non-negative")
 
 
 def _validated_controls(vertex_control: np.ndarray, n_controls: int) -> np.ndarray:

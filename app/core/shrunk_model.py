@@ -25,7 +25,7 @@ from dataclasses import dataclass, field
 
 import numpy as np
 
-from app.core.player_models import Trace, kernel_counts
+from app.core.player_models import Trace, check_counts, check_distributions, kernel_counts
 from app.core.session_folds import FOLDS, LearnedModel, SessionFolds
 
 #: kernel radii tried, in multiples of the dynamics' eq. 2 radius
@@ -69,10 +69,8 @@ def shrunk_player_model(
     counts = np.asarray(control_counts, dtype=np.float64)
     if prior.shape != counts.shape:
         raise ValueError(f"prior {prior.shape} and counts {counts.shape} must be one (V, N)")
-    if np.any(prior < 0.0) or not np.allclose(prior.sum(axis=1), 1.0):
-        raise ValueError("prior rows must be probability distributions (non-negative, sum 1)")
-    if not np.all(np.isfinite(counts)) or np.any(counts < 0.0):
-        raise ValueError("control_counts must be finite and non-negative")
+    check_distributions(prior, "prior")
+    check_counts(counts)
     if radius <= 0.0:
         raise ValueError(f"radius must be positive, got {radius}")
     if prior_weight <= 0.0:
