@@ -48,13 +48,17 @@ VARIANTS = (
 
 
 def eq2_ingredients(settings: Settings, name: str) -> list[dict[str, Any]]:
-    """One row per (crowd, seed, checkpoint, variant) of the experiment's sr-crowd runs."""
+    """One row per (crowd, seed, checkpoint, variant) of the experiment's sr-crowd runs.
+
+    Judges taught no run, so their rows have none; pooled crowds share their seed's run.
+    """
     rows: list[dict[str, Any]] = []
     plan = stored_plan(settings, name)
     graphs = {
-        (run.crowds[0].value, run.seeds[0]): plan.run_graph(name, run)
+        (crowd.value, run.seeds[0]): plan.run_graph(name, run)
         for run in plan.runs
         if run.strategy is Strategy.SR_CROWD
+        for crowd in run.crowds
     }
     with transaction(settings) as session:
         stored = stored_experiment_id(session, name)
@@ -66,7 +70,7 @@ def eq2_ingredients(settings: Settings, name: str) -> list[dict[str, Any]]:
                 if (c.bot, c.seed) == (checkpoint.bot, checkpoint.seed)
                 and c.checkpoint < checkpoint.checkpoint
             ]
-            if not earlier:
+            if not earlier or (checkpoint.bot, checkpoint.seed) not in graphs:
                 continue
             loaded = open_graph(session, settings, graphs[(checkpoint.bot, checkpoint.seed)])
             config = refiner_config(settings, loaded.dynamics)

@@ -20,6 +20,7 @@ from app.core.publication import Publication
 from app.core.strategies import Strategy
 from app.db.engines import dispose_engines
 from app.services import play
+from app.services.crowd_model_ablation import eq2_ingredients
 from app.services.experiment import checkpoint
 from app.services.experiment.plan import (
     SELECTION_SEEDS,
@@ -402,3 +403,6 @@ def test_judges_measure_every_run_and_teach_none(
     }  # fmt: skip
     assert sizes["judged"] == sizes["unjudged"]
     assert results["judged"]["comparison"]["avoider"][0]["crowd_vs_heuristic"]["per_seed"]
+    # the crowd model's ablation reads the crowd's rows and passes over the judge's
+    ablation = eq2_ingredients(settings, "judged")
+    assert ablation and {row["bot"] for row in ablation} == {"goal-directed"}
