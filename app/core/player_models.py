@@ -16,6 +16,7 @@ from scipy.spatial import cKDTree
 
 from app.core.choices import parse_choice
 from app.core.graph import edge_index
+from app.core.model_checks import check_counts, check_distributions
 
 #: One step of a trace: the vertex the player was at and the control they took there.
 Trace = Sequence[tuple[int, int]] | np.ndarray
@@ -374,18 +375,6 @@ def robust_session_length(
     else:
         estimate = default
     return float(np.clip(estimate, floor, ceiling))
-
-
-def check_distributions(rows: np.ndarray, what: str) -> None:
-    """Raise ValueError unless every row of ``rows`` is a probability distribution."""
-    if np.any(rows < 0.0) or not np.allclose(rows.sum(axis=1), 1.0):
-        raise ValueError(f"{what} rows must be probability distributions (non-negative, sum 1)")
-
-
-def check_counts(counts: np.ndarray) -> None:
-    """Raise ValueError unless control counts are finite and non-negative."""
-    if not np.all(np.isfinite(counts)) or np.any(counts < 0.0):
-        raise ValueError("control_counts must be finite and non-negative")
 
 
 def _validated_controls(vertex_control: np.ndarray, n_controls: int) -> np.ndarray:

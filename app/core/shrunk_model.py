@@ -25,7 +25,8 @@ from dataclasses import dataclass, field
 
 import numpy as np
 
-from app.core.player_models import Trace, check_counts, check_distributions, kernel_counts
+from app.core.model_checks import check_counts, check_distributions
+from app.core.player_models import Trace, kernel_counts
 from app.core.session_folds import FOLDS, LearnedModel, SessionFolds
 
 #: kernel radii tried, in multiples of the dynamics' eq. 2 radius
