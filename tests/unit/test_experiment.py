@@ -278,6 +278,9 @@ def test_a_plan_mixing_selection_and_evaluation_seeds_is_refused_in_one_line() -
 def test_seeds_are_worlds_and_not_negative() -> None:
     with pytest.raises(InvalidInput, match="non-negative: got -1"):
         ExperimentPlan(seeds=(0, -1))
+    # past the graphs' integer column: refused with the plan, before anything is stored
+    with pytest.raises(InvalidInput, match="non-negative: got 2147483648"):
+        ExperimentPlan(seeds=(2**31,))
 
 
 @pytest.mark.parametrize("bots", [(), (BotKind.AVOIDER, BotKind.AVOIDER)])

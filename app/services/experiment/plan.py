@@ -28,6 +28,7 @@ from app.core.player_models import PlayerModelKind, parse_player_model
 from app.core.strategies import Strategy, parse_strategy
 from app.db.sessions import transaction
 from app.liquid.devices import LiquidDevices
+from app.services.creation import MAX_WORLD
 from app.services.dynamics import (
     DYNAMICS_NAMES,
     UnknownDynamics,
@@ -150,11 +151,13 @@ class ExperimentPlan:
         _check_checkpoints(self.checkpoints)
 
     def _check_world_seeds(self) -> None:
-        """Seeds are worlds (``default_rng`` takes no negative one), all selection seeds
-        or none of them."""
-        negative = [s for s in self.seeds if s < 0]
-        if negative:
-            raise InvalidInput(f"seeds are worlds, non-negative: got {_listed(negative)}")
+        """Seeds are worlds (:data:`~app.services.creation.MAX_WORLD`, as the graphs
+        store them), all selection seeds or none of them."""
+        outside = [s for s in self.seeds if not 0 <= s <= MAX_WORLD]
+        if outside:
+            raise InvalidInput(
+                f"seeds are worlds, at most {MAX_WORLD} and non-negative: got {_listed(outside)}"
+            )
         chosen = [s for s in self.seeds if s in self.selection_seeds]
         if chosen and len(chosen) < len(self.seeds):
             others = [s for s in self.seeds if s not in self.selection_seeds]
@@ -184,24 +187,19 @@ class ExperimentPlan:
 
         A plan stored before world seeds has one run of each trace-blind strategy,
         from the canonical start, played by every seed's bots of every crowd."""
-        world = self.worlds
-        return [
-            run
-            for strategy in self.strategies
-            for run in (
-                [Run(strategy, (seed,), self.bots, seed) for seed in self.seeds]
-                if strategy.learns_from_traces and self.pooled
-                else [
-                    Run(strategy, (seed,), (bot,), seed if world else None)
-                    for bot in self.bots
-                    for seed in self.seeds
-                ]
-                if strategy.learns_from_traces
-                else [Run(strategy, (seed,), self.bots, seed) for seed in self.seeds]
-                if world
-                else [Run(strategy, self.seeds, self.bots)]
-            )
-        ]
+        return [run for strategy in self.strategies for run in self._runs_of(strategy)]
+
+    def _runs_of(self, strategy: Strategy) -> list[Run]:
+        if not (self.worlds or strategy.learns_from_traces):
+            return [Run(strategy, self.seeds, self.bots)]
+        world = {seed: seed if self.worlds else None for seed in self.seeds}
+        if strategy.learns_from_traces and not self.pooled:
+            return [
+                Run(strategy, (seed,), (bot,), world[seed])
+                for bot in self.bots
+                for seed in self.seeds
+            ]
+        return [Run(strategy, (seed,), self.bots, world[seed]) for seed in self.seeds]
 
     def run_graph(self, experiment: str, run: Run) -> str:
         """The stored graph of ``run``: ``EXPERIMENT.STRATEGY.SEED``, with the crowd's
