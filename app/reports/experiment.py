@@ -13,7 +13,10 @@ import numpy as np
 
 from app.core.comparison import (
     AIMLESS_CROWDS,
+    BASELINE,
+    CROWD,
     ERROR_RATIO_TARGET,
+    HEURISTIC,
     HIGH_ERROR_FLOOR,
     HIGH_ERROR_RATIO_TARGET,
     NO_DIP_FROM_FRAMES,
@@ -261,7 +264,7 @@ RATIO_LABELS = {
 }
 RATIO_KEYS = tuple(RATIO_LABELS)
 #: the strategies whose visibly-wrong shares the report shows, in order
-SHARED = ("baseline", "sr-heuristic", "sr-crowd")
+SHARED = (BASELINE, HEURISTIC, CROWD)
 
 
 def _interval_cell(compared: dict[str, Any] | None, digits: int = 2) -> str:

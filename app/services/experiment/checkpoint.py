@@ -189,7 +189,6 @@ def _crowd_figures(
         )
     arrays = {
         "step_errors": observed_step_errors(traces, publication.edge_err, n),
-        "session_steps": np.array([len(trace) for trace in traces], dtype=np.int64),
         "predicted_density": predicted,
         "observed_density": observed_edge_density(traces, publication.edge_err.size, n),
         "edge_dst": publication.edge_dst,
