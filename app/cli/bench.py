@@ -160,15 +160,27 @@ def sph(
     splishsplash: bool = typer.Option(
         True, "--splishsplash/--no-splishsplash", help="also time SPlisHSPlasH's PCISPH"
     ),
+    profile: bool = typer.Option(
+        False,
+        "--profile",
+        help="instead: device time per kernel and the host's gaps, per substep, "
+        "from a profiling queue (the tank tilted, after a 1 s settle)",
+    ),
 ) -> None:
     """Particle-substeps per second of the PCISPH kernels (converged and at 3 iterations)."""
     check_liquid_preset(preset)
     check_fluid(fluid)
     _positive("--steps", steps)
-    from app.bench.sph import bench_sph
     from app.config import get_settings
 
     device = get_settings().runtime.opencl_device
+    if profile:
+        from app.bench.sph_profile import profile_sph
+
+        emit(profile_sph(preset, fluid, steps, device), as_json=True)
+        return
+    from app.bench.sph import bench_sph
+
     result = bench_sph(preset, steps, fluid=fluid, device=device, compare_splishsplash=splishsplash)
     emit(result, as_json=True)
 

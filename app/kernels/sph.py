@@ -54,12 +54,20 @@ class SphSimulator:
     device : str
         Substring of the OpenCL device's name; ``''`` prefers PoCL's CPU device
         (:func:`app.kernels.context.select_device`).
+    profile : bool
+        Timestamp every kernel launch (``SphKernels.launches``; ``srg bench sph --profile``).
     """
 
-    def __init__(self, scene: Scene, fixed_iterations: int | None = None, device: str = "") -> None:
+    def __init__(
+        self,
+        scene: Scene,
+        fixed_iterations: int | None = None,
+        device: str = "",
+        profile: bool = False,
+    ) -> None:
         self.scene = scene
         self.n = len(initial_particles(scene))
-        self.kernels = SphKernels(scene, self.n, device=device)
+        self.kernels = SphKernels(scene, self.n, device=device, profile=profile)
         self.fixed_iterations = fixed_iterations
         self.stats = SolverStats()
         self._errors = np.zeros(max(scene.max_iterations, 1), dtype=np.float32)

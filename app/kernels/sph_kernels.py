@@ -92,10 +92,18 @@ class SphKernels:
         n_particles: int,
         build_options: tuple[str, ...] = (),
         device: str = "",
+        profile: bool = False,
     ) -> None:
         rt = runtime(device)
         self.scene, self.n = scene, n_particles
+        #: with ``profile``, a queue of its own that timestamps commands, and every
+        #: kernel launch kept with its name (``app.bench.sph_profile`` reads them)
+        self.launches: list[tuple[str, cl.Event]] | None = None
         self.queue = rt.queue
+        if profile:
+            props = cl.command_queue_properties.PROFILING_ENABLE
+            self.queue = cl.CommandQueue(rt.context, properties=props)
+            self.launches = []
         self.program = rt.program("sph.cl", build_options)
         self.kernels = {k.function_name: k for k in self.program.all_kernels()}
         self._bound: dict[str, list[Any]] = {}
@@ -168,7 +176,9 @@ class SphKernels:
             if bound[index] is not arg:
                 kernel.set_arg(index, arg)
                 bound[index] = arg
-        cl.enqueue_nd_range_kernel(self.queue, kernel, (size,), _work_group(size))
+        event = cl.enqueue_nd_range_kernel(self.queue, kernel, (size,), _work_group(size))
+        if self.launches is not None:
+            self.launches.append((name, event))
 
     def _i32(self, v: int) -> np.int32:
         """The same argument object for the same value (see :meth:`_run`)."""

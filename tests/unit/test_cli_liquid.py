@@ -223,6 +223,22 @@ def test_bench_sph_tiny_reports_positive_throughput(cli: typer.Typer) -> None:
         assert report[key]["substeps"] > 0
 
 
+def test_bench_sph_profile_accounts_for_every_kernel_of_a_substep(cli: typer.Typer) -> None:
+    args = ["bench", "sph", "--preset", "tiny", "--steps", "24", "--profile"]
+    result = CliRunner().invoke(cli, args)
+    assert result.exit_code == 0, result.output
+    report = json.loads(result.output)
+    assert report["substeps"] == 24 and report["particles"] == 1920
+    kernels = report["kernels"]
+    # the once-a-substep stages run once, the pressure loop once per iteration at least
+    for name in ("count_cells", "scan_cells", "find_neighbours", "nonpressure_accel"):
+        assert kernels[name]["launches_per_substep"] == 1.0
+    assert kernels["density_pressure"]["launches_per_substep"] >= report["mean_iterations"]
+    assert sum(k["share"] for k in kernels.values()) == pytest.approx(1.0)
+    assert 0 < report["device_ms_per_substep"] <= report["span_ms_per_substep"]
+    assert 0.0 <= report["gap_share"] < 1.0
+
+
 def test_bench_clip_tiny_reports_the_rendered_clips_dark_pixels(cli: typer.Typer) -> None:
     args = ["bench", "clip", "--preset", "tiny", "--settle", "0.2", "--frames", "3"]
     result = CliRunner().invoke(cli, args)
