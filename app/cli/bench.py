@@ -9,6 +9,7 @@ from __future__ import annotations
 
 from dataclasses import asdict
 from pathlib import Path
+from typing import Any
 
 import typer
 
@@ -23,6 +24,14 @@ from app.services.dynamics import (
 )
 
 app = typer.Typer(help="Benchmarks; each prints JSON.", no_args_is_help=True)
+
+
+def _emit(result: Any) -> None:
+    """A benchmark's JSON on stdout, led by where and how it was measured."""
+    from app.config import get_settings
+    from app.reports.provenance import with_provenance
+
+    emit(with_provenance(result, get_settings()), as_json=True)
 
 
 def _positive(option: str, value: int) -> int:
@@ -54,7 +63,7 @@ def rank(
 
     if edges < controls * 10:
         raise InvalidInput(f"--edges must be at least {controls * 10}")
-    emit(bench_rank(n_edges=edges, n_controls=controls, seed=seed), as_json=True)
+    _emit(bench_rank(n_edges=edges, n_controls=controls, seed=seed))
 
 
 @app.command(
@@ -71,7 +80,7 @@ def experiment(ctx: typer.Context) -> None:
     refused = ("--json", "--result", "--resume", "--name", "--out")
     if any(arg in refused for arg in ctx.args):
         raise InvalidInput("the benchmark runs a fresh experiment: leave out " + ", ".join(refused))
-    emit(bench_experiment(list(ctx.args)), as_json=True)
+    _emit(bench_experiment(list(ctx.args)))
 
 
 @app.command("grow")
@@ -115,7 +124,7 @@ def grow(
         raise InvalidInput(
             f"--frames must be at least {smallest} (the initial tree), got {min(frame_sizes)}"
         )
-    emit(
+    _emit(
         bench_grow(
             settings=settings,
             dynamics=dynamics,
@@ -126,8 +135,7 @@ def grow(
             sizes=edge_sizes,
             frames=frame_sizes,
             integration_only=integration_only,
-        ),
-        as_json=True,
+        )
     )
 
 
@@ -147,7 +155,7 @@ def ingest(
     result = bench_ingest(
         clients=clients, uploads=uploads, mean_steps=mean_steps, database_url=database_url
     )
-    emit(result, as_json=True)
+    _emit(result)
     if not result["ok"]:
         raise typer.Exit(1)
 
@@ -177,12 +185,12 @@ def sph(
     if profile:
         from app.bench.sph_profile import profile_sph
 
-        emit(profile_sph(preset, fluid, steps, device), as_json=True)
+        _emit(profile_sph(preset, fluid, steps, device))
         return
     from app.bench.sph import bench_sph
 
     result = bench_sph(preset, steps, fluid=fluid, device=device, compare_splishsplash=splishsplash)
-    emit(result, as_json=True)
+    _emit(result)
 
 
 @app.command("clip")
@@ -206,7 +214,7 @@ def clip(
     from app.liquid.devices import LiquidDevices
 
     devices = LiquidDevices.from_settings(get_settings())
-    emit(bench_clip(preset, fluid, devices=devices, settle=settle, frames=frames), as_json=True)
+    _emit(bench_clip(preset, fluid, devices=devices, settle=settle, frames=frames))
 
 
 @app.command("store")
@@ -230,7 +238,7 @@ def store(
     )
     result["save_edges_per_s"] = result["n_edges"] / max(result["save_seconds"], 1e-12)
     result["load_edges_per_s"] = result["n_edges"] / max(result["load_seconds"], 1e-12)
-    emit(result, as_json=True)
+    _emit(result)
 
 
 @app.command("bytes")
@@ -239,7 +247,7 @@ def stored_bytes(name: str = typer.Argument(..., help="a stored graph")) -> None
     from app.bench.footprint import bench_bytes
     from app.config import get_settings
 
-    emit(bench_bytes(get_settings(), name), as_json=True)
+    _emit(bench_bytes(get_settings(), name))
 
 
 @app.command("look")
@@ -248,7 +256,7 @@ def look(name: str = typer.Argument(..., help="a stored graph with rendered clip
     from app.bench.look import bench_look
     from app.config import get_settings
 
-    emit(bench_look(get_settings(), name), as_json=True)
+    _emit(bench_look(get_settings(), name))
 
 
 @app.command("dedup")
@@ -272,7 +280,7 @@ def dedup(
         raise InvalidInput(message) from None
     if not all(0.0 < v <= 1.0 for v in values):
         raise InvalidInput(message)
-    emit(bench_dedup(get_settings(), name, values, sheet), as_json=True)
+    _emit(bench_dedup(get_settings(), name, values, sheet))
 
 
 @app.command("writer")
@@ -310,4 +318,4 @@ def writer(
             liquid_seconds=liquid_seconds,
             progress=advance,
         )
-    emit(result, as_json=True)
+    _emit(result)

@@ -40,6 +40,7 @@ def demo(
     from app.core.player_models import parse_player_model
     from app.db.engines import require_intact
     from app.liquid.devices import LiquidDevices
+    from app.reports.provenance import with_provenance
     from app.services.demo import (
         DEMO_STRATEGIES,
         demo_plan,
@@ -74,6 +75,7 @@ def demo(
         result = run_demo(
             settings, name, plan, partial(grow_in_process, settings), jobs=jobs, progress=advance
         )
+    result = with_provenance(result, settings)
     with progress_bar(unrendered_edges(settings, name, plan), "animations rendered") as rendered:
         graph, published = publish_playable(settings, name, plan, rendered)
     rows = demo_rows(result)

@@ -89,6 +89,7 @@ def experiment(
     from app.core.strategies import Strategy
     from app.db.engines import require_intact
     from app.reports.experiment import RATIO_LABELS, interval_text, write_report
+    from app.reports.provenance import with_provenance
     from app.services.crowd_model_ablation import eq2_ingredients
     from app.services.experiment.plan import create_experiment, stored_plan
     from app.services.experiment.runs import Grower, grow_in_process, run_experiment
@@ -139,6 +140,7 @@ def experiment(
     with progress_bar(total, f"{name}: frames grown") as advance:
         stop = None if through is None else last
         result = run_experiment(settings, name, grower, jobs=jobs, progress=advance, through=stop)
+    result = with_provenance(result, settings)
     crowd = Strategy.SR_CROWD in plan.strategies and result["complete"]
     report = write_report(
         result,

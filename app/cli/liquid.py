@@ -57,9 +57,13 @@ def validate(
     check_fluid(fluid)
     from app.config import get_settings
     from app.liquid import validation
+    from app.reports.provenance import with_provenance
 
+    settings = get_settings()
     typer.echo(f"validating tilt-tank/{preset} with the {fluid} fluid (minutes) ...", err=True)
-    report = validation.validate(preset, fluid, device=get_settings().runtime.opencl_device)
+    report = with_provenance(
+        validation.validate(preset, fluid, device=settings.runtime.opencl_device), settings
+    )
     if result_path is not None:
         write_result(result_path, report)
     if json_output:
@@ -103,8 +107,10 @@ def calibrate(
 
     from app.config import get_settings
     from app.liquid.devices import LiquidDevices
+    from app.reports.provenance import with_provenance
 
-    devices = LiquidDevices.from_settings(get_settings())
+    settings = get_settings()
+    devices = LiquidDevices.from_settings(settings)
 
     def progress(message: str) -> None:
         typer.echo(message, err=True)
@@ -115,7 +121,7 @@ def calibrate(
         typer.echo(f"threshold of tilt-tank/{preset}, {fluid} fluid (minutes) ...", err=True)
         stored, study = calibrate_threshold(preset, fluid, progress, devices=devices)
         if records:
-            write_result(records, {**stored, "blends": study.records()})
+            write_result(records, with_provenance({**stored, "blends": study.records()}, settings))
         if figures:
             from app.reports.threshold import write_threshold_figures
 

@@ -104,6 +104,16 @@ def select_device(name_contains: str) -> cl.Device:
     )
 
 
+def describe_device(name_contains: str) -> str:
+    """The device :func:`select_device` picks, with its platform's version, or why none:
+    what a result's provenance names (``app.reports.provenance``)."""
+    try:
+        device = select_device(name_contains)
+    except (Unavailable, cl.Error) as error:
+        return f"none ({error})"
+    return f"{device.name} ({device.platform.version.strip()})"
+
+
 def runtime(device_name: str = "") -> ClRuntime:
     """This process's runtime on ``device_name``, created on first call (and after a fork).
 

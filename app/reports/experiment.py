@@ -32,6 +32,7 @@ from app.reports.figures import (
     plot_metric,
 )
 from app.reports.prediction import ingredients_section, settings_section
+from app.reports.provenance import Provenance
 
 
 def markdown(
@@ -317,14 +318,20 @@ def write_report(
     load_arrays: ArraysLoader,
     ingredients: list[dict[str, Any]] | None = None,
 ) -> Path:
-    """``report.md`` into ``out_dir``: sr-crowd against sr-heuristic and baseline per crowd
-    with intervals and targets, then one section per crowd with its PNG plots (in
-    ``out_dir/<crowd>/``); returns the markdown path.
+    """``report.md`` into ``out_dir``: where it came from (``result["provenance"]``),
+    sr-crowd against sr-heuristic and baseline per crowd with intervals and targets, then
+    one section per crowd with its PNG plots (in ``out_dir/<crowd>/``); returns the
+    markdown path.
 
     ``ingredients``: rows of :func:`app.services.crowd_model_ablation.eq2_ingredients`, if wanted.
     """
     out_dir.mkdir(parents=True, exist_ok=True)
-    sections = [f"# Self-refining experiment `{result['name']}`", *comparison_section(result)]
+    sections = [
+        f"# Self-refining experiment `{result['name']}`",
+        "",
+        Provenance(**result["provenance"]).markdown(),
+        *comparison_section(result),
+    ]
     for bot in result["crowds"]:
         view = crowd_view(result, bot)
         pages = out_dir / bot
