@@ -6,17 +6,31 @@ Each group (growth, render, runtime, api) reads its own fields, each from one fl
 default so that a fresh checkout runs with no configuration at all: a SQLite file under
 ``./var``, artifacts under ``./var/data``, no broker (Celery then runs tasks eagerly,
 in-process) and PoCL on the CPU.
+
+Every value is checked where it is read, so a command or a server refuses a bad one in
+one line before it starts work: each number has both bounds, each choice its known
+values, each URL a scheme srg can use.
 """
 
 from __future__ import annotations
 
+import re
 from pathlib import Path
-from typing import Any
+from typing import Any, Literal
+from urllib.parse import urlsplit
 
-from pydantic import AliasChoices, Field, ValidationError, field_validator, model_validator
+from pydantic import (
+    AliasChoices,
+    Field,
+    ValidationError,
+    ValidationInfo,
+    field_validator,
+    model_validator,
+)
 from pydantic_core import ErrorDetails, InitErrorDetails
 from pydantic_settings import BaseSettings, SettingsConfigDict
 
+from app.core.errors import InvalidInput
 from app.core.player_models import PlayerModelKind
 
 _SOURCES = SettingsConfigDict(
@@ -27,6 +41,22 @@ _SOURCES = SettingsConfigDict(
     populate_by_name=True,
 )
 
+MINUTE, DAY = 60, 24 * 3600
+#: bodies and per-process caches: far above any sane value, far below a machine's memory
+GIB, MIB_PER_TIB = 1 << 30, 1 << 20
+#: the databases srg runs on, each as SQLAlchemy names it with its driver (psycopg 3 is
+#: SQLAlchemy's default driver of ``postgresql://``)
+POSTGRESQL_SCHEMES = frozenset(["postgresql", "postgresql+psycopg"])
+DATABASE_SCHEMES = POSTGRESQL_SCHEMES | {"sqlite", "sqlite+pysqlite"}
+REDIS_SCHEMES = frozenset(["redis", "rediss", "unix"])
+#: one limit of the ``limits`` notation (its parser's grammar) with a count of at least 1
+#: and the optional multiple of the period at least 1: "0/minute" would refuse everyone
+_RATE = re.compile(
+    r"\s*0*[1-9][0-9]*\s*(?:/|\s*per\s*)\s*(?:0*[1-9][0-9]*\s*)?"
+    r"(?:second|minute|hour|day|month|year)s?\s*",
+    re.IGNORECASE,
+)
+
 
 class GrowthSettings(BaseSettings):
     """How a graph grows: what an epoch expands and how STATERANK and the crowd model
@@ -34,20 +64,24 @@ class GrowthSettings(BaseSettings):
 
     model_config = _SOURCES
 
-    batch_size: int = Field(4, ge=1, description="blend edges expanded per growth epoch")
-    prefilter_k: int = Field(100, ge=1, description="energy pre-filter size for best-target search")
-    restart_steps: float = Field(90.0, ge=1.0, description="default mean session length L (steps)")
+    batch_size: int = Field(4, ge=1, le=1_000, description="blend edges expanded per growth epoch")
+    prefilter_k: int = Field(
+        100, ge=1, le=100_000, description="energy pre-filter size for best-target search"
+    )
+    restart_steps: float = Field(
+        90.0, ge=1.0, le=1e6, description="default mean session length L (steps)"
+    )
     max_session_steps: float = Field(
-        900.0, ge=2.0, description="ceiling of the session length L STATERANK restarts with"
+        900.0, ge=2.0, le=1e6, description="ceiling of the session length L STATERANK restarts with"
     )
     alpha: float = Field(
         0.8, ge=0.0, le=1.0, description="heuristic player model: keep-control probability"
     )
     crowd_radius: float = Field(
-        0.0, ge=0.0, description="crowd model kernel radius r (0: per dynamics)"
+        0.0, ge=0.0, le=1e6, description="crowd model kernel radius r (0: per dynamics)"
     )
     crowd_eps: float = Field(1e-3, gt=0.0, le=1.0, description="crowd model prior weight epsilon")
-    high_error_threshold: float = Field(0.0, ge=0.0, description="0: per dynamics default")
+    high_error_threshold: float = Field(0.0, ge=0.0, le=1e6, description="0: per dynamics default")
     player_model: PlayerModelKind = Field(
         PlayerModelKind.SHRUNK,
         description="crowd model of new sr-crowd graphs: shrunk (default: docs/player-models.md), "
@@ -71,11 +105,14 @@ class RenderSettings(BaseSettings):
     dedup_error_fraction: float = Field(
         0.1,
         ge=0.0,
+        le=1.0,
         description="a clip shows a nearly identical rendered clip's animation when the "
         "substitution error is at most this fraction of the high-error threshold; 0: never",
     )
-    render_variant: str = Field(
-        "auto", description="Mitsuba variant: auto (LLVM when a working libLLVM is found)"
+    render_variant: Literal["auto", "scalar_rgb", "llvm_ad_rgb"] = Field(
+        "auto",
+        description="Mitsuba variant: auto (llvm_ad_rgb when a working libLLVM is found, "
+        "else scalar_rgb)",
     )
     llvm_path: str = Field(
         "",
@@ -90,47 +127,75 @@ class RuntimeSettings(BaseSettings):
     model_config = _SOURCES
 
     opencl_device: str = Field("", description="substring of the OpenCL device name; '' = PoCL CPU")
-    task_soft_time_limit: int = Field(600, ge=1)
-    task_time_limit: int = Field(900, ge=1)
-    task_max_retries: int = Field(
-        3, ge=0, description="retries of a task that waits, and redeliveries of a lost one, at most"
+    task_time_limit: int = Field(900, ge=1, le=7 * DAY, description="seconds a task runs at most")
+    task_soft_time_limit: int = Field(
+        600,
+        ge=1,
+        le=7 * DAY,
+        description="seconds after which a task is asked to stop (below task_time_limit)",
     )
-    beat_interval: float = Field(30.0, gt=0.0, description="seconds between beat's growth ticks")
+    task_max_retries: int = Field(
+        3,
+        ge=0,
+        le=100,
+        description="retries of a task that waits, and redeliveries of a lost one, at most",
+    )
+    beat_interval: float = Field(
+        30.0, gt=0.0, le=DAY, description="seconds between beat's growth ticks"
+    )
     publish_every: int = Field(
         600,
         ge=0,
+        le=1_000_000_000,
         description="simulated frames a growing graph grows between the publications beat "
         "makes of it (one at once when it has none); 0: beat never publishes",
     )
     epoch_check_interval: float = Field(
         10.0,
         gt=0,
+        le=3600,
         description="seconds between the workers' looks at every running epoch's missing "
         "work; work that no live worker or queue holds on two looks in a row is re-sent",
     )
     epoch_resend_after: float = Field(
         1800.0,
         gt=0,
+        le=7 * DAY,
         description="seconds without progress after which a running epoch is re-sent, "
         "alive or not (the backstop)",
     )
     artifact_gc_interval: float = Field(
-        24 * 3600.0, ge=0, description="seconds between beat's `srg gc` runs; 0: never"
+        float(DAY), ge=0, le=365 * DAY, description="seconds between beat's `srg gc` runs; 0: never"
     )
     artifact_gc_grace: float = Field(
-        3600.0, ge=0, description="orphaned artifacts younger than this (s) are kept by gc"
+        3600.0,
+        ge=0,
+        le=365 * DAY,
+        description="orphaned artifacts younger than this (s) are kept by gc",
     )
     occupancy_cache_ttl: int = Field(
-        7 * 24 * 3600, ge=1, description="Redis occupancy cache TTL (s)"
+        7 * DAY, ge=1, le=365 * DAY, description="Redis occupancy cache TTL (s)"
     )
     clip_cache_mb: int = Field(
-        256, ge=1, description="per-process memory for cached occupancy grids of a loaded graph"
+        256,
+        ge=1,
+        le=MIB_PER_TIB,
+        description="per-process memory (MB) for cached occupancy grids of a loaded graph",
     )
     flower_basic_auth: str = Field(
         "",
         description="`srg flower`'s HTTP basic auth, user:password[,user:password...]; '': "
         "none (Flower's own /api then answers only with FLOWER_UNAUTHENTICATED_API set)",
     )
+
+    @field_validator("task_soft_time_limit")
+    @classmethod
+    def _soft_before_hard(cls, value: int, info: ValidationInfo) -> int:
+        """A soft limit at or past the hard one never fires: the task is killed unwarned."""
+        hard = info.data.get("task_time_limit")
+        if hard is not None and value >= hard:
+            raise ValueError(f"must be below SRG_TASK_TIME_LIMIT ({hard} s), got {value} s")
+        return value
 
     @field_validator("flower_basic_auth")
     @classmethod
@@ -163,13 +228,16 @@ class ApiSettings(BaseSettings):
     admin_token: str = Field(
         "", description="bearer token of the admin routes; '' (no default secret): routes off"
     )
-    max_trace_bytes: int = Field(1_000_000, ge=1)
+    max_trace_bytes: int = Field(1_000_000, ge=1, le=GIB)
     max_trace_steps: int = Field(
-        2_000, ge=1, description="steps per uploaded trace (the web client sends <= 1,800)"
+        2_000,
+        ge=1,
+        le=1_000_000,
+        description="steps per uploaded trace (the web client sends <= 1,800)",
     )
-    uploads_per_minute: int = Field(60, ge=1)
+    uploads_per_minute: int = Field(60, ge=1, le=1_000_000)
     max_body_bytes: int = Field(
-        16_384, ge=1, description="bodies of every request but trace uploads (413 beyond)"
+        16_384, ge=1, le=GIB, description="bodies of every request but trace uploads (413 beyond)"
     )
     address_upload_rate: str = Field(
         "600/minute",
@@ -190,8 +258,35 @@ class ApiSettings(BaseSettings):
         "X-Forwarded-For is honoured; '': none, the peer address is the client's",
     )
     cors_origins: str = Field(
-        "", description="comma-separated origins allowed by CORS ('*': any); '': CORS off"
+        "",
+        description="comma-separated origins allowed by CORS, each http(s)://host[:port] "
+        "('*': any); '': CORS off",
     )
+
+    @field_validator("address_upload_rate", "registration_rate")
+    @classmethod
+    def _rate(cls, value: str) -> str:
+        """The ``limits`` notation, every count at least 1: ``limits`` itself takes
+        "0/minute", a limit that refuses every request."""
+        if not all(_RATE.fullmatch(part) for part in re.split(r"[,;|]", value)):
+            raise ValueError(
+                "each limit must be COUNT/PERIOD with a count of at least 1 and a period of "
+                "second, minute, hour, day, month or year ('600/minute', '10/second;600/minute')"
+            )
+        return value
+
+    @field_validator("cors_origins")
+    @classmethod
+    def _origins(cls, value: str) -> str:
+        """A browser's ``Origin`` is scheme://host[:port] and is matched as a string: an
+        entry with a path, a user or another scheme (``javascript:``) never matches one."""
+        origins = [origin.strip() for origin in value.split(",") if origin.strip()]
+        for origin in origins:
+            if origin != "*" and not _is_web_origin(origin):
+                raise ValueError(
+                    "each origin must be http(s)://host[:port] with nothing after it, or '*'"
+                )
+        return ",".join(origins)
 
     @property
     def admin_routes_on(self) -> bool:
@@ -218,11 +313,13 @@ class Settings(BaseSettings):
     model_config = _SOURCES
 
     var_dir: Path = Path("var")
-    database_url: str = ""
+    database_url: str = Field(
+        "", description="postgresql+psycopg://... or sqlite:///...; '': SQLite under var_dir"
+    )
     artifact_dir: Path | None = None
     broker_url: str = ""
     result_backend: str = ""
-    redis_url: str = ""
+    redis_url: str = Field("", description="redis://, rediss:// or unix://; '': none")
     scratch_postgres_url: str = Field(
         "postgresql+psycopg://postgres@127.0.0.1:5432/srg_scratch",
         description="PostgreSQL server where `srg bench grow` and `srg bench writer` create "
@@ -233,6 +330,41 @@ class Settings(BaseSettings):
     render: RenderSettings = Field(default_factory=RenderSettings)
     runtime: RuntimeSettings = Field(default_factory=RuntimeSettings)
     api: ApiSettings = Field(default_factory=ApiSettings)
+
+    def __init__(self, **values: Any) -> None:
+        """Read as pydantic-settings reads, but a ``.env`` that is not UTF-8 text is the
+        operator's to fix, not a bug: an :class:`InvalidInput` naming the file."""
+        try:
+            super().__init__(**values)
+        except UnicodeDecodeError as exc:
+            raise InvalidInput(
+                f"the settings file {_SOURCES['env_file']} is not UTF-8 text "
+                f"(byte {exc.start + 1}): save it as UTF-8"
+            ) from None
+
+    @field_validator("database_url")
+    @classmethod
+    def _database(cls, value: str) -> str:
+        """A database srg runs on, refused here rather than by a missing driver's
+        traceback (``mysql://`` names a dialect SQLAlchemy knows, without its driver).
+        The message never repeats the URL: it may hold a password."""
+        if value and _scheme(value) not in DATABASE_SCHEMES:
+            raise ValueError(_SCHEME_MESSAGE.format(schemes=_listed(DATABASE_SCHEMES)))
+        return value
+
+    @field_validator("scratch_postgres_url")
+    @classmethod
+    def _postgresql(cls, value: str) -> str:
+        if _scheme(value) not in POSTGRESQL_SCHEMES:
+            raise ValueError(_SCHEME_MESSAGE.format(schemes=_listed(POSTGRESQL_SCHEMES)))
+        return value
+
+    @field_validator("redis_url")
+    @classmethod
+    def _redis(cls, value: str) -> str:
+        if value and _scheme(value) not in REDIS_SCHEMES:
+            raise ValueError(_SCHEME_MESSAGE.format(schemes=_listed(REDIS_SCHEMES)))
+        return value
 
     @model_validator(mode="before")
     @classmethod
@@ -293,6 +425,34 @@ class Settings(BaseSettings):
 
 #: the names of the settings classes, as a validation error gives its class
 SETTINGS_CLASSES = frozenset([Settings.__name__, *(group.__name__ for group in _GROUPS.values())])
+
+
+_SCHEME_MESSAGE = "must start with one of {schemes} (the value is not shown: a password)"
+
+
+def _scheme(url: str) -> str:
+    """The part before ``://`` (lower case), or ``''`` for a value that is no URL."""
+    scheme, separator, _ = url.partition("://")
+    return scheme.lower() if separator else ""
+
+
+def _listed(schemes: frozenset[str]) -> str:
+    return ", ".join(f"{scheme}://" for scheme in sorted(schemes))
+
+
+def _is_web_origin(origin: str) -> bool:
+    """``origin`` is what a browser sends as ``Origin``: http(s)://host[:port], no more."""
+    try:
+        parts = urlsplit(origin)
+        parts.port  # noqa: B018 -- raises ValueError for a port that is not one
+    except ValueError:
+        return False
+    return (
+        parts.scheme in ("http", "https")
+        and bool(parts.hostname)
+        and "@" not in parts.netloc
+        and origin == f"{parts.scheme}://{parts.netloc}"
+    )
 
 
 def _as_detail(error: ErrorDetails) -> InitErrorDetails:
