@@ -42,7 +42,8 @@ import numpy as np
 from scipy.optimize import minimize
 from scipy.special import logsumexp
 
-from app.core.player_models import Trace, kernel_counts, observed_control_counts
+from app.core.crowd_play import PlayCounts
+from app.core.player_models import kernel_counts
 from app.core.publication import Publication
 
 FEATURE_NAMES = ("goal", "goal_before", "keep")
@@ -162,10 +163,11 @@ def choice_features(graph: ChoiceGraph, horizon: int, discount: float) -> np.nda
 
 @dataclass(frozen=True)
 class PlayedGraph:
-    """Sessions and the graph they were played on (a publication: what players saw)."""
+    """Sessions, summed, and the graph they were played on (a publication: what players
+    saw)."""
 
     graph: ChoiceGraph
-    traces: Sequence[Trace]
+    play: PlayCounts
 
 
 def fit_choice_model(
@@ -184,13 +186,12 @@ def fit_choice_model(
     a vertex's edges, and so its goal values, change as the graph grows. Vertex indices
     are shared (a graph only appends vertices), so ``kernel`` describes the largest graph
     and the evidence of every fold is pooled by vertex. Sessions are dealt to ``folds``
-    folds in turn. First the logit's grid is scored by the mean held-out log-likelihood
-    per step of the logit alone, then ``prior_weight`` by that of the posterior with the
-    chosen logit; the best of each is refitted on every session. Raises ValueError when
-    no session has a step.
+    folds in turn by their ordinals, numbered across the graphs. First the logit's grid
+    is scored by the mean held-out log-likelihood per step of the logit alone, then
+    ``prior_weight`` by that of the posterior with the chosen logit; the best of each is
+    refitted on every session. Raises ValueError when no session has a step.
     """
-    played = [PlayedGraph(p.graph, [t for t in p.traces if len(t) > 0]) for p in played]
-    sessions = sum(len(p.traces) for p in played)
+    sessions = sum(p.play.sessions for p in played)
     if sessions == 0:
         raise ValueError("no trace has a step: nothing to learn a player model from")
     k = max(2, min(folds, sessions))
@@ -240,21 +241,7 @@ def fit_choice_model(
 
 def _folded_counts(played: Sequence[PlayedGraph], k: int) -> list[list[np.ndarray]]:
     """Per graph, per fold, the (V_g, N) control counts of the fold's sessions."""
-    folded: list[list[np.ndarray]] = []
-    first = 0
-    for p in played:
-        fold = (first + np.arange(len(p.traces))) % k  # dealt in turn, across graphs
-        first += len(p.traces)
-        v, n = p.graph.n_vertices, p.graph.n_controls
-        folded.append(
-            [
-                observed_control_counts(
-                    [t for t, f in zip(p.traces, fold, strict=True) if f == i], v, n
-                )
-                for i in range(k)
-            ]
-        )
-    return folded
+    return [p.play.fold_counts(k, p.graph.n_vertices, p.graph.n_controls) for p in played]
 
 
 def _pooled(counts: Sequence[np.ndarray], n_vertices: int) -> np.ndarray:

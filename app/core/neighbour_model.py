@@ -26,8 +26,8 @@ from dataclasses import dataclass, field
 import numpy as np
 from scipy.spatial import cKDTree
 
+from app.core.crowd_play import PlayCounts
 from app.core.player_models import (
-    Trace,
     control_groups,
     crowd_player_model,
     visited_groups,
@@ -115,7 +115,7 @@ class NeighbourFit:
 def choose_neighbours(
     descriptors: np.ndarray,
     vertex_control: np.ndarray,
-    traces: Sequence[Trace],
+    play: PlayCounts,
     n_controls: int,
     eps: float,
     *,
@@ -123,7 +123,8 @@ def choose_neighbours(
     candidates: Sequence[int] = NEIGHBOURS,
     folds: int = FOLDS,
 ) -> NeighbourFit:
-    """The neighbour count whose model best predicts held-out sessions' controls.
+    """The neighbour count whose model best predicts held-out sessions' controls
+    (``play``: the sessions' summed counts).
 
     Sessions are dealt to ``folds`` folds in turn; each fold's controls are scored by
     the model learned from the other folds (mean log-likelihood per step over all
@@ -134,7 +135,7 @@ def choose_neighbours(
     descriptors = np.asarray(descriptors, dtype=np.float64)
     vertex_control = np.asarray(vertex_control)
     n_vertices = descriptors.shape[0]
-    folded = SessionFolds.of(traces, n_vertices, n_controls, folds)
+    folded = SessionFolds.of(play, n_vertices, n_controls, folds)
     uniform = np.full((n_vertices, n_controls), 1.0 / n_controls)
 
     def neighbours_model(k: int) -> Callable[[np.ndarray], np.ndarray]:

@@ -366,14 +366,20 @@ def robust_session_length(
     float
         L, in steps.
     """
+    lengths = [len(trace) for trace in traces if len(trace) > 0]
+    median = float(np.median(lengths)) if lengths else None
+    return session_length_of_median(median, default=default, ceiling=ceiling, floor=floor)
+
+
+def session_length_of_median(
+    median: float | None, *, default: float, ceiling: float, floor: float = MIN_SESSION_STEPS
+) -> float:
+    """:func:`robust_session_length` of sessions whose median length is ``median`` (None:
+    no session), for callers that hold the sessions' lengths summed, not the sessions."""
     if not 1.0 <= floor <= ceiling:
         raise ValueError(f"need 1 <= floor <= ceiling, got floor {floor} and ceiling {ceiling}")
-    lengths = [len(trace) for trace in traces if len(trace) > 0]
-    if lengths:
-        median = float(np.median(lengths))
-        estimate = 1.0 / -np.expm1(-np.log(2.0) / median)  # 1 / (1 - 2^(-1/m)), no cancellation
-    else:
-        estimate = default
+    # 1 / (1 - 2^(-1/m)), without cancellation
+    estimate = default if median is None else 1.0 / -np.expm1(-np.log(2.0) / median)
     return float(np.clip(estimate, floor, ceiling))
 
 

@@ -14,6 +14,7 @@ import numpy as np
 
 from app.core.choice_model import ChoiceGraph, ChoiceModel, Kernel, PlayedGraph, fit_choice_model
 from app.core.clipbank import ClipBank
+from app.core.crowd_play import PlayCounts
 from app.core.dynamics import Dynamics
 from app.core.errors import InvalidInput
 from app.core.graph import StateGraph
@@ -30,8 +31,7 @@ from app.core.player_models import (
     PlayerModelKind,
     crowd_player_model,
     heuristic_player_model,
-    observed_control_counts,
-    robust_session_length,
+    session_length_of_median,
 )
 from app.core.publication import Publication, freeze
 from app.core.shrunk_model import ShrunkFit, fit_shrunk_model, shrunk_player_model
@@ -109,16 +109,17 @@ class Refiner:
     dynamics: Dynamics
     strategy: Strategy
     config: RefinerConfig = RefinerConfig()
-    #: the sessions learnt from, each with the publication it was played on
-    played: list[tuple[Publication | None, list[Trace]]] = field(default_factory=list)
+    #: the sessions learnt from, summed per publication they were played on
+    played: list[tuple[Publication | None, PlayCounts]] = field(default_factory=list)
     _pi: np.ndarray | None = None
     _choice: ChoiceModel | None = None
     _neighbours: NeighbourFit | None = None
     _shrunk: ShrunkFit | None = None
 
     @property
-    def traces(self) -> list[Trace]:
-        return [trace for _, traces in self.played for trace in traces]
+    def play(self) -> PlayCounts:
+        """Every session learnt from, summed."""
+        return PlayCounts.merged([play for _, play in self.played])
 
     # ---- player model and ranking -------------------------------------------------
     def heuristic_model(self) -> np.ndarray:
@@ -134,10 +135,10 @@ class Refiner:
         """
         vertices = self.graph.n_vertices if on is None else on.n_vertices
         heuristic = self.heuristic_model()[:vertices]
-        traces = [trace for trace in self.traces if len(trace)]
-        if not (self.strategy.learns_from_traces and traces):
+        play = self.play
+        if not (self.strategy.learns_from_traces and play.sessions):
             return heuristic
-        counts = observed_control_counts(traces, self.graph.n_vertices, self.graph.n_controls)
+        counts = play.control_counts(self.graph.n_vertices, self.graph.n_controls)
         if self.config.player_model is PlayerModelKind.KNN:
             return neighbour_player_model(
                 self.graph.vertex_descriptors(),
@@ -188,7 +189,7 @@ class Refiner:
             self._neighbours = choose_neighbours(
                 self.graph.vertex_descriptors(),
                 np.asarray(self.graph.vertex_control),
-                self.traces,
+                self.play,
                 self.graph.n_controls,
                 self.config.crowd_eps,
                 reference_radius=self.config.crowd_radius,
@@ -201,7 +202,7 @@ class Refiner:
             self._shrunk = fit_shrunk_model(
                 self.graph.vertex_descriptors(),
                 np.asarray(self.graph.vertex_control),
-                self.traces,
+                self.play,
                 self.heuristic_model(),
                 self.config.crowd_radius,
             )
@@ -214,8 +215,8 @@ class Refiner:
             if any(publication is None for publication, _ in self.played):
                 raise ValueError("the logit model needs the publication of every session")
             played = [
-                PlayedGraph(ChoiceGraph.of(publication, control, parents), traces)
-                for publication, traces in self.played
+                PlayedGraph(ChoiceGraph.of(publication, control, parents), play)
+                for publication, play in self.played
                 if publication is not None
             ]
             self._choice = fit_choice_model(played, self.kernel())
@@ -224,8 +225,8 @@ class Refiner:
     @property
     def restart(self) -> float:
         """rho = 1/L with L the robust session length of the traces (or the default)."""
-        steps = robust_session_length(
-            self.traces,
+        steps = session_length_of_median(
+            self.play.median_length(),
             default=self.config.default_session_steps,
             ceiling=self.config.max_session_steps,
         )
@@ -305,12 +306,18 @@ class Refiner:
         return freeze(self.graph), relinked
 
     def learn(self, traces: Sequence[Trace], publication: Publication | None = None) -> None:
-        """Take sessions played on ``publication`` (a version of this graph) into account.
+        """Take sessions played on ``publication`` (a version of this graph) into account,
+        numbered after those learnt before (their folds follow, :mod:`app.core.crowd_play`).
 
         The logit model reads each session's goals on the publication it was played on;
         eq. 2 reads none, so its callers need not load them.
         """
-        self.played.append((publication, [np.asarray(t, dtype=np.int64) for t in traces]))
+        self.learn_counts(PlayCounts.of_traces(traces, first=self.play.sessions), publication)
+
+    def learn_counts(self, play: PlayCounts, publication: Publication | None = None) -> None:
+        """:meth:`learn` of sessions already summed, their buckets those of their ordinals
+        among every session learnt (the store keeps them so)."""
+        self.played.append((publication, play))
         self._choice = None
         self._neighbours = None
         self._shrunk = None

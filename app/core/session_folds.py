@@ -1,18 +1,19 @@
 """Held-out log-likelihood of sessions' controls: how the learned player models choose
 their hyper-parameters (docs/player-models.md).
 
-Whole sessions are dealt to folds in turn; each fold's controls are scored by the model
+Whole sessions are dealt to folds in turn, by the order they were accepted in (their
+ordinals, :mod:`app.core.crowd_play`); each fold's controls are scored by the model
 learned from the other folds' control counts. Pure numpy.
 """
 
 from __future__ import annotations
 
-from collections.abc import Callable, Sequence
+from collections.abc import Callable
 from dataclasses import dataclass
 
 import numpy as np
 
-from app.core.player_models import Trace, observed_control_counts
+from app.core.crowd_play import PlayCounts
 
 FOLDS = 5
 #: a learned model: the (V, N) control counts of the sessions it learns from in, P(c|v) out
@@ -28,18 +29,14 @@ class SessionFolds:
 
     @classmethod
     def of(
-        cls, traces: Sequence[Trace], n_vertices: int, n_controls: int, folds: int = FOLDS
+        cls, play: PlayCounts, n_vertices: int, n_controls: int, folds: int = FOLDS
     ) -> SessionFolds:
-        """Deal the non-empty sessions to ``folds`` folds (at least 2, at most one per
-        session). Raises ValueError when no trace has a step."""
-        sessions = [np.asarray(t, dtype=np.int64).reshape(-1, 2) for t in traces if len(t) > 0]
-        if not sessions:
+        """Deal the sessions to ``folds`` folds (at least 2, at most one per session).
+        Raises ValueError when no trace has a step."""
+        if play.sessions == 0:
             raise ValueError("no trace has a step: nothing to cross-validate on")
-        n_folds = max(2, min(folds, len(sessions)))
-        counts = tuple(
-            observed_control_counts(sessions[i::n_folds], n_vertices, n_controls)
-            for i in range(n_folds)
-        )
+        n_folds = max(2, min(folds, play.sessions))
+        counts = tuple(play.fold_counts(n_folds, n_vertices, n_controls))
         return cls(counts, np.sum(counts, axis=0))
 
     def score(self, learned: LearnedModel) -> float:

@@ -25,8 +25,9 @@ from dataclasses import dataclass, field
 
 import numpy as np
 
+from app.core.crowd_play import PlayCounts
 from app.core.model_checks import check_counts, check_distributions
-from app.core.player_models import Trace, kernel_counts
+from app.core.player_models import kernel_counts
 from app.core.session_folds import FOLDS, LearnedModel, SessionFolds
 
 #: kernel radii tried, in multiples of the dynamics' eq. 2 radius
@@ -93,7 +94,7 @@ class ShrunkFit:
 def fit_shrunk_model(
     descriptors: np.ndarray,
     vertex_control: np.ndarray,
-    traces: Sequence[Trace],
+    play: PlayCounts,
     prior: np.ndarray,
     base_radius: float,
     *,
@@ -101,14 +102,15 @@ def fit_shrunk_model(
     prior_weights: Sequence[float] = PRIOR_WEIGHTS,
     folds: int = FOLDS,
 ) -> ShrunkFit:
-    """The (radius, prior weight) whose model best predicts held-out sessions' controls.
+    """The (radius, prior weight) whose model best predicts held-out sessions' controls
+    (``play``: the sessions' summed counts).
 
     Radii are ``base_radius`` times ``radius_scales``. Ties go to the smaller radius,
     then the larger prior weight (the model closer to the heuristic). Raises ValueError
     when no trace has a step.
     """
     prior = np.asarray(prior, dtype=np.float64)
-    folded = SessionFolds.of(traces, prior.shape[0], prior.shape[1], folds)
+    folded = SessionFolds.of(play, prior.shape[0], prior.shape[1], folds)
 
     def model(radius: float, weight: float) -> LearnedModel:
         return lambda counts: shrunk_player_model(

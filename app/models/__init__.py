@@ -13,7 +13,16 @@ from app.models.graph import (
     SimulatedClip,
     Vertex,
 )
-from app.models.play import Player, Publication, PublicationEdge, Trace, TraceStep
+from app.models.play import (
+    GraphSessions,
+    PlayCount,
+    Player,
+    PlayLength,
+    Publication,
+    PublicationEdge,
+    Trace,
+    TraceStep,
+)
 
 __all__ = [
     "Artifact",
@@ -25,7 +34,10 @@ __all__ = [
     "ExpansionClip",
     "Graph",
     "GrowthEpoch",
+    "GraphSessions",
     "GrowthRequest",
+    "PlayCount",
+    "PlayLength",
     "Player",
     "Publication",
     "PublicationEdge",

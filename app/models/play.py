@@ -5,6 +5,7 @@ from __future__ import annotations
 from datetime import datetime
 
 from sqlalchemy import (
+    BigInteger,
     CheckConstraint,
     Double,
     ForeignKey,
@@ -91,3 +92,47 @@ class TraceStep(Base):
     step: Mapped[int] = mapped_column(Integer, primary_key=True)
     vertex: Mapped[int] = mapped_column(Integer)
     control: Mapped[int] = mapped_column(SmallInteger)
+
+
+class GraphSessions(Base):
+    """How many sessions the graph's publications have accepted: the next one's ordinal.
+
+    Its row is the lock that numbers a graph's sessions in the order their traces got
+    their ids (taken before the trace row is written, held until commit), so a session's
+    ordinal is its place among the graph's traces by id (docs/player-models.md).
+    """
+
+    __tablename__ = "graph_sessions"
+
+    graph_id: Mapped[int] = mapped_column(
+        ForeignKey("graphs.id", ondelete="CASCADE"), primary_key=True
+    )
+    sessions: Mapped[int] = mapped_column(Integer)
+
+
+class PlayCount(Base):
+    """Steps taken with ``control`` at ``vertex`` on a publication by the sessions whose
+    ordinal in the graph is ``bucket`` modulo :data:`~app.core.crowd_play.FOLD_BUCKETS`:
+    what the crowd models read, kept as traces are accepted (app.store.play_counts)."""
+
+    __tablename__ = "play_counts"
+
+    publication_id: Mapped[int] = mapped_column(
+        ForeignKey("publications.id", ondelete="CASCADE"), primary_key=True
+    )
+    bucket: Mapped[int] = mapped_column(SmallInteger, primary_key=True)
+    vertex: Mapped[int] = mapped_column(Integer, primary_key=True)
+    control: Mapped[int] = mapped_column(SmallInteger, primary_key=True)
+    steps: Mapped[int] = mapped_column(BigInteger)
+
+
+class PlayLength(Base):
+    """Sessions of ``n_steps`` steps accepted on a publication (the restart rate's median)."""
+
+    __tablename__ = "play_lengths"
+
+    publication_id: Mapped[int] = mapped_column(
+        ForeignKey("publications.id", ondelete="CASCADE"), primary_key=True
+    )
+    n_steps: Mapped[int] = mapped_column(Integer, primary_key=True)
+    sessions: Mapped[int] = mapped_column(BigInteger)

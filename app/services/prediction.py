@@ -36,7 +36,7 @@ def model_fit(refiner: Refiner) -> dict[str, Any] | None:
     trace): the neighbour count with every candidate's held-out log-likelihood per step,
     or the logit-prior model's hyper-parameters and weights."""
     kind = refiner.config.player_model
-    if kind is PlayerModelKind.EQ2 or not any(len(t) for t in refiner.traces):
+    if kind is PlayerModelKind.EQ2 or not refiner.play.sessions:
         return None
     if kind is PlayerModelKind.KNN:
         fit = refiner.neighbour_fit()
@@ -110,17 +110,18 @@ def latest_play_prediction(
     refiner = crowd_refiner(settings, loaded, chosen)
     for publication, traces in played[:-1]:
         refiner.learn(traces, publication)
+    learned_from = [trace for _, traces in played[:-1] for trace in traces]
     latest, traces = played[-1]
     figures: dict[str, Any] = prediction_figures(
         latest,
         refiner.player_model(on=latest),
         refiner.restart,
         traces,
-        learned_from=refiner.traces,
+        learned_from=learned_from,
     )
     figures["player_model"] = chosen.value
     figures["publications_learned_from"] = len(played) - 1
-    figures["sessions_learned_from"] = len(refiner.traces)
+    figures["sessions_learned_from"] = len(learned_from)
     figures["sessions_predicted"] = len(traces)
     figures["model_fit"] = model_fit(refiner)
     return figures

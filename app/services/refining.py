@@ -18,6 +18,7 @@ from app.core.refinement import Refiner, RefinerConfig
 from app.core.strategies import EdgeWeights, Strategy, parse_strategy
 from app.services.loading import LoadedGraph
 from app.store.epochs import latest_warm_start
+from app.store.play_counts import graph_play_counts, publication_play_counts
 from app.store.publications import load_publication
 from app.store.traces import load_traces, played_publications
 
@@ -58,7 +59,9 @@ def graph_play(
 def refiner_for(
     session: Session, settings: Settings, loaded: LoadedGraph, strategy: Strategy | None = None
 ) -> Refiner:
-    """The graph's refiner, with the crowd's traces when its strategy learns from them."""
+    """The graph's refiner, with the crowd's play when its strategy learns from it: the
+    sums kept as traces were accepted, never the steps, so that what this reads does not
+    grow with how much the graph was played."""
     strategy = strategy or parse_strategy(loaded.entry.strategy)
     refiner = Refiner(
         loaded.graph,
@@ -68,10 +71,10 @@ def refiner_for(
         refiner_config(settings, loaded.dynamics, parse_player_model(loaded.entry.player_model)),
     )
     if strategy.learns_from_traces and refiner.config.player_model is PlayerModelKind.LOGIT:
-        for publication, traces in graph_play(session, loaded.entry.id):
-            refiner.learn(traces, publication)
-    elif strategy.learns_from_traces:  # eq. 2 reads no publication: one query for all traces
-        refiner.learn(load_traces(session, played_publications(session, loaded.entry.id)))
+        for publication_id, play in publication_play_counts(session, loaded.entry.id):
+            refiner.learn_counts(play, load_publication(session, publication_id))
+    elif strategy.learns_from_traces:  # the others read no publication: one sum of all play
+        refiner.learn_counts(graph_play_counts(session, loaded.entry.id))
     return refiner
 
 

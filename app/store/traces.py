@@ -4,6 +4,8 @@ A trace is a played session: rows of (vertex, control) on one publication. Uploa
 validated against that publication before anything is written, and are idempotent on
 the client's ``(player, idempotency_key)``: a retried upload returns the trace already
 stored and writes nothing, even when two retries race (the unique constraint decides).
+A stored trace is added to the crowd's sums (:mod:`app.store.play_counts`) in the same
+transaction as its steps.
 """
 
 from __future__ import annotations
@@ -23,6 +25,7 @@ from app.core.publication import Publication
 from app.models import Player, Trace, TraceStep
 from app.models import Publication as PublicationRow
 from app.store._sql import bulk_insert, insert_ignoring_duplicates
+from app.store.play_counts import count_session, next_session_ordinal
 from app.store.publications import load_publication
 
 MAX_KEY_LENGTH = 128
@@ -115,7 +118,8 @@ def record_trace(
     if session.get(Player, player_id) is None:
         raise InvalidTrace(f"no player {player_id}")
     try:
-        with session.begin_nested():
+        with session.begin_nested():  # a duplicate key undoes the ordinal taken too
+            ordinal = next_session_ordinal(session, publication_id)
             trace = Trace(
                 publication_id=publication_id,
                 player_id=player_id,
@@ -137,6 +141,7 @@ def record_trace(
             for i, (v, c) in enumerate(steps)
         ],
     )
+    count_session(session, publication_id, ordinal, steps)
     return trace.id, True
 
 

@@ -21,6 +21,7 @@ from app.core.choice_model import (
     scaled_goal,
 )
 from app.core.clipbank import MemoryClipBank
+from app.core.crowd_play import PlayCounts
 from app.core.growth import expand_blend_edge, initial_tree
 from app.core.player_models import (
     PlayerModelKind,
@@ -243,7 +244,7 @@ def crowd() -> Crowd:
 def test_fit_recovers_the_weights_and_cross_validation_the_horizon(crowd: Crowd) -> None:
     graph, traces = crowd
     model = fit_choice_model(
-        [PlayedGraph(graph, traces)],
+        [PlayedGraph(graph, PlayCounts.of_traces(traces))],
         separate_kernel(graph.n_vertices, graph.vertex_control),
         horizons=(1, TRUE_HORIZON),
         prior_weights=(1.0,),
@@ -261,7 +262,7 @@ def test_fit_recovers_the_weights_and_cross_validation_the_horizon(crowd: Crowd)
 def test_fit_at_a_wrong_horizon_misses_the_weights(crowd: Crowd) -> None:
     graph, traces = crowd
     model = fit_choice_model(
-        [PlayedGraph(graph, traces)],
+        [PlayedGraph(graph, PlayCounts.of_traces(traces))],
         separate_kernel(graph.n_vertices, graph.vertex_control),
         horizons=(1,),
         prior_weights=(1.0,),
@@ -277,7 +278,7 @@ def test_posterior_follows_the_frequencies_where_visited_and_the_logit_elsewhere
     graph, traces = crowd
     kernel = separate_kernel(graph.n_vertices, graph.vertex_control)
     model = fit_choice_model(
-        [PlayedGraph(graph, traces)],
+        [PlayedGraph(graph, PlayCounts.of_traces(traces))],
         kernel,
         horizons=(TRUE_HORIZON,),
         prior_weights=(1.0, 10.0),
@@ -323,7 +324,10 @@ def test_fit_explains_each_session_by_the_graph_it_was_played_on() -> None:
     kernel = separate_kernel(200, grown.vertex_control)
     grid = {"horizons": (TRUE_HORIZON,), "prior_weights": (1.0,), **SMALL_GRID}
     own = fit_choice_model(
-        [PlayedGraph(first, on_first), PlayedGraph(grown, on_grown)],
+        [
+            PlayedGraph(first, PlayCounts.of_traces(on_first)),
+            PlayedGraph(grown, PlayCounts.of_traces(on_grown, first=len(on_first))),
+        ],
         kernel,
         **grid,  # type: ignore[arg-type]
     )
@@ -332,7 +336,10 @@ def test_fit_explains_each_session_by_the_graph_it_was_played_on() -> None:
     # vertices only: the later ones do not exist there) explain less
     inside = [t[t[:, 0] < 150] for t in on_grown]
     mixed = fit_choice_model(
-        [PlayedGraph(first, on_first), PlayedGraph(first, inside)],
+        [
+            PlayedGraph(first, PlayCounts.of_traces(on_first)),
+            PlayedGraph(first, PlayCounts.of_traces(inside, first=len(on_first))),
+        ],
         kernel,
         **grid,  # type: ignore[arg-type]
     )
@@ -344,7 +351,7 @@ def test_fit_without_a_step_is_an_error() -> None:
     graph = random_graph(3, n_vertices=10)
     with pytest.raises(ValueError, match="no trace has a step"):
         fit_choice_model(
-            [PlayedGraph(graph, [np.empty((0, 2), dtype=np.int64)])],
+            [PlayedGraph(graph, PlayCounts.of_traces([np.empty((0, 2), dtype=np.int64)]))],
             separate_kernel(10, graph.vertex_control),
         )
 
@@ -354,8 +361,9 @@ def test_fit_is_reproducible() -> None:
     traces = synthetic_sessions(graph, seed=7, sessions=20, steps=20)
     kernel = separate_kernel(40, graph.vertex_control)
     grid = {"horizons": (1, 2), "prior_weights": (1.0, 3.0), **SMALL_GRID}
-    a = fit_choice_model([PlayedGraph(graph, traces)], kernel, **grid)  # type: ignore[arg-type]
-    b = fit_choice_model([PlayedGraph(graph, traces)], kernel, **grid)  # type: ignore[arg-type]
+    played = [PlayedGraph(graph, PlayCounts.of_traces(traces))]
+    a = fit_choice_model(played, kernel, **grid)  # type: ignore[arg-type]
+    b = fit_choice_model(played, kernel, **grid)  # type: ignore[arg-type]
     np.testing.assert_array_equal(a.weights, b.weights)
     assert a.cv_scores == b.cv_scores
     assert a.prior_weight in (1.0, 3.0)

@@ -8,6 +8,7 @@ import pytest
 
 from app.core.bots import BotKind, play_sessions
 from app.core.clipbank import MemoryClipBank
+from app.core.crowd_play import PlayCounts
 from app.core.growth import initial_tree
 from app.core.neighbour_model import (
     NEIGHBOURS,
@@ -71,11 +72,11 @@ def smooth_crowd(seed: int, sessions: int = 40) -> tuple[np.ndarray, np.ndarray,
 
 def test_cross_validation_scores_every_candidate_and_picks_the_best() -> None:
     descriptors, control, traces = smooth_crowd(0)
-    fit = choose_neighbours(descriptors, control, traces, 3, 1e-3)
+    fit = choose_neighbours(descriptors, control, PlayCounts.of_traces(traces), 3, 1e-3)
     assert set(fit.cv_scores) == set(NEIGHBOURS)
     assert fit.cv_scores[fit.neighbours] == max(fit.cv_scores.values())
     with pytest.raises(ValueError, match="no trace"):
-        choose_neighbours(descriptors, control, [np.empty((0, 2))], 3, 1e-3)
+        choose_neighbours(descriptors, control, PlayCounts.of_traces([np.empty((0, 2))]), 3, 1e-3)
 
 
 @pytest.mark.parametrize("seed", [1, 2, 3])
@@ -92,7 +93,7 @@ def test_the_chosen_model_predicts_unvisited_states_better_than_a_short_radius(
     fresh = fresh[counts[fresh[:, 0]].sum(axis=1) == 0]
     assert fresh.shape[0] > 20
     uniform = np.full((400, 3), 1.0 / 3.0)
-    fit = choose_neighbours(descriptors, control, learn, 3, 1e-3)
+    fit = choose_neighbours(descriptors, control, PlayCounts.of_traces(learn), 3, 1e-3)
     knn = neighbour_player_model(
         descriptors, control, counts, fit.neighbours, 1e-3, fallback=uniform
     )
@@ -120,7 +121,7 @@ def test_a_knn_refiner_answers_from_the_crowd_where_eq2_has_only_its_prior() -> 
     assert model.shape == (r.graph.n_vertices, 3)
     np.testing.assert_allclose(model.sum(axis=1), 1.0, rtol=0, atol=1e-12)
     eq2 = Refiner(r.graph, r.bank, dynamics, Strategy.SR_CROWD, RefinerConfig(), played=r.played)
-    visited = observed_control_counts(r.traces, r.graph.n_vertices, 3).sum(axis=1) > 0
+    visited = r.play.control_counts(r.graph.n_vertices, 3).sum(axis=1) > 0
     control = np.asarray(r.graph.vertex_control)
     # eq. 2: all unvisited vertices of a group beyond its radius share one row (the prior)
     rows = {tuple(np.round(row, 9)) for row in eq2.player_model()[~visited & (control == 0)]}

@@ -7,6 +7,7 @@ import numpy as np
 import pytest
 
 from app.core.clipbank import MemoryClipBank
+from app.core.crowd_play import PlayCounts
 from app.core.growth import initial_tree
 from app.core.player_models import PlayerModelKind, heuristic_player_model
 from app.core.refinement import Refiner, RefinerConfig
@@ -70,20 +71,22 @@ def test_cross_validation_trusts_consistent_players_and_doubts_random_ones() -> 
     vertices = rng.integers(0, n_vertices, size=(40, 15))
     steady = [np.column_stack([v, np.ones_like(v)]) for v in vertices]
     erratic = [np.column_stack([v, rng.integers(0, 3, size=v.size)]) for v in vertices]
-    trusting = fit_shrunk_model(descriptors, control, steady, prior, 0.05)
-    doubting = fit_shrunk_model(descriptors, control, erratic, prior, 0.05)
+    trusting = fit_shrunk_model(descriptors, control, PlayCounts.of_traces(steady), prior, 0.05)
+    doubting = fit_shrunk_model(descriptors, control, PlayCounts.of_traces(erratic), prior, 0.05)
     assert trusting.prior_weight < doubting.prior_weight
     assert len(trusting.cv_scores) == 20
 
 
 def test_session_folds_score_a_model_on_the_sessions_it_did_not_learn() -> None:
     """Two sessions, one per fold: each is scored by a model of the other's counts."""
-    folds = SessionFolds.of([np.array([[0, 1]]), np.array([[0, 0]])], 1, 2, folds=5)
+    folds = SessionFolds.of(
+        PlayCounts.of_traces([np.array([[0, 1]]), np.array([[0, 0]])]), 1, 2, folds=5
+    )
     # learned from one step of the other control: P = 3/4 for it, 1/4 for the held-out one
     score = folds.score(lambda counts: (counts + 1.0) / (counts.sum(axis=1, keepdims=True) + 2.0))
     assert score == pytest.approx(np.log(1 / 3))
     with pytest.raises(ValueError, match="no trace"):
-        SessionFolds.of([np.empty((0, 2))], 1, 2)
+        SessionFolds.of(PlayCounts.of_traces([np.empty((0, 2))]), 1, 2)
 
 
 def test_the_refiner_learns_the_shrunk_model_and_keeps_the_heuristic_before_traces() -> None:

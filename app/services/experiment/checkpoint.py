@@ -27,7 +27,6 @@ from app.core.neighbour_model import nearest_visited_distance
 from app.core.player_models import (
     kernel_support,
     mean_session_length,
-    observed_control_counts,
     trace_edges,
 )
 from app.core.prediction import observed_error_relative_se
@@ -204,7 +203,7 @@ def _unexpected_edges(
 ) -> np.ndarray | None:
     """Edges whose predicted P(e) under the learned model is below
     :data:`UNEXPECTED_FRACTION` of the heuristic model's (None where nothing is learned)."""
-    if not (refiner.strategy.learns_from_traces and refiner.traces):
+    if not (refiner.strategy.learns_from_traces and refiner.play.sessions):
         return None
     heuristic = predicted_edge_probabilities(
         publication.edge_dst,
@@ -242,10 +241,10 @@ def _prediction_context(
         "predicted_mass_prior_only": None,
         "median_distance_unvisited_to_visited": None,
     }
-    if not (refiner.strategy.learns_from_traces and refiner.traces):
+    if not (refiner.strategy.learns_from_traces and refiner.play.sessions):
         return context
     graph, n = refiner.graph, publication.n_controls
-    visited = observed_control_counts(refiner.traces, publication.n_vertices, n).sum(axis=1) > 0
+    visited = refiner.play.control_counts(publication.n_vertices, n).sum(axis=1) > 0
     supported = kernel_support(
         graph.vertex_descriptors(),
         np.asarray(graph.vertex_control),

@@ -1,0 +1,192 @@
+"""The crowd's play summed as traces are accepted: what growth reads, equal to the steps.
+
+Growth reads the sums (``refiner_for``); until they existed it read every step of every
+played publication (``load_traces``) and dealt the sessions to folds by their place in
+trace-id order. Here both are computed on the same stored traces and must agree exactly:
+the cross-validated choice, every candidate's score, the restart rate, the model and the
+ranking weights that pick the expansions.
+"""
+
+from __future__ import annotations
+
+from collections.abc import Callable
+from pathlib import Path
+
+import numpy as np
+import pytest
+from alembic.config import Config
+from sqlalchemy import select, text
+from sqlalchemy.orm import Session
+
+from alembic import command
+from app.config import Settings
+from app.core.bots import BotKind, play_sessions
+from app.core.crowd_play import PlayCounts
+from app.core.player_models import observed_control_counts
+from app.core.refinement import Refiner
+from app.core.session_folds import FOLDS, SessionFolds
+from app.core.shrunk_model import shrunk_player_model
+from app.core.strategies import Strategy, parse_strategy
+from app.db.engines import make_engine
+from app.models import GraphSessions, Player
+from app.services.creation import init_graph
+from app.services.graph_cache import graph_cache
+from app.services.loading import LoadedGraph, open_graph
+from app.services.refining import refiner_config, refiner_for
+from app.store.graph_persistence import save_graph
+from app.store.play_counts import graph_play_counts, publication_play_counts
+from app.store.publications import load_publication, publish
+from app.store.traces import (
+    InvalidTrace,
+    bot_player,
+    load_traces,
+    played_publications,
+    record_trace,
+)
+
+
+def settings_for(db_url: str, tmp_path: Path) -> Settings:
+    return Settings().replace(
+        database_url=db_url, var_dir=tmp_path / "var", artifact_dir=tmp_path / "artifacts"
+    )
+
+
+def played_graph(session: Session, settings: Settings, model: str) -> LoadedGraph:
+    """A toy graph published twice (before and after 8 expansions) and played on both,
+    the older publication's sessions uploaded between the newer one's."""
+    graph_cache.clear()
+    graph_id = int(init_graph(session, settings, name=f"g-{model}", player_model=model)["id"])  # type: ignore[call-overload]
+    loaded = open_graph(session, settings, graph_id)
+    first = publish(session, graph_id, loaded.graph)
+    grower = Refiner(loaded.graph, loaded.bank, loaded.dynamics, Strategy.SR_HEURISTIC)
+    grower.grow(expansions=8)
+    save_graph(session, graph_id, loaded.graph, loaded.bank, loaded.artifacts)
+    second = publish(session, graph_id, loaded.graph)
+    player = bot_player(session, "bots")
+    for number, (publication_id, seed) in enumerate(
+        [(second, 1), (first, 2), (second, 3), (first, 4)]
+    ):
+        publication = load_publication(session, publication_id)
+        for i, trace in enumerate(
+            play_sessions(publication, BotKind.HESITANT, sessions=9, mean_steps=25, seed=seed)
+        ):
+            record_trace(session, publication_id, player, f"{number}.{i}", trace)
+    return loaded
+
+
+@pytest.mark.parametrize("model", ["shrunk", "knn", "eq2"])
+def test_growth_from_the_sums_is_growth_from_every_step(
+    session: Session, db_url: str, tmp_path: Path, model: str
+) -> None:
+    settings = settings_for(db_url, tmp_path)
+    loaded = played_graph(session, settings, model)
+    summed = refiner_for(session, settings, loaded)
+    # the path growth took until now: every step, sessions in trace-id order
+    strategy = parse_strategy(loaded.entry.strategy)
+    config = refiner_config(settings, loaded.dynamics, summed.config.player_model)
+    stepped = Refiner(loaded.graph, loaded.bank, loaded.dynamics, strategy, config)
+    traces = load_traces(session, played_publications(session, loaded.entry.id))
+    stepped.learn(traces)
+    assert summed.play.sessions == len(traces) == 36
+    assert summed.restart == stepped.restart
+    np.testing.assert_array_equal(summed.player_model(), stepped.player_model())
+    np.testing.assert_array_equal(summed.weights().weights, stepped.weights().weights)
+    if model == "shrunk":
+        fit = summed.shrunk_fit()
+        assert fit == stepped.shrunk_fit()
+        # the chosen candidate's score under folds dealt as they were: session i to i % 5
+        dealt = [observed_control_counts(traces[i::FOLDS], *config_shape(loaded)) for i in range(5)]
+        folds = SessionFolds(tuple(dealt), np.sum(dealt, axis=0))
+        graph = loaded.graph
+        score = folds.score(
+            lambda counts: shrunk_player_model(
+                graph.vertex_descriptors(),
+                np.asarray(graph.vertex_control),
+                counts,
+                fit.radius,
+                fit.prior_weight,
+                prior=summed.heuristic_model(),
+            )
+        )
+        assert score == fit.cv_scores[(fit.radius, fit.prior_weight)]
+    if model == "knn":
+        assert summed.neighbour_fit() == stepped.neighbour_fit()
+
+
+def config_shape(loaded: LoadedGraph) -> tuple[int, int]:
+    return loaded.graph.n_vertices, loaded.graph.n_controls
+
+
+def test_sums_follow_every_accepted_trace_once(
+    session: Session, db_url: str, tmp_path: Path
+) -> None:
+    """A replayed upload and a refused one add nothing; per publication the sums are
+    those of its sessions, numbered in the graph by trace id."""
+    settings = settings_for(db_url, tmp_path)
+    loaded = played_graph(session, settings, "eq2")
+    graph_id = loaded.entry.id
+    publications = played_publications(session, graph_id)
+    player = session.scalar(select(Player.id).where(Player.name == "bots"))
+    assert player is not None
+    before = graph_play_counts(session, graph_id)
+    replayed = load_traces(session, publications[:1])[0]
+    _, created = record_trace(session, publications[0], player, "1.0", replayed)
+    assert not created
+    with pytest.raises(InvalidTrace):
+        record_trace(session, publications[0], player, "stray", np.array([[10**6, 0]]))
+    after = graph_play_counts(session, graph_id)
+    for a, b in zip(
+        before.fold_counts(5, *config_shape(loaded)),
+        after.fold_counts(5, *config_shape(loaded)),
+        strict=True,
+    ):
+        np.testing.assert_array_equal(a, b)
+    assert session.get(GraphSessions, graph_id).sessions == 36  # type: ignore[union-attr]
+    ordered = session.execute(
+        text(
+            "SELECT t.id, t.publication_id FROM traces t JOIN publications p"
+            " ON p.id = t.publication_id WHERE p.graph_id = :g ORDER BY t.id"
+        ),
+        {"g": graph_id},
+    ).all()
+    by_id = {row.id: i for i, row in enumerate(ordered)}
+    for publication_id, play in publication_play_counts(session, graph_id):
+        expected = [
+            PlayCounts.of_traces([trace], first=by_id[trace_id])
+            for trace_id, trace in zip(
+                [row.id for row in ordered if row.publication_id == publication_id],
+                load_traces(session, [publication_id]),
+                strict=True,
+            )
+        ]
+        shape = config_shape(loaded)
+        for a, b in zip(
+            play.fold_counts(60, *shape),
+            PlayCounts.merged(expected).fold_counts(60, *shape),
+            strict=True,
+        ):
+            np.testing.assert_array_equal(a, b)
+        assert play.median_length() == PlayCounts.merged(expected).median_length()
+
+
+def test_the_migration_sums_the_steps_stored_before_it(
+    empty_db_url: str, make_alembic_config: Callable[[object | None], Config], tmp_path: Path
+) -> None:
+    """Sums kept upload by upload and sums computed from the steps by 0010 are one."""
+    engine = make_engine(empty_db_url)
+    tables = ("graph_sessions", "play_counts", "play_lengths")
+    try:
+        with engine.begin() as connection:
+            config = make_alembic_config(connection)
+            command.upgrade(config, "0010")
+            with Session(bind=connection) as session:
+                played_graph(session, settings_for(empty_db_url, tmp_path), "eq2")
+                session.flush()
+            kept = {t: sorted(connection.execute(text(f"SELECT * FROM {t}")).all()) for t in tables}
+            assert all(kept.values())
+            command.downgrade(config, "0009")
+            command.upgrade(config, "0010")
+            for t in tables:
+                assert sorted(connection.execute(text(f"SELECT * FROM {t}")).all()) == kept[t]
+    finally:
+        engine.dispose()
