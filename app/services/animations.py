@@ -10,7 +10,6 @@ from __future__ import annotations
 
 from collections.abc import Callable, Mapping
 from functools import partial
-from pathlib import Path
 
 import numpy as np
 from sqlalchemy.orm import Session
@@ -207,9 +206,11 @@ def render_missing_animations(
     return len(edges)
 
 
-def animation_file(session: Session, store: ArtifactStore, digest: str) -> tuple[Path, str] | None:
-    """The file, checked against its hash, and media type of a stored animation; None when
-    no edge's animation has that digest or its file is gone.
+def animation_bytes(
+    session: Session, store: ArtifactStore, digest: str
+) -> tuple[bytes, str] | None:
+    """The bytes, checked against their hash, and media type of a stored animation; None
+    when no edge's animation has that digest or its file is gone.
 
     A file whose bytes no longer match the digest is moved aside by the store, which
     raises :class:`~app.store.artifacts.ArtifactCorrupt`: it is never served under it.
@@ -218,6 +219,6 @@ def animation_file(session: Session, store: ArtifactStore, digest: str) -> tuple
     if media_type is None:
         return None
     try:
-        return store.verified_path(digest), media_type
+        return store.get_bytes(digest), media_type
     except ArtifactNotFound:
         return None

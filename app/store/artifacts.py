@@ -15,8 +15,10 @@ reads both, telling them apart by their first bytes (a zip's ``PK\\x03\\x04``, t
 Every read is checked against the hash that names the file (docs/runtime.md, "Artifacts
 verified on read"): a file whose bytes do not hash to its name is moved aside under
 ``root/corrupt/`` and the read raises :class:`ArtifactCorrupt`, so a flipped bit is never
-decoded into a graph nor served. A process remembers which files it verified, by their
-size, inode and modification time, so a hot path hashes each file once.
+decoded into a graph nor served. Nothing remembers a file as verified: a byte flipped in
+place keeps the file's size, inode and modification time, so only its hash can tell, and
+hashing costs little beside decoding or sending the bytes. The error's message names the
+digest alone (it reaches API clients and growth polls); the log names the file.
 """
 
 from __future__ import annotations
@@ -24,6 +26,7 @@ from __future__ import annotations
 import contextlib
 import hashlib
 import io
+import logging
 import os
 import tempfile
 from collections.abc import Iterable, Mapping
@@ -46,8 +49,7 @@ WRITE_CHUNK = 512
 #: where files that failed their hash check are moved, under the store's root
 CORRUPT_DIR = "corrupt"
 
-#: path -> (size, inode, mtime_ns) of each file this process found to match its hash
-_verified: dict[str, tuple[int, int, int]] = {}
+log = logging.getLogger(__name__)
 
 
 class ArtifactNotFound(NotFound):
@@ -95,31 +97,19 @@ class ArtifactStore:
         return self.root / CORRUPT_DIR / digest
 
     def get_bytes(self, digest: str) -> bytes:
-        """The bytes of ``digest``, checked against it (:class:`ArtifactCorrupt` if not)."""
-        path = self.path_for(digest)
-        try:
-            with path.open("rb") as file:
-                key = _identity(os.fstat(file.fileno()))
-                data = file.read()
-        except FileNotFoundError:
-            raise self._missing(digest) from None
-        if _verified.get(str(path)) != key:
-            if hashlib.sha256(data).hexdigest() != digest:
-                self._move_aside(digest)
-                raise self._corrupt(digest)
-            _verified[str(path)] = key
-        return data
+        """The bytes of ``digest``, checked against it (:class:`ArtifactCorrupt` if not).
 
-    def verified_path(self, digest: str) -> Path:
-        """The file of ``digest`` once its bytes are checked: for serving it as it lies."""
-        path = self.path_for(digest)
+        What is checked is what is returned: a caller that serves these bytes under the
+        digest (an ``immutable`` response) serves bytes that matched it.
+        """
         try:
-            key = _identity(path.stat())
+            data = self.path_for(digest).read_bytes()
         except FileNotFoundError:
             raise self._missing(digest) from None
-        if _verified.get(str(path)) != key:
-            self.get_bytes(digest)
-        return path
+        if hashlib.sha256(data).hexdigest() != digest:
+            self._move_aside(digest)
+            raise self._corrupt(digest)
+        return data
 
     def put_arrays(self, arrays: Mapping[str, np.ndarray], *, session: Session) -> str:
         return self.put_bytes(encode_arrays(arrays), media_type=ARRAYS_MEDIA_TYPE, session=session)
@@ -143,12 +133,14 @@ class ArtifactStore:
     def _missing(self, digest: str) -> ArtifactNotFound | ArtifactCorrupt:
         if self.corrupt_path(digest).exists():
             return self._corrupt(digest)
-        return ArtifactNotFound(f"no artifact {digest} under {self.root}")
+        return ArtifactNotFound(f"no artifact {digest} in the artifact store")
 
     def _corrupt(self, digest: str) -> ArtifactCorrupt:
+        aside = self.corrupt_path(digest)
+        log.warning("artifact %s does not match its hash; its file is %s", digest, aside)
         return ArtifactCorrupt(
-            f"artifact {digest} does not match its hash; it was moved to "
-            f"{self.corrupt_path(digest)} (run srg fsck --repair)"
+            f"artifact {digest} does not match its hash; it was moved to {CORRUPT_DIR}/ "
+            "in the artifact directory (run srg fsck --repair)"
         )
 
     def _write(self, data: bytes) -> str:
@@ -170,11 +162,6 @@ class ArtifactStore:
             raise
         self._written.add(digest)
         return digest
-
-
-def _identity(stat: os.stat_result) -> tuple[int, int, int]:
-    """What tells a verified file from a rewritten one without reading it."""
-    return stat.st_size, stat.st_ino, stat.st_mtime_ns
 
 
 def _touch(path: Path) -> bool:

@@ -107,20 +107,31 @@ def test_admin_grow_answers_202_and_its_epochs_are_polled(
 
 
 def test_a_background_growth_that_fails_says_why_on_its_poll(
-    client: TestClient, published: Published, session: Session, artifacts: ArtifactStore
+    client: TestClient,
+    published: Published,
+    session: Session,
+    artifacts: ArtifactStore,
+    caplog: pytest.LogCaptureFixture,
 ) -> None:
     """Accepted (202), then failed after the answer: the poll says failed and why, not
-    ``running: false`` beside finished epochs."""
-    for digest in session.scalars(select(Clip.bundle).where(Clip.graph_id == published.graph_id)):
+    ``running: false`` beside finished epochs. The why names no path of the server (the
+    ``corrupt/`` folder the file went to); the server's log does."""
+    bundles = set(session.scalars(select(Clip.bundle).where(Clip.graph_id == published.graph_id)))
+    for digest in bundles:
         path = artifacts.path_for(digest)
         path.write_bytes(path.read_bytes()[::-1])
-    reply = client.post(f"/api/graphs/{published.name}/grow", json={"expansions": 3}, headers=ADMIN)
-    assert reply.status_code == 202, reply.text
-    answer = client.get(reply.json()["poll"], headers=ADMIN).json()
+    with caplog.at_level(logging.WARNING):
+        reply = client.post(
+            f"/api/graphs/{published.name}/grow", json={"expansions": 3}, headers=ADMIN
+        )
+        assert reply.status_code == 202, reply.text
+        answer = client.get(reply.json()["poll"], headers=ADMIN).json()
     assert answer["running"] is False
     growth = answer["growth"]
     assert growth["request"] == reply.json()["request"] and growth["state"] == "failed"
     assert "does not match its hash" in growth["reason"]
+    assert str(artifacts.root) not in growth["reason"] and "/corrupt" not in growth["reason"]
+    assert any(str(artifacts.corrupt_path(digest)) in caplog.text for digest in bundles)
 
 
 def test_a_server_growth_whose_job_is_gone_is_reported_failed(

@@ -3,11 +3,13 @@
 from __future__ import annotations
 
 import io
+import logging
 from pathlib import Path
 
 import numpy as np
 import pytest
 from api_helpers import ADMIN_TOKEN, Published
+from artifact_helpers import flip_in_place
 from fastapi.testclient import TestClient
 from PIL import Image
 from sqlalchemy import func, select
@@ -117,26 +119,32 @@ def test_animations_are_served_immutable_by_hash(client: TestClient, published: 
 
 
 def test_a_corrupted_animation_is_never_served_under_its_hash(
-    client: TestClient, published: Published, artifacts: ArtifactStore
+    client: TestClient,
+    published: Published,
+    artifacts: ArtifactStore,
+    caplog: pytest.LogCaptureFixture,
 ) -> None:
-    """One flipped byte: 503 with the usual body (never 200 with the hash as ETag, cached
-    for a year), the file moved aside, and the next request answered the same way."""
+    """One bit flipped after the file was served, its size and modification time kept:
+    503 with the usual body (never 200 with the hash as ETag, cached for a year), the file
+    moved aside, and the next request answered the same way. The body names no path of
+    the server; the log names the file."""
     url = f"/api/animations/{published.animation}"
-    assert client.get(url).status_code == 200  # verified once: the next reads trust the stat
+    assert client.get(url).status_code == 200
     path = artifacts.path_for(published.animation)
-    data = bytearray(path.read_bytes())
-    data[3] ^= 0x01
-    path.write_bytes(bytes(data))
-    for method in (client.get, client.head, client.get):
-        reply = method(url)
-        assert reply.status_code == 503, reply.status_code
-        assert "etag" not in reply.headers and "immutable" not in reply.headers.get(
-            "cache-control", ""
-        )
-    body = client.get(url).json()
+    data = flip_in_place(path, 3)
+    with caplog.at_level(logging.WARNING, logger="app.store.artifacts"):
+        for method in (client.get, client.head, client.get):
+            reply = method(url)
+            assert reply.status_code == 503, reply.status_code
+            assert "etag" not in reply.headers and "immutable" not in reply.headers.get(
+                "cache-control", ""
+            )
+        body = client.get(url).json()
     assert "does not match its hash" in body["error"] and set(body) == {"error", "details"}
+    assert str(artifacts.root) not in body["error"] and "/corrupt" not in body["error"]
+    assert str(artifacts.corrupt_path(published.animation)) in caplog.text
     assert not path.exists()
-    assert artifacts.corrupt_path(published.animation).read_bytes() == bytes(data)
+    assert artifacts.corrupt_path(published.animation).read_bytes() == data
 
 
 def test_only_stored_image_artifacts_are_served(client: TestClient, published: Published) -> None:

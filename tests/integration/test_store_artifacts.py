@@ -4,10 +4,12 @@ from __future__ import annotations
 
 import hashlib
 import io
+import logging
 import zipfile
 
 import numpy as np
 import pytest
+from artifact_helpers import flip_in_place
 from sqlalchemy import func, select
 from sqlalchemy.orm import Session
 
@@ -72,8 +74,9 @@ def test_a_bundle_written_as_npz_still_loads(artifacts: ArtifactStore, session: 
 
 
 def test_missing_artifact_is_a_named_error(artifacts: ArtifactStore) -> None:
-    with pytest.raises(ArtifactNotFound):
+    with pytest.raises(ArtifactNotFound) as caught:
         artifacts.get_bytes("0" * 64)
+    assert str(artifacts.root) not in str(caught.value)
     with pytest.raises(ArtifactNotFound):
         artifacts.get_arrays("0" * 64)
 
@@ -85,18 +88,24 @@ def test_object_arrays_are_refused(artifacts: ArtifactStore, session: Session) -
 
 @pytest.mark.parametrize("flip", [0, 5, -1])
 def test_a_flipped_bit_is_caught_on_read_and_the_file_moved_aside(
-    artifacts: ArtifactStore, session: Session, flip: int
+    artifacts: ArtifactStore, session: Session, flip: int, caplog: pytest.LogCaptureFixture
 ) -> None:
+    """Read once, then rotted in place (size, inode and modification time kept): the next
+    read still hashes it. The error names the digest, not the server's directories; the
+    log names the file."""
     arrays = {"frames": np.arange(400, dtype=np.float32).reshape(20, 20)}
     digest = artifacts.put_arrays(arrays, session=session)
     assert artifacts.get_arrays(digest)["frames"].sum() == arrays["frames"].sum()
     path = artifacts.path_for(digest)
-    data = bytearray(path.read_bytes())
-    data[flip] ^= 0x10
-    path.write_bytes(bytes(data))
-    with pytest.raises(ArtifactCorrupt, match="does not match its hash"):
+    data = flip_in_place(path, flip)
+    with (
+        caplog.at_level(logging.WARNING, logger="app.store.artifacts"),
+        pytest.raises(ArtifactCorrupt, match="does not match its hash") as caught,
+    ):
         artifacts.get_arrays(digest)
-    assert not path.exists() and artifacts.corrupt_path(digest).exists()
+    assert str(artifacts.root) not in str(caught.value) and digest in str(caught.value)
+    assert str(artifacts.corrupt_path(digest)) in caplog.text
+    assert not path.exists() and artifacts.corrupt_path(digest).read_bytes() == data
     with pytest.raises(ArtifactCorrupt):  # a later read names the same cause
         ArtifactStore(artifacts.root).get_bytes(digest)
     # storing the true bytes again heals it

@@ -1,8 +1,11 @@
 """Animation clips and their posters, served by content hash with caching headers to match.
 
 The URL names the bytes (sha256), so a response can be cached forever: ``immutable``
-and a year's ``max-age``; the hash is also the strong ``ETag``. Only image artifacts
-are served: clip bundles are internal data. A poster (the clip's first frame, for a
+and a year's ``max-age``; the hash is also the strong ``ETag``. That promise holds only
+for bytes that match the hash, so every response hashes the bytes it sends (the store's
+:meth:`~app.store.artifacts.ArtifactStore.get_bytes`): a file that rotted since it was
+stored, even with its size and modification time kept, is a 503, never served. Only
+image artifacts are served: clip bundles are internal data. A poster (the clip's first frame, for a
 first paint before clips are decoded) and the phone's clip (the frames at half their
 size, for a small screen) are cut from the stored clip on request rather than stored:
 they are derived data, and as cacheable as the clip they come from, so storage pays for one size
@@ -13,11 +16,9 @@ from __future__ import annotations
 
 import re
 from collections.abc import Callable
-from pathlib import Path
 from typing import Annotated
 
 from fastapi import APIRouter, Depends, Query, Request, Response
-from fastapi.responses import FileResponse
 from sqlalchemy.orm import Session
 
 from app.api.cache import FrozenCache
@@ -31,7 +32,7 @@ from app.render.animation import (
     encode_poster,
     phone_strip,
 )
-from app.services.animations import animation_file
+from app.services.animations import animation_bytes
 
 router = APIRouter(prefix="/api/animations", tags=["animations"])
 
@@ -40,15 +41,15 @@ IMMUTABLE = "public, max-age=31536000, immutable"
 CORRUPT = "the stored file no longer matches its hash: moved aside, not served"
 
 
-def _stored(session: Session, request: Request, digest: str) -> tuple[Path, str]:
-    """The file, checked against its hash, and media type of an animation artifact.
+def _stored(session: Session, request: Request, digest: str) -> tuple[bytes, str]:
+    """The bytes, checked against their hash, and media type of an animation artifact.
 
     A 404 when there is none; a file whose bytes no longer match the hash is never
     served under it (its ETag would be a lie, cached for a year): the store moves it
     aside and :class:`~app.store.artifacts.ArtifactCorrupt` answers 503.
     """
     found = (
-        animation_file(session, request.app.state.artifacts, digest)
+        animation_bytes(session, request.app.state.artifacts, digest)
         if SHA256_HEX.fullmatch(digest)
         else None
     )
@@ -110,12 +111,10 @@ FramesQuery = Annotated[int, Query(ge=1, le=1000, description="frames in the str
 
 @router.get("/{digest}", response_class=Response, responses=ANIMATION_RESPONSES)
 def animation(digest: str, request: Request, session: Session = Depends(get_session)) -> Response:
-    path, media_type = _stored(session, request, digest)
+    body, media_type = _stored(session, request, digest)
     etag = f'"{digest}"'
     headers = {"ETag": etag, "Cache-Control": IMMUTABLE}
-    return _not_modified(request, etag) or FileResponse(
-        path, media_type=media_type, headers=headers
-    )
+    return _not_modified(request, etag) or Response(body, media_type=media_type, headers=headers)
 
 
 def _derived(
@@ -132,15 +131,14 @@ def _derived(
     Cutting one costs a decode and an encode (about 0.1 s for a phone clip), so each is
     cut once per process and kept (``app.state.derived``): the stored clip never changes.
     """
-    _stored(session, request, digest)
-    store = request.app.state.artifacts
+    stored, _ = _stored(session, request, digest)
     etag = f'"{digest}-{kind}-{frames}"'
     cached = _not_modified(request, etag)
     if cached is not None:
         return cached
     try:
         derived: FrozenCache[bytes] = request.app.state.derived
-        body = derived.get_or_load((digest, kind, frames), lambda: derive(store.get_bytes(digest)))
+        body = derived.get_or_load((digest, kind, frames), lambda: derive(stored))
     except (ValueError, OSError) as exc:  # not a strip of that many frames, or no image
         raise ApiError(
             422, f"animation {digest} is not a strip of {frames} frames: {exc}"
