@@ -72,8 +72,12 @@ def end_request(
 
 
 def failure_reason(exc: BaseException) -> str:
-    """One line for a poll: a user's error as its message, a bug with its type."""
-    text = str(exc).strip()
+    """One line for a poll: a user's error as its message, a bug with its type.
+
+    An OS error says what failed without the file it names: the poll is a client's, the
+    server's paths are its log's (the job logs the whole exception).
+    """
+    text = exc.strerror if isinstance(exc, OSError) and exc.strerror else str(exc).strip()
     if isinstance(exc, SrgError):
         return text or type(exc).__name__
     return f"{type(exc).__name__}: {text}" if text else type(exc).__name__

@@ -26,7 +26,7 @@ from app.models import Clip
 from app.models import Publication as PublicationRow
 from app.store.artifacts import ArtifactStore
 from app.store.epochs import start_epoch
-from app.store.growth_requests import add_request, start_request
+from app.store.growth_requests import add_request, failure_reason, start_request
 
 ADMIN = {"Authorization": f"Bearer {ADMIN_TOKEN}"}
 OFF = {"error": "admin routes are off: set SRG_ADMIN_TOKEN", "details": None}
@@ -132,6 +132,14 @@ def test_a_background_growth_that_fails_says_why_on_its_poll(
     assert "does not match its hash" in growth["reason"]
     assert str(artifacts.root) not in growth["reason"] and "/corrupt" not in growth["reason"]
     assert any(str(artifacts.corrupt_path(digest)) in caplog.text for digest in bundles)
+
+
+def test_a_failed_growth_names_what_failed_on_disk_but_not_the_file() -> None:
+    """A write refused under the artifact directory: the poll's reason says why, the
+    server's path stays in its log."""
+    denied = PermissionError(13, "Permission denied", "/srv/srg/artifacts/ab/cd/.tmp-1")
+    assert failure_reason(denied) == "PermissionError: Permission denied"
+    assert failure_reason(ValueError("bad")) == "ValueError: bad"
 
 
 def test_a_server_growth_whose_job_is_gone_is_reported_failed(
