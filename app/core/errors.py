@@ -46,6 +46,15 @@ class Conflict(SrgError):
     http_status = 409
 
 
+class Inconsistent(SrgError):
+    """What srg holds breaks its own rules: a graph whose vertices, clips and edges do
+    not fit together. A bug or damaged data, never the user's doing, but named all the
+    same: one line on the CLI and a JSON body in the API, which say which rule broke,
+    where a bare ``AssertionError`` would show a traceback or an opaque 500."""
+
+    http_status = 500
+
+
 class Unavailable(SrgError):
     """A part srg needs is not there or not ready: a database never migrated, no broker."""
 

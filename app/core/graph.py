@@ -20,6 +20,7 @@ from typing import Any
 import numpy as np
 
 from app.core.dynamics import ClipFeatures
+from app.core.errors import Inconsistent
 
 
 def edge_index(vertex: Any, control: Any, n_controls: int) -> Any:
@@ -43,8 +44,9 @@ class EdgeKind(IntEnum):
 NO_TARGET = -1
 
 
-class GraphInvariantError(AssertionError):
-    """The graph broke one of its structural invariants (a bug, never bad input)."""
+class GraphInvariantError(Inconsistent):
+    """The graph broke one of its structural invariants (a bug or a damaged store,
+    never bad input)."""
 
 
 @dataclass

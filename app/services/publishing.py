@@ -1,7 +1,10 @@
 """Publishing a graph: pre-publish relinking, every missing animation, a frozen copy.
 
 Players and bots only ever play publications (docs/play.md), so growth can go on
-rewriting the live graph under them.
+rewriting the live graph under them. Publishing is a writer of the graph (its relinks
+are saved) and takes the graph's lock as growth's steps do (:mod:`app.store.locks`):
+beside a running growth it waits for the integration under way and freezes the graph as
+that left it, a version the graph had, while growth's next step waits for it.
 """
 
 from __future__ import annotations
@@ -13,9 +16,10 @@ from sqlalchemy.orm import Session
 from app.config import Settings
 from app.core.growth import relink_all
 from app.services.animations import render_missing_animations, reuse_error_limit
-from app.services.loading import LoadedGraph, open_graph
+from app.services.loading import LoadedGraph, loaded_graph
 from app.services.progress import Advance
 from app.store.graph_persistence import save_graph
+from app.store.locks import lock_named_graph
 from app.store.publications import get_publication, publish
 from app.store.transactions import in_transaction
 
@@ -53,7 +57,7 @@ def publish_graph(
     ``render=False`` freezes the graph without animations: the experiment's bots play
     edges, not pictures, and rendering would cost more than growing.
     """
-    loaded = open_graph(session, settings, name)
+    loaded = loaded_graph(session, settings, lock_named_graph(session, name))
     relinked = relink_blends(session, settings, loaded)
     rendered = 0
     if render:

@@ -12,23 +12,23 @@ there first, or the transaction of the previous save rolled back) raises
 from __future__ import annotations
 
 import weakref
-from collections.abc import Iterable
+from collections.abc import Iterable, Sequence
 from dataclasses import dataclass
 from typing import Any
 
 import numpy as np
-from sqlalchemy import select, update
+from sqlalchemy import Row, select, update
 from sqlalchemy.orm import Session
 
 from app.core.clipbank import ClipBank
 from app.core.errors import Conflict
-from app.core.graph import NO_TARGET, EdgeKind, StateGraph
+from app.core.graph import NO_TARGET, EdgeKind, GraphInvariantError, StateGraph
 from app.models import Clip, Edge, Graph, Vertex
 from app.store._sql import bulk_insert
 from app.store.array_codec import ARRAYS_MEDIA_TYPE, encode_arrays
 from app.store.artifacts import ArtifactStore
 from app.store.clipbank import SHAPE_CACHE_BYTES, ShapeOf, StoredClipBank, clip_bundle
-from app.store.graph_catalogue import get_graph_row
+from app.store.graph_catalogue import GraphNotFound, get_graph_row, graph_revision
 
 #: "no clip" in vertex_clip (the start vertex) and in the placeholders of unfilled edges
 NO_CLIP = -1
@@ -152,32 +152,102 @@ def load_graph(
     ``shape_of`` derives a clip's occupancy and descriptor from its frames (the graph's
     dynamics' ``shape``).
 
+    The graph comes from one revision, whatever commits meanwhile. Its row, vertices,
+    clips and edges are separate statements, and under PostgreSQL's READ COMMITTED each
+    sees what was committed when it began: a save committed between them would give a
+    torn graph. Every save bumps ``graphs.revision`` in its transaction, so the read is
+    kept when the revision after it is the one before it; otherwise it is read again
+    with the graph's row share-locked (:func:`_share_lock`), which waits for a save in
+    flight to commit and holds off the next until the caller's transaction ends. SQLite
+    reads one snapshot per transaction, so there the first read always stands.
+
     Descriptors come back as float64 of the stored float32 values; everything else is
     exact. The energy index is rebuilt through ``set_sim`` in ascending energy order,
-    where each insertion is an append.
+    where each insertion is an append. A stored graph that breaks an invariant is
+    :class:`~app.core.graph.GraphInvariantError`, naming the graph.
     """
     row = get_graph_row(session, graph_id)
+    revision = _current_revision(session, graph_id)
+    stored = _stored_rows(session, graph_id)
+    if _current_revision(session, graph_id) != revision:
+        _share_lock(session, graph_id)
+        revision = _current_revision(session, graph_id)
+        stored = _stored_rows(session, graph_id)
     graph = StateGraph(n_controls=row.n_controls, frames_per_clip=row.frames_per_clip)
-    vertices = session.execute(
-        select(Vertex.control, Vertex.clip_idx)
-        .where(Vertex.graph_id == graph_id)
-        .order_by(Vertex.idx)
-    ).all()
-    graph.vertex_control = [control for control, _ in vertices]
-    graph.vertex_clip = [NO_CLIP if clip is None else clip for _, clip in vertices]
-    bundles = _load_clips(session, graph_id, graph)
-    sims = _load_edges(session, graph_id, graph)
-    for energy_order in sims:
-        for edge, clip, dst in energy_order:
-            graph.set_sim(edge, clip, dst)
-    graph.check()
+    try:
+        bundles = _fill_graph(graph, stored)
+        graph.check()
+    except GraphInvariantError as exc:
+        raise GraphInvariantError(f"graph {graph_id} at revision {revision}: {exc}") from None
     _remember(
         graph,
-        _Persisted(graph_id, row.revision, graph.n_vertices, graph.n_clips, _edge_table(graph)),
+        _Persisted(graph_id, revision, graph.n_vertices, graph.n_clips, _edge_table(graph)),
     )
     return graph, StoredClipBank(
         graph, artifacts, dict(enumerate(bundles)), shape_of, shape_cache_bytes
     )
+
+
+def _current_revision(session: Session, graph_id: int) -> int:
+    """The revision committed now (or written by this transaction), read past the row
+    object the session may hold from earlier."""
+    revision = graph_revision(session, graph_id)
+    if revision is None:
+        raise GraphNotFound(f"no graph {graph_id!r}")
+    return revision
+
+
+def _share_lock(session: Session, graph_id: int) -> None:
+    """Lock the graph's row against saves until the transaction ends (PostgreSQL's
+    ``FOR SHARE``; SQLite, whose transactions read one snapshot, needs none)."""
+    if session.get_bind().dialect.name != "sqlite":
+        session.execute(select(Graph.id).where(Graph.id == graph_id).with_for_update(read=True))
+
+
+@dataclass(frozen=True)
+class _StoredRows:
+    """A graph's rows as read, before anything is built of them."""
+
+    vertices: Sequence[Row[int, int | None]]  # control, clip
+    clips: Sequence[Row[int, int, float, bytes, float, bytes, str]]  # source, features, bundle
+    edges: Sequence[Row[int, int, int, int | None, float]]  # kind, clip, dst, target, err
+
+
+def _stored_rows(session: Session, graph_id: int) -> _StoredRows:
+    return _StoredRows(
+        vertices=session.execute(
+            select(Vertex.control, Vertex.clip_idx)
+            .where(Vertex.graph_id == graph_id)
+            .order_by(Vertex.idx)
+        ).all(),
+        clips=session.execute(
+            select(Clip.source, *CLIP_FEATURE_COLUMNS)
+            .where(Clip.graph_id == graph_id)
+            .order_by(Clip.idx)
+        ).all(),
+        edges=session.execute(
+            select(Edge.kind, Edge.clip_idx, Edge.dst, Edge.target, Edge.err)
+            .where(Edge.graph_id == graph_id)
+            .order_by(Edge.vertex, Edge.control)
+        ).all(),
+    )
+
+
+def _fill_graph(graph: StateGraph, stored: _StoredRows) -> list[str]:
+    """Build the empty ``graph`` from its rows; the clips' bundle digests, by clip."""
+    graph.vertex_control = [control for control, _ in stored.vertices]
+    graph.vertex_clip = [NO_CLIP if clip is None else clip for _, clip in stored.vertices]
+    rows = stored.clips
+    graph.clip_source = [r.source for r in rows]
+    graph.clip_control = [r.control for r in rows]
+    graph.clip_kinetic = [r.kinetic for r in rows]
+    graph.clip_potential = [stored_potential(r.potential) for r in rows]
+    graph.clip_score = [r.score for r in rows]
+    graph.clip_descriptor = [stored_descriptor(r.descriptor) for r in rows]
+    for energy_order in _fill_edges(graph, stored.edges):
+        for edge, clip, dst in energy_order:
+            graph.set_sim(edge, clip, dst)
+    return [r.bundle for r in rows]
 
 
 #: the columns a stored clip is compared by (its features) and found by (its bundle)
@@ -191,21 +261,6 @@ CLIP_FEATURE_COLUMNS = (
 )
 
 
-def _load_clips(session: Session, graph_id: int, graph: StateGraph) -> list[str]:
-    rows = session.execute(
-        select(Clip.source, *CLIP_FEATURE_COLUMNS)
-        .where(Clip.graph_id == graph_id)
-        .order_by(Clip.idx)
-    ).all()
-    graph.clip_source = [r.source for r in rows]
-    graph.clip_control = [r.control for r in rows]
-    graph.clip_kinetic = [r.kinetic for r in rows]
-    graph.clip_potential = [stored_potential(r.potential) for r in rows]
-    graph.clip_score = [r.score for r in rows]
-    graph.clip_descriptor = [stored_descriptor(r.descriptor) for r in rows]
-    return [r.bundle for r in rows]
-
-
 def stored_potential(raw: bytes) -> np.ndarray:
     """A clip row's potential energies (float64 bytes, one per control)."""
     return np.frombuffer(raw, dtype=np.float64).copy()
@@ -216,19 +271,14 @@ def stored_descriptor(raw: bytes) -> np.ndarray:
     return np.frombuffer(raw, dtype=np.float32).astype(np.float64)
 
 
-def _load_edges(
-    session: Session, graph_id: int, graph: StateGraph
+def _fill_edges(
+    graph: StateGraph, rows: Sequence[Row[int, int, int, int | None, float]]
 ) -> list[list[tuple[int, int, int]]]:
     """Fill the edge columns; return each control's SIM edges (edge, clip, dst) by energy.
 
     SIM edges are left as unfilled placeholders for the caller to ``set_sim``, which
     also files them in the energy index.
     """
-    rows = session.execute(
-        select(Edge.kind, Edge.clip_idx, Edge.dst, Edge.target, Edge.err)
-        .where(Edge.graph_id == graph_id)
-        .order_by(Edge.vertex, Edge.control)
-    ).all()
     n = graph.n_controls
     sims: list[list[tuple[float, int, int, int]]] = [[] for _ in range(n)]
     for edge, (kind, clip, dst, target, err) in enumerate(rows):

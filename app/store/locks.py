@@ -14,7 +14,7 @@ from app.core.graph_entry import GraphEntry
 from app.db.engines import begin_immediate
 from app.models import Graph
 from app.store.epochs import Epoch, get_epoch
-from app.store.graph_catalogue import GraphNotFound, entry_of
+from app.store.graph_catalogue import GraphNotFound, entry_of, graph_entry
 
 
 def lock_graph(session: Session, graph_id: int) -> GraphEntry:
@@ -28,6 +28,12 @@ def lock_graph(session: Session, graph_id: int) -> GraphEntry:
     if row is None:
         raise GraphNotFound(f"no graph {graph_id!r}")
     return entry_of(row)
+
+
+def lock_named_graph(session: Session, name: str | int) -> GraphEntry:
+    """:func:`lock_graph` of the graph by name or id."""
+    begin_immediate(session)  # before the first statement: see lock_graph
+    return lock_graph(session, graph_entry(session, name).id)
 
 
 def lock_graph_if_free(session: Session, graph_id: int) -> GraphEntry | None:
