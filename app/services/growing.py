@@ -11,13 +11,16 @@ from dataclasses import dataclass, field
 
 from app.config import Settings
 from app.core.errors import Conflict
+from app.core.graph_entry import GraphEntry
 from app.core.refinement import GrowthBudget
-from app.core.strategies import parse_strategy
+from app.core.strategies import Strategy, parse_strategy
 from app.db.sessions import Scope
 from app.services.epochs import plan_epoch, run_epoch
 from app.services.progress import Advance
 from app.store.epochs import get_epoch, running_epoch
 from app.store.graph_catalogue import graph_entry, size_frames
+from app.store.growth_claims import GrowingElsewhere as GrowingElsewhere
+from app.store.growth_claims import growth_claim
 
 
 @dataclass
@@ -34,7 +37,10 @@ class GrowResult:
 
 
 class GrowthBusy(Conflict):
-    """An epoch of the graph is running on the workers; eager growth would race it."""
+    """An epoch of the graph is running on the workers; in-process growth would race it.
+
+    Another in-process grower is :class:`~app.store.growth_claims.GrowingElsewhere`.
+    """
 
 
 def grow_graph(
@@ -59,6 +65,9 @@ def grow_graph(
     :func:`app.db.sessions.transaction` makes each step durable (an interrupted grow keeps its
     finished steps, and the next grow first finishes the interrupted epoch);
     :func:`app.services.epochs.in_session` runs all in one caller-owned transaction.
+
+    One process at a time grows a graph in-process: another that holds its growth claim
+    (:mod:`app.store.growth_claims`) is :class:`GrowingElsewhere` at once.
     """
     if frames is None and expansions is None and to_frames is None:
         expansions = settings.growth.batch_size
@@ -67,8 +76,43 @@ def grow_graph(
     batch = batch_size or settings.growth.batch_size
     with scope() as session:
         entry = graph_entry(session, name)
-        graph_id, per_expansion = entry.id, entry.frames_per_expansion
-        chosen = parse_strategy(strategy) if strategy else parse_strategy(entry.strategy)
+        engine = session.get_bind().engine
+    with growth_claim(engine, entry.id, entry.name):
+        return _grow_claimed(
+            scope,
+            settings,
+            entry,
+            parse_strategy(strategy or entry.strategy),
+            frames=frames,
+            expansions=expansions,
+            to_frames=to_frames,
+            renders=renders,
+            batch=batch,
+            progress=progress,
+        )
+
+
+def _grow_claimed(
+    scope: Scope,
+    settings: Settings,
+    entry: GraphEntry,
+    chosen: Strategy,
+    *,
+    frames: int | None,
+    expansions: int | None,
+    to_frames: int | None,
+    renders: bool,
+    batch: int,
+    progress: Advance | None,
+) -> GrowResult:
+    """:func:`grow_graph` once this process holds the graph's growth claim.
+
+    Holding it, an in-process grower knows that no other one is running an epoch of the
+    graph: with no workers (eager), an epoch found running was left by a grower that
+    died, and is finished first.
+    """
+    graph_id, per_expansion = entry.id, entry.frames_per_expansion
+    with scope() as session:
         size = size_frames(session, graph_id)
         interrupted = running_epoch(session, graph_id) if settings.eager else None
         interrupted_id = None if interrupted is None else interrupted.id
@@ -78,7 +122,7 @@ def grow_graph(
         if progress is not None:
             progress(1 if expansions is not None else per_expansion)
 
-    if interrupted_id is not None:  # embedded: nobody else can be running it
+    if interrupted_id is not None:
         result.expansions += len(
             run_epoch(scope, settings, interrupted_id, renders=renders, on_expansion=advance)
         )

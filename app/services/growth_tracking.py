@@ -11,6 +11,7 @@ from __future__ import annotations
 from sqlalchemy.orm import Session
 
 from app.store.epochs import epochs_after, last_epoch_number, running_epoch
+from app.store.growth_claims import refuse_if_claimed
 from app.store.growth_requests import (
     RequestState,
     RequestView,
@@ -31,6 +32,7 @@ __all__ = [
     "last_epoch_number",
     "latest_request",
     "queue_request",
+    "refuse_if_growing_elsewhere",
     "running_epoch_number",
     "running_epoch_state",
     "start_request",
@@ -40,6 +42,14 @@ __all__ = [
 def queue_request(session: Session, graph_id: int, expansions: int, runs_on: str) -> int:
     """The id of a new queued request, in its own write transaction."""
     return in_transaction(session, lambda: add_request(session, graph_id, expansions, runs_on))
+
+
+def refuse_if_growing_elsewhere(
+    session: Session, graph_id: int, graph_name: str, *, details: object = None
+) -> None:
+    """``GrowingElsewhere`` if another process (an ``srg grow``, another server) grows
+    the graph itself now: a growth queued here would be refused when it starts."""
+    refuse_if_claimed(session.get_bind().engine, graph_id, graph_name, details=details)
 
 
 def running_epoch_number(session: Session, graph_id: int) -> int | None:

@@ -37,6 +37,7 @@ from app.services.growth_tracking import (
     last_epoch_number,
     latest_request,
     queue_request,
+    refuse_if_growing_elsewhere,
     running_epoch_number,
 )
 
@@ -113,6 +114,8 @@ def grow(
             409, f"graph {graph_name!r} is already growing in this server", details={"poll": poll}
         )
     try:
+        if settings.eager:
+            refuse_if_growing_elsewhere(session, graph_id, graph_name, details={"poll": poll})
         request_id = queue_request(session, graph_id, expansions, runs_on)
     except BaseException:
         if settings.eager:
