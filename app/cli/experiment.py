@@ -101,6 +101,10 @@ def experiment(
     model_options = (player_model, bots, judges, fixed_graph_sessions)
     name = name or "-".join(x for x in ("experiment", dynamics or "toy", preset, fluid) if x)
     settings = get_settings()
+    report_dir = out or settings.var_dir / "experiment" / name
+    _require_makeable("--out", report_dir, directory=True)
+    if result_path is not None:
+        _require_makeable("--result", result_path, directory=False)
     require_intact(settings)
     if resume:
         if quick or pooled or any(option is not None for option in (*options, *model_options)):
@@ -144,7 +148,7 @@ def experiment(
     crowd = Strategy.SR_CROWD in plan.strategies and result["complete"]
     report = write_report(
         result,
-        out or settings.var_dir / "experiment" / name,
+        report_dir,
         artifact_store(settings).get_arrays,
         ingredients=eq2_ingredients(settings, name) if crowd else None,
     )
@@ -168,6 +172,18 @@ def experiment(
             met = sum(target["met"] for target in judged)
             typer.echo(f"{bot}: {met} of {len(judged)} targets met", err=json_output)
     typer.echo(f"report: {report}", err=True)
+
+
+def _require_makeable(option: str, path: Path, *, directory: bool) -> None:
+    """Refuse now a directory or file that cannot be made at ``path`` (a regular file on
+    its way, a directory where the file goes), rather than when it is written after hours
+    of growth."""
+    existing = next(part for part in (path, *path.parents) if part.exists())
+    if existing == path and not directory:
+        if path.is_dir():
+            raise InvalidInput(f"{option} {path} is a directory")
+    elif not existing.is_dir():
+        raise InvalidInput(f"{option} {path}: {existing} is not a directory")
 
 
 def _experiment_plan(
