@@ -4,7 +4,7 @@ Every ``srg ...`` in a code span or a code block of README.md and docs/*.md is r
 way a shell would and walked down the click command tree of ``srg``: an unknown command
 or an unknown ``--option`` of the command named fails, as does a shell example whose
 value holds a ``|`` (pasted into a shell it is a pipe). The per-run reports under
-docs/results/ keep the commands they were run with and are not read. The generated
+docs/results/*/ keep the commands they were run with and are not read. The generated
 pages (app/cli/reference.py) are checked to name every command, option and setting.
 """
 
@@ -21,18 +21,25 @@ from app.cli.reference import commands_markdown, root_command, settings_markdown
 from app.config import Settings
 
 ROOT = Path(__file__).resolve().parents[2]
-PAGES = [ROOT / "README.md", *sorted((ROOT / "docs").glob("*.md"))]
+PAGES = [
+    ROOT / "README.md",
+    *sorted((ROOT / "docs").glob("*.md")),
+    ROOT / "docs/results/history.md",
+]
 FENCED = re.compile(r"^```[^\n]*\n(.*?)^```", re.MULTILINE | re.DOTALL)
 INLINE = re.compile(r"`([^`]+)`")
 #: where a command line ends: a pipe, a list, a redirection, a comment
 STOPS = re.compile(r"^(\|\|?|&&?|;|>.*|2>.*|<|#.*|\))$")
 #: a word that stands for something: NAME, ARGS..., <command>, ...
+#: the command tree, built once: every snippet is walked down it
+SRG = root_command()
 PLACEHOLDER = re.compile(r"^(\.\.\.|<[^>]*>|[A-Z][A-Z0-9_.-]*(\.\.\.)?)$")
 
 
 def snippets(text: str) -> list[tuple[str, bool]]:
     """(code, is it a shell block) of every fenced block (one per line) and code span."""
-    found = [(line, True) for block in FENCED.findall(text) for line in block.splitlines()]
+    blocks = [block.replace("\\\n", " ") for block in FENCED.findall(text)]  # continued lines
+    found = [(line, True) for block in blocks for line in block.splitlines()]
     prose = FENCED.sub("", text)
     return found + [(" ".join(span.split()), False) for span in INLINE.findall(prose)]
 
@@ -62,7 +69,7 @@ def invocations(code: str) -> list[list[str]]:
 
 def problems(rest: list[str], shell: bool) -> list[str]:
     """What is wrong with ``srg`` followed by ``rest``; empty when nothing is."""
-    command: Any = root_command()
+    command: Any = SRG
     path = ["srg"]
     while rest and hasattr(command, "commands"):
         word = rest[0].strip("[](),.:;").removesuffix("'s")
@@ -116,11 +123,14 @@ def test_the_check_catches_an_unknown_command_option_and_pipe() -> None:
     ]
     assert problems(["bench", "rank|sph|nope"], shell=False) == ["srg bench has no command nope"]
     assert invocations("SRG_X=1 srg worker | tee log") == [["worker"]]
+    assert snippets("```bash\nsrg play x \\\n  --bots a\n```\n") == [
+        ("srg play x    --bots a", True)
+    ]
 
 
 def test_the_generated_pages_name_every_command_option_and_setting() -> None:
     commands = commands_markdown()
-    for path, command in walk_commands(root_command()):
+    for path, command in walk_commands(SRG):
         assert f"## `{path}`" in commands
         for parameter in command.params:
             if not parameter.hidden:
