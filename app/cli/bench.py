@@ -319,3 +319,28 @@ def writer(
             progress=advance,
         )
     _emit(result)
+
+
+@app.command("epoch-traces")
+def epoch_traces(
+    steps: int = typer.Option(10_000_000, min=1, help="trace steps stored on the played graph"),
+    session_steps: int = typer.Option(2_000, min=1, help="steps per stored session"),
+    expansions: int = typer.Option(8, min=1, help="expansions per timed grow"),
+    repeats: int = typer.Option(3, min=1, help="timed grows per graph (the median is kept)"),
+    sessions: int = typer.Option(20, min=2, help="bot sessions uploaded per publication"),
+) -> None:
+    """A grow's time with and without --steps stored steps, and srg analytics over them,
+    on a scratch PostgreSQL database (ratio target <= 1.2)."""
+    from app.bench.epoch_traces import bench_epoch_traces
+    from app.config import get_settings
+
+    _emit(
+        bench_epoch_traces(
+            steps=steps,
+            session_steps=session_steps,
+            expansions=expansions,
+            repeats=repeats,
+            sessions=sessions,
+            settings=get_settings(),
+        )
+    )
