@@ -228,14 +228,18 @@ class ApiSettings(BaseSettings):
     admin_token: str = Field(
         "", description="bearer token of the admin routes; '' (no default secret): routes off"
     )
-    max_trace_bytes: int = Field(1_000_000, ge=1, le=GIB)
+    max_trace_bytes: int = Field(
+        1_000_000, ge=1, le=GIB, description="body bytes of one trace upload, at most"
+    )
     max_trace_steps: int = Field(
         2_000,
         ge=1,
         le=1_000_000,
         description="steps per uploaded trace (the web client sends <= 1,800)",
     )
-    uploads_per_minute: int = Field(60, ge=1, le=1_000_000)
+    uploads_per_minute: int = Field(
+        60, ge=1, le=1_000_000, description="trace uploads per player per minute, at most"
+    )
     max_body_bytes: int = Field(
         16_384, ge=1, le=GIB, description="bodies of every request but trace uploads (413 beyond)"
     )
@@ -312,13 +316,21 @@ class Settings(BaseSettings):
 
     model_config = _SOURCES
 
-    var_dir: Path = Path("var")
+    var_dir: Path = Field(
+        Path("var"), description="where the embedded SQLite database and the artifacts live"
+    )
     database_url: str = Field(
         "", description="postgresql+psycopg://... or sqlite:///...; '': SQLite under var_dir"
     )
-    artifact_dir: Path | None = None
-    broker_url: str = ""
-    result_backend: str = ""
+    artifact_dir: Path | None = Field(
+        None,
+        description="content-addressed clip bundles and animations, the same directory on "
+        "every machine; unset: var_dir/data",
+    )
+    broker_url: str = Field(
+        "", description="Celery's broker (redis://...); '': tasks run eagerly, in-process"
+    )
+    result_backend: str = Field("", description="Celery's result backend; '': the broker")
     redis_url: str = Field("", description="redis://, rediss:// or unix://; '': none")
     scratch_postgres_url: str = Field(
         "postgresql+psycopg://postgres@127.0.0.1:5432/srg_scratch",
