@@ -88,9 +88,12 @@ def create_app(settings: Settings | None = None) -> FastAPI:
     app.state.derived = FrozenCache[bytes](DERIVED_CACHED)
     app.state.growth_jobs = GrowthJobs()
     app.state.broker_probe = _broker_probe(settings)
+    app.state.sqlite_integrity = health.SqliteIntegrity(settings)
     install_error_handlers(app)
     # every route reads the database, and BodyLimit reads every request's Content-Length
-    any_route_answers = error_responses(400, 503, s400="a malformed Content-Length")
+    any_route_answers = error_responses(
+        400, 503, s400="a malformed Content-Length, or one beside a Transfer-Encoding"
+    )
     for module in (graphs, animations, players, traces, admin, health):
         app.include_router(module.router, responses=any_route_answers)
     app.router.routes.append(Route("/api/{path:path}", NoRoute(), include_in_schema=False))

@@ -8,7 +8,11 @@ it is rather than as "error parsing the body"), answered 413 by the error handle
 Trace uploads have their own limit (``max_trace_bytes``); every other body has
 ``max_body_bytes``. A ``Content-Length`` that is not one decimal number (``abc``, ``-1``,
 two different values; RFC 9110 8.6 lets a list of one value repeated pass) is a 400 in
-the API's error shape: no body can be read by it.
+the API's error shape: no body can be read by it. So is a ``Content-Length`` beside a
+``Transfer-Encoding``: the two frame the body differently, and a proxy in front that
+reads the other one than the server does lets a second request hide in the body
+(request smuggling, RFC 9112 6.3 and 11.2); the connection is closed after that 400,
+its unread bytes never parsed as a request.
 """
 
 from __future__ import annotations
@@ -43,6 +47,10 @@ class BodyLimit:
         except MalformedContentLength as exc:
             await error_response(400, str(exc))(scope, receive, send)
             return
+        if declared is not None and _has_header(scope, b"transfer-encoding"):
+            closing = {"Connection": "close"}
+            await error_response(400, TWO_FRAMINGS, headers=closing)(scope, receive, send)
+            return
         if declared is not None and declared > limit:
             too_large = BodyTooLarge(limit)
             response = error_response(413, str(too_large.detail), details=too_large.details)
@@ -60,6 +68,9 @@ class BodyLimit:
             return message
 
         await self.app(scope, bounded_receive, send)
+
+
+TWO_FRAMINGS = "Content-Length with Transfer-Encoding: a request frames its body with one"
 
 
 class MalformedContentLength(ValueError):
@@ -81,3 +92,7 @@ def _content_length(scope: Scope) -> int | None:
     if others or not value.isdigit():  # bytes.isdigit: ASCII digits only
         raise MalformedContentLength
     return int(value)
+
+
+def _has_header(scope: Scope, name: bytes) -> bool:
+    return any(header == name for header, _ in scope["headers"])

@@ -203,7 +203,13 @@ def require_intact(settings: Settings) -> None:
     once at their start, and neither reads nor each transaction do. A database server
     checks its own pages: there it only connects.
     """
-    engine = database_engine(settings)
+    require_engine_intact(database_engine(settings))
+
+
+def require_engine_intact(engine: Engine) -> None:
+    """:func:`require_intact` on ``engine``'s database. A connection that SQLite has read
+    pages with keeps them between transactions in WAL mode, so a file overwritten since
+    is noticed only through a new connection (an engine without a pool)."""
     with unavailable_raised(engine), engine.connect() as connection:
         if connection.dialect.name != "sqlite":
             return
