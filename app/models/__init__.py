@@ -1,6 +1,8 @@
-"""SQLAlchemy models; importing this package registers every table on ``Base.metadata``."""
+"""SQLAlchemy models; importing this package registers every table on ``Base.metadata``,
+each table and column with its comment (:mod:`app.models.comments`)."""
 
 from app.models.base import Base
+from app.models.comments import describe
 from app.models.experiment import Experiment, ExperimentCheckpoint
 from app.models.graph import (
     Artifact,
@@ -14,6 +16,7 @@ from app.models.graph import (
     Vertex,
 )
 from app.models.play import (
+    EdgeKindName,
     GraphSessions,
     PlayCount,
     Player,
@@ -24,11 +27,14 @@ from app.models.play import (
     TraceStep,
 )
 
+describe(Base.metadata)
+
 __all__ = [
     "Artifact",
     "Base",
     "Clip",
     "Edge",
+    "EdgeKindName",
     "Experiment",
     "ExperimentCheckpoint",
     "ExpansionClip",

@@ -36,6 +36,9 @@ class Publication(Base):
     n_edges: Mapped[int] = mapped_column(Integer)
     size_frames: Mapped[int] = mapped_column(Integer)
     start: Mapped[int] = mapped_column(Integer)
+    #: the threshold in force when it was published (app.services.dynamics.threshold_in_force),
+    #: so that SQL over the analytics views needs no calibration file; NULL before 0011
+    high_error_threshold: Mapped[float | None] = mapped_column(Double)
 
 
 class PublicationEdge(Base):
@@ -53,6 +56,16 @@ class PublicationEdge(Base):
     err: Mapped[float] = mapped_column(Double)
     score: Mapped[float] = mapped_column(Double)
     animation: Mapped[str | None] = mapped_column(ForeignKey("artifacts.hash"))
+
+
+class EdgeKindName(Base):
+    """The name of each :class:`~app.core.graph.EdgeKind` number, for SQL that reads
+    ``edges.kind`` and ``publication_edges.kind`` (the analytics views join it)."""
+
+    __tablename__ = "edge_kinds"
+
+    kind: Mapped[int] = mapped_column(SmallInteger, primary_key=True, autoincrement=False)
+    name: Mapped[str] = mapped_column(String(16), unique=True)
 
 
 class Player(Base):

@@ -63,7 +63,9 @@ def publish_graph(
     if render:
         limit = reuse_error_limit(settings, loaded.context)
         rendered = render_missing_animations(session, loaded, limit, progress)
-    publication_id = publish(session, loaded.entry.id, loaded.graph)
+    publication_id = publish(
+        session, loaded.entry.id, loaded.graph, threshold=loaded.context.threshold
+    )
     return PublishResult(
         graph=loaded.entry.name,
         publication_id=publication_id,

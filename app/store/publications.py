@@ -54,11 +54,15 @@ class NothingPublished(NotFound):
     """The graph has no publication to play yet."""
 
 
-def publish(session: Session, graph_id: int, graph: StateGraph) -> int:
+def publish(
+    session: Session, graph_id: int, graph: StateGraph, *, threshold: float | None = None
+) -> int:
     """Freeze the saved ``graph`` as the graph's next publication; return its id.
 
     The graph must be saved first (:class:`~app.store.graph_persistence.StaleGraph` otherwise), so
-    the copied animations belong to the edges being published.
+    the copied animations belong to the edges being published. ``threshold`` is the
+    high-error threshold in force, stored with it for SQL over the analytics views (None:
+    not known, as for a publication a test or benchmark makes of a bare graph).
     """
     require_saved(session, graph_id, graph)
     frozen = freeze(graph)
@@ -72,6 +76,7 @@ def publish(session: Session, graph_id: int, graph: StateGraph) -> int:
         n_edges=graph.n_edges,
         size_frames=graph.size_frames,
         start=graph.start,
+        high_error_threshold=threshold,
     )
     session.add(row)
     session.flush()
