@@ -19,7 +19,7 @@ import pytest
 from cli_helpers import SRG, ok, one_line_error, srg
 from sqlalchemy import create_engine, func, select
 
-from app.models import Clip, ExperimentCheckpoint, GrowthEpoch
+from app.models import ExperimentCheckpoint, GrowthEpoch
 from app.services.experiment.results import comparable_figures
 
 TOY_PLAN = ("--seeds", "0", "--checkpoints", "600,1500,2400", "--sessions", "10")
@@ -97,15 +97,6 @@ def children_of(pid: int) -> list[int]:
     return found
 
 
-def clips_stored(var: Path) -> int:
-    engine = create_engine(f"sqlite:///{var / 'srg.sqlite3'}")
-    try:
-        with engine.connect() as connection:
-            return int(connection.scalar(select(func.count()).select_from(Clip)))
-    finally:
-        engine.dispose()
-
-
 def alive(pid: int) -> bool:
     """Whether ``pid`` runs (a zombie nobody reaped has ended)."""
     try:
@@ -116,30 +107,35 @@ def alive(pid: int) -> bool:
 
 
 def test_the_run_processes_die_with_a_killed_experiment(tmp_path: Path) -> None:
-    """SIGKILL of the experiment's own process alone: its pool must not write on."""
+    """SIGKILL of the experiment's own process alone, as its runs store their first
+    checkpoints: its run processes die with it, and no checkpoint is stored after it died
+    (they wrote some seconds later while a thread of theirs had to notice)."""
     var = tmp_path / "var"
     ok(var, "db", "upgrade")
     env = {k: v for k, v in os.environ.items() if not k.startswith("SRG_")}
     env["SRG_VAR_DIR"] = str(var)
+    plan = ("--strategies", "baseline", "--seeds", "0,1", "--checkpoints", "300,3000")
     process = subprocess.Popen(
-        [str(SRG), "experiment", "--seeds", "0,1", "--checkpoints", "3000,9000", "--jobs", "2"],
+        [str(SRG), "experiment", *plan, "--sessions", "2", "--jobs", "2"],
         env=env,
         stdout=subprocess.DEVNULL,
         stderr=subprocess.DEVNULL,
         start_new_session=True,
     )
     try:
-        deadline = time.monotonic() + 120
-        while clips_stored(var) < 100:  # the runs are growing their graphs
+        deadline = time.monotonic() + 300
+        while checkpoints_stored(var) < 1:  # the two runs are at their first checkpoint
             assert process.poll() is None and time.monotonic() < deadline
-            time.sleep(0.1)
+            time.sleep(0.05)
         runs = children_of(process.pid)
         process.kill()
         process.wait(10)
+        stored = checkpoints_stored(var)
         deadline = time.monotonic() + 10
         while any(alive(pid) for pid in runs) and time.monotonic() < deadline:
             time.sleep(0.1)
         assert not any(alive(pid) for pid in runs)
+        assert checkpoints_stored(var) == stored
     finally:
         with contextlib.suppress(ProcessLookupError):
             os.killpg(process.pid, signal.SIGKILL)

@@ -11,8 +11,11 @@ checkpoints already stored, which is what makes ``--resume`` work (docs/experime
 
 from __future__ import annotations
 
+import ctypes
 import os
 import resource
+import signal
+import sys
 import threading
 import time
 from collections.abc import Callable
@@ -38,8 +41,11 @@ from app.store.graph_catalogue import graph_exists
 
 #: seconds between two looks at the run processes (and the frames they grew)
 PROGRESS_POLL = 1.0
-#: seconds between a run process's two looks at whether its parent still lives
+#: seconds between a run process's two looks at whether its parent still lives (where
+#: the kernel cannot be asked to kill it with its parent)
 PARENT_POLL = 0.5
+#: prctl(2)'s option naming the signal a process gets when its parent dies (linux/prctl.h)
+PR_SET_PDEATHSIG = 1
 
 #: grows the stored graph ``name`` to at least ``to_frames`` frames, ``batch`` blends an epoch
 Grower = Callable[[str, int, int, Advance | None], None]
@@ -127,19 +133,33 @@ def _run_in_processes(
 
 
 def die_with_parent(parent: int) -> None:
-    """In a run process: exit as soon as the experiment's process is gone.
+    """In a run process: die with the experiment's process.
 
     A pool's processes outlive a SIGKILLed parent (nothing terminates them) and would go
-    on writing to the graphs a ``--resume`` is about to grow; a daemon thread watching
-    the parent's pid ends them within :data:`PARENT_POLL` seconds instead.
+    on writing to the graphs a ``--resume`` is about to grow. On Linux the kernel kills
+    the run process when its parent dies (``prctl(PR_SET_PDEATHSIG, SIGKILL)``, kept
+    across its exec): no code of the run process has to notice, as a thread watching the
+    parent's pid did up to seconds late, after checkpoints were written, behind a main
+    thread holding the GIL. Elsewhere that thread is what there is. A parent already
+    gone when this runs (the run process was still starting) shows in its pid: the run
+    process exits before it takes a run.
     """
-
-    def watch() -> None:
-        while os.getppid() == parent:
-            time.sleep(PARENT_POLL)
+    if sys.platform == "linux":
+        libc = ctypes.CDLL(None, use_errno=True)
+        if libc.prctl(PR_SET_PDEATHSIG, signal.SIGKILL, 0, 0, 0) != 0:
+            raise OSError(ctypes.get_errno(), "prctl(PR_SET_PDEATHSIG) failed")
+    else:
+        threading.Thread(
+            target=_exit_when_orphaned, args=(parent,), name="die-with-parent", daemon=True
+        ).start()
+    if os.getppid() != parent:
         os._exit(1)
 
-    threading.Thread(target=watch, name="die-with-parent", daemon=True).start()
+
+def _exit_when_orphaned(parent: int) -> None:
+    while os.getppid() == parent:
+        time.sleep(PARENT_POLL)
+    os._exit(1)
 
 
 def frames_grown(settings: Settings, name: str, plan: ExperimentPlan) -> int:
