@@ -14,10 +14,8 @@ values, each URL a scheme srg can use.
 
 from __future__ import annotations
 
-import re
 from pathlib import Path
 from typing import Any, Literal
-from urllib.parse import urlsplit
 
 from pydantic import (
     AliasChoices,
@@ -30,6 +28,16 @@ from pydantic import (
 from pydantic_core import ErrorDetails, InitErrorDetails
 from pydantic_settings import BaseSettings, SettingsConfigDict
 
+from app.config_types import (
+    DAY,
+    GIB,
+    MIB_PER_TIB,
+    DatabaseURL,
+    PostgresURL,
+    RateLimits,
+    RedisURL,
+    WebOrigins,
+)
 from app.core.errors import InvalidInput
 from app.core.player_models import PlayerModelKind
 
@@ -39,22 +47,6 @@ _SOURCES = SettingsConfigDict(
     extra="ignore",
     allow_inf_nan=False,
     populate_by_name=True,
-)
-
-MINUTE, DAY = 60, 24 * 3600
-#: bodies and per-process caches: far above any sane value, far below a machine's memory
-GIB, MIB_PER_TIB = 1 << 30, 1 << 20
-#: the databases srg runs on, each as SQLAlchemy names it with its driver (psycopg 3 is
-#: SQLAlchemy's default driver of ``postgresql://``)
-POSTGRESQL_SCHEMES = frozenset(["postgresql", "postgresql+psycopg"])
-DATABASE_SCHEMES = POSTGRESQL_SCHEMES | {"sqlite", "sqlite+pysqlite"}
-REDIS_SCHEMES = frozenset(["redis", "rediss", "unix"])
-#: one limit of the ``limits`` notation (its parser's grammar) with a count of at least 1
-#: and the optional multiple of the period at least 1: "0/minute" would refuse everyone
-_RATE = re.compile(
-    r"\s*0*[1-9][0-9]*\s*(?:/|\s*per\s*)\s*(?:0*[1-9][0-9]*\s*)?"
-    r"(?:second|minute|hour|day|month|year)s?\s*",
-    re.IGNORECASE,
 )
 
 
@@ -243,12 +235,12 @@ class ApiSettings(BaseSettings):
     max_body_bytes: int = Field(
         16_384, ge=1, le=GIB, description="bodies of every request but trace uploads (413 beyond)"
     )
-    address_upload_rate: str = Field(
+    address_upload_rate: RateLimits = Field(
         "600/minute",
         description="trace uploads per client address, in the `limits` notation "
         "('600/minute', '10/second;600/minute'); IPv6 addresses count per /64",
     )
-    registration_rate: str = Field(
+    registration_rate: RateLimits = Field(
         "10/minute;100/day", description="player registrations per client address (`limits`)"
     )
     rate_limit_storage: str = Field(
@@ -261,36 +253,11 @@ class ApiSettings(BaseSettings):
         description="comma-separated addresses or networks of the reverse proxies whose "
         "X-Forwarded-For is honoured; '': none, the peer address is the client's",
     )
-    cors_origins: str = Field(
+    cors_origins: WebOrigins = Field(
         "",
         description="comma-separated origins allowed by CORS, each http(s)://host[:port] "
         "('*': any); '': CORS off",
     )
-
-    @field_validator("address_upload_rate", "registration_rate")
-    @classmethod
-    def _rate(cls, value: str) -> str:
-        """The ``limits`` notation, every count at least 1: ``limits`` itself takes
-        "0/minute", a limit that refuses every request."""
-        if not all(_RATE.fullmatch(part) for part in re.split(r"[,;|]", value)):
-            raise ValueError(
-                "each limit must be COUNT/PERIOD with a count of at least 1 and a period of "
-                "second, minute, hour, day, month or year ('600/minute', '10/second;600/minute')"
-            )
-        return value
-
-    @field_validator("cors_origins")
-    @classmethod
-    def _origins(cls, value: str) -> str:
-        """A browser's ``Origin`` is scheme://host[:port] and is matched as a string: an
-        entry with a path, a user or another scheme (``javascript:``) never matches one."""
-        origins = [origin.strip() for origin in value.split(",") if origin.strip()]
-        for origin in origins:
-            if origin != "*" and not _is_web_origin(origin):
-                raise ValueError(
-                    "each origin must be http(s)://host[:port] with nothing after it, or '*'"
-                )
-        return ",".join(origins)
 
     @property
     def admin_routes_on(self) -> bool:
@@ -319,7 +286,7 @@ class Settings(BaseSettings):
     var_dir: Path = Field(
         Path("var"), description="where the embedded SQLite database and the artifacts live"
     )
-    database_url: str = Field(
+    database_url: DatabaseURL = Field(
         "", description="postgresql+psycopg://... or sqlite:///...; '': SQLite under var_dir"
     )
     artifact_dir: Path | None = Field(
@@ -331,8 +298,8 @@ class Settings(BaseSettings):
         "", description="Celery's broker (redis://...); '': tasks run eagerly, in-process"
     )
     result_backend: str = Field("", description="Celery's result backend; '': the broker")
-    redis_url: str = Field("", description="redis://, rediss:// or unix://; '': none")
-    scratch_postgres_url: str = Field(
+    redis_url: RedisURL = Field("", description="redis://, rediss:// or unix://; '': none")
+    scratch_postgres_url: PostgresURL = Field(
         "postgresql+psycopg://postgres@127.0.0.1:5432/srg_scratch",
         description="PostgreSQL server where `srg bench grow` and `srg bench writer` create "
         "their throwaway databases (its database name is replaced by theirs)",
@@ -353,30 +320,6 @@ class Settings(BaseSettings):
                 f"the settings file {_SOURCES['env_file']} is not UTF-8 text "
                 f"(byte {exc.start + 1}): save it as UTF-8"
             ) from None
-
-    @field_validator("database_url")
-    @classmethod
-    def _database(cls, value: str) -> str:
-        """A database srg runs on, refused here rather than by a missing driver's
-        traceback (``mysql://`` names a dialect SQLAlchemy knows, without its driver).
-        The message never repeats the URL: it may hold a password."""
-        if value and _scheme(value) not in DATABASE_SCHEMES:
-            raise ValueError(_SCHEME_MESSAGE.format(schemes=_listed(DATABASE_SCHEMES)))
-        return value
-
-    @field_validator("scratch_postgres_url")
-    @classmethod
-    def _postgresql(cls, value: str) -> str:
-        if _scheme(value) not in POSTGRESQL_SCHEMES:
-            raise ValueError(_SCHEME_MESSAGE.format(schemes=_listed(POSTGRESQL_SCHEMES)))
-        return value
-
-    @field_validator("redis_url")
-    @classmethod
-    def _redis(cls, value: str) -> str:
-        if value and _scheme(value) not in REDIS_SCHEMES:
-            raise ValueError(_SCHEME_MESSAGE.format(schemes=_listed(REDIS_SCHEMES)))
-        return value
 
     @model_validator(mode="before")
     @classmethod
@@ -437,34 +380,6 @@ class Settings(BaseSettings):
 
 #: the names of the settings classes, as a validation error gives its class
 SETTINGS_CLASSES = frozenset([Settings.__name__, *(group.__name__ for group in _GROUPS.values())])
-
-
-_SCHEME_MESSAGE = "must start with one of {schemes} (the value is not shown: a password)"
-
-
-def _scheme(url: str) -> str:
-    """The part before ``://`` (lower case), or ``''`` for a value that is no URL."""
-    scheme, separator, _ = url.partition("://")
-    return scheme.lower() if separator else ""
-
-
-def _listed(schemes: frozenset[str]) -> str:
-    return ", ".join(f"{scheme}://" for scheme in sorted(schemes))
-
-
-def _is_web_origin(origin: str) -> bool:
-    """``origin`` is what a browser sends as ``Origin``: http(s)://host[:port], no more."""
-    try:
-        parts = urlsplit(origin)
-        parts.port  # noqa: B018 -- raises ValueError for a port that is not one
-    except ValueError:
-        return False
-    return (
-        parts.scheme in ("http", "https")
-        and bool(parts.hostname)
-        and "@" not in parts.netloc
-        and origin == f"{parts.scheme}://{parts.netloc}"
-    )
 
 
 def _as_detail(error: ErrorDetails) -> InitErrorDetails:
