@@ -57,12 +57,14 @@ def flower(
     port: int = typer.Option(5555),
     address: str = typer.Option("127.0.0.1"),
 ) -> None:
-    """Run Flower, the Celery monitor (web UI and /api on PORT), behind HTTP basic auth
-    when SRG_FLOWER_BASIC_AUTH is set."""
+    """Run Flower, the Celery monitor (web UI, /api and /metrics on PORT), behind HTTP
+    basic auth when SRG_FLOWER_BASIC_AUTH is set."""
     from app.config import get_settings
     from app.tasks import celery_app
+    from app.tasks.flower_metrics import guard_metrics
 
     _require_broker()
+    guard_metrics()
     argv = ["flower", f"--port={port}", f"--address={address}"]
     # from the settings, never an option: a password on a command line is in every
     # user's `ps`; Flower is started in this process, so it is in no command line

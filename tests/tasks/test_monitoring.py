@@ -1,5 +1,6 @@
 """What an operator watches: ``/api/health`` counts the workers on a real Redis broker, and
-``srg flower`` asks for the password of ``SRG_FLOWER_BASIC_AUTH`` (its /api included)."""
+``srg flower`` asks for the password of ``SRG_FLOWER_BASIC_AUTH`` (its /api and /metrics
+included)."""
 
 from __future__ import annotations
 
@@ -76,9 +77,11 @@ def flower(tmp_path: Path, redis_server: RedisServer) -> Iterator[tuple[str, int
         process.wait(15)
 
 
-def test_flower_asks_every_page_and_its_api_for_a_password(flower: tuple[str, int]) -> None:
+def test_flower_asks_every_page_its_api_and_its_metrics_for_a_password(
+    flower: tuple[str, int],
+) -> None:
     url, pid = flower
-    for path in ("/", "/api/workers"):
+    for path in ("/", "/api/workers", "/metrics"):
         assert httpx.get(url + path, timeout=5).status_code == 401, path
         wrong = httpx.get(url + path, auth=("ops", "guess"), timeout=5)
         assert wrong.status_code == 401, path
