@@ -35,8 +35,9 @@ ROOT = Path(__file__).resolve().parents[1]
 #: the graph's database and artifacts (var/ is the checkout's own, not committed)
 WORK_DIR = ROOT / "var/demo-gif"
 #: one control a clip (app/core/scene.py, TILT_DEGREES: 0 level, 1 and 2 tilted 30 degrees
-#: either way): the water sloshes one way for four clips, back for four, and settles
-CONTROLS = (1, 1, 1, 1, 2, 2, 2, 2, 0, 0, 0, 0)
+#: either way), the tilt turned every second clip: the water sloshes across the tank and
+#: back all the way (a control held longer on this small graph replays one clip)
+CONTROLS = (1, 2, 2, 1, 1, 2, 2, 1, 1, 2, 2, 1)
 #: width of the GIF (the clips are 480 x 360): a quarter of the pixels' bytes, still legible
 WIDTH = 320
 #: colours of the one palette every frame shares (one palette: no flicker between frames)
@@ -84,14 +85,15 @@ def main() -> None:
     parser = argparse.ArgumentParser(description=__doc__.splitlines()[0])
     parser.add_argument("--out", type=Path, default=ROOT / "docs/images/demo.gif")
     out = parser.parse_args().out.resolve()
-    work = WORK_DIR
-    work.mkdir(parents=True, exist_ok=True)
+    WORK_DIR.mkdir(parents=True, exist_ok=True)
     # a database and artifacts of its own, whatever SRG_* or a .env say where it was started
     for name in [name for name in os.environ if name.startswith("SRG_")]:
         del os.environ[name]
-    os.environ["SRG_VAR_DIR"] = str(work)
-    os.chdir(work)
-    if not (work / "srg.sqlite3").exists():
+    os.environ["SRG_VAR_DIR"] = str(WORK_DIR)
+    os.chdir(WORK_DIR)
+    made = (WORK_DIR / "srg.sqlite3").exists()
+    subprocess.run(["srg", "db", "upgrade"], check=True)  # a graph made by an older commit
+    if not made:
         init = ["srg", "init", GRAPH, "--dynamics", "liquid", "--preset", "tiny"]
         subprocess.run(init, check=True)
         subprocess.run(["srg", "publish", GRAPH], check=True)
