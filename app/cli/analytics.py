@@ -4,22 +4,27 @@ from __future__ import annotations
 
 import typer
 
+from app.cli.choices import positive_finite
 from app.cli.output import JSON_HELP, emit
-from app.core.errors import InvalidInput
+from app.core.player_models import PlayerModelKind
+from app.core.players import PlayerSelection
 
 
 def analytics(
     graph: str = typer.Argument(..., help="graph name (or id)"),
-    players: str = typer.Option(
-        "all", help="whose sessions every figure is computed from: people, bots or all"
+    players: PlayerSelection = typer.Option(
+        PlayerSelection.ALL, help="whose sessions every figure is computed from"
     ),
     json_output: bool = typer.Option(False, "--json", help=JSON_HELP),
     threshold: float | None = typer.Option(
-        None, help="high-error threshold (default: settings, else the dynamics' default)"
+        None,
+        callback=positive_finite,
+        help="high-error threshold, above 0 (default: SRG_HIGH_ERROR_THRESHOLD, else the "
+        "one calibrated for the graph's dynamics)",
     ),
-    top: int = typer.Option(10, help="vertices shown in the per-vertex tables"),
-    player_model: str | None = typer.Option(
-        None, help="crowd model whose prediction is shown: eq2, knn or logit (default: the graph's)"
+    top: int = typer.Option(10, min=1, help="vertices shown in the per-vertex tables"),
+    player_model: PlayerModelKind | None = typer.Option(
+        None, help="crowd model whose prediction is shown (default: the graph's)"
     ),
 ) -> None:
     """Observed error, session lengths, visits and control probabilities from traces, and
@@ -27,22 +32,18 @@ def analytics(
     with a warning for each figure that rests on too few sessions.
     """
     from app.config import get_settings
-    from app.core.players import parse_player_selection
     from app.db.sessions import database_sessions
     from app.services.analytics import played_graph_analytics
 
-    if top < 1:
-        raise InvalidInput(f"--top must be at least 1, got {top}")
-    chosen = parse_player_selection(players)
     settings = get_settings()
     with database_sessions(settings)() as session:
         report = played_graph_analytics(
             session,
             settings,
             graph,
-            players=chosen,
+            players=players,
             threshold=threshold,
-            player_model=player_model,
+            player_model=None if player_model is None else player_model.value,
         )
     if json_output:
         emit(report, as_json=True)

@@ -2,7 +2,8 @@
 never in tests).
 
 Each command checks its arguments before it starts the benchmark of :mod:`app.bench`, so
-bad input fails at once with an :class:`~app.core.errors.InvalidInput`.
+bad input fails at once: a choice or a number out of range in the parser, the rest with
+an :class:`~app.core.errors.InvalidInput`.
 """
 
 from __future__ import annotations
@@ -13,15 +14,12 @@ from typing import Any
 
 import typer
 
+from app.cli.choices import DynamicsName, Fluid, LiquidPreset, positive_finite, value_of
 from app.cli.liquid import FLUID_HELP, PRESET_HELP
 from app.cli.output import emit, progress_bar
 from app.core.errors import InvalidInput
 from app.core.scene import DEFAULT_FLUID
-from app.services.dynamics import (
-    DEFAULT_LIQUID_PRESET,
-    check_fluid,
-    check_liquid_preset,
-)
+from app.services.dynamics import DEFAULT_LIQUID_PRESET
 
 app = typer.Typer(help="Benchmarks; each prints JSON.", no_args_is_help=True)
 
@@ -32,12 +30,6 @@ def _emit(result: Any) -> None:
     from app.reports.provenance import with_provenance
 
     emit(with_provenance(result, get_settings()), as_json=True)
-
-
-def _positive(option: str, value: int) -> int:
-    if value <= 0:
-        raise InvalidInput(f"{option} must be positive, got {value}")
-    return value
 
 
 def _positive_ints(option: str, value: str) -> list[int]:
@@ -54,9 +46,9 @@ def _positive_ints(option: str, value: str) -> list[int]:
 
 @app.command("rank")
 def rank(
-    edges: int = typer.Option(1_000_000, help="edges of the synthetic grown graph"),
-    controls: int = typer.Option(3, help="controls N"),
-    seed: int = typer.Option(0),
+    edges: int = typer.Option(1_000_000, min=1, help="edges of the synthetic grown graph"),
+    controls: int = typer.Option(3, min=1, help="controls N"),
+    seed: int = typer.Option(0, min=0, help="seed of the synthetic graph"),
 ) -> None:
     """One cold and one warm STATERANK (after one expansion), next to networkx.pagerank."""
     from app.bench.rank import bench_rank
@@ -85,8 +77,10 @@ def experiment(ctx: typer.Context) -> None:
 
 @app.command("grow")
 def grow(
-    epochs: int = typer.Option(6, help="growth epochs per run"),
-    batch: int = typer.Option(8, help="expansions per epoch (and integrated per graph size)"),
+    epochs: int = typer.Option(6, min=1, help="growth epochs per run"),
+    batch: int = typer.Option(
+        8, min=1, help="expansions per epoch (and integrated per graph size)"
+    ),
     workers: str = typer.Option("1,2", help="comma-separated worker-process counts"),
     sizes: str | None = typer.Option(
         None, help="graph sizes (edges) to integrate at [default: 1000,10000,100000]"
@@ -99,8 +93,8 @@ def grow(
         "--integration-only",
         help="only the integrating step, on a graph of --dynamics (default: also throughput)",
     ),
-    dynamics: str = typer.Option("toy", help="dynamics of the throughput runs: toy or liquid"),
-    preset: str | None = typer.Option(None, help="liquid preset (default tiny)"),
+    dynamics: DynamicsName = typer.Option(DynamicsName.TOY, help="dynamics of the throughput runs"),
+    preset: LiquidPreset | None = typer.Option(None, help="liquid preset (default tiny)"),
 ) -> None:
     """Expansions per minute on 1 and 2 worker processes; integration time vs graph size."""
     from app.bench.grow import bench_grow
@@ -110,13 +104,14 @@ def grow(
 
     if sizes is not None and frames is not None:
         raise InvalidInput("give --sizes (edges) or --frames, not both")
-    _positive("--epochs", epochs)
-    _positive("--batch", batch)
-    if dynamics == "liquid":
-        preset = preset or QUICK_LIQUID_PRESET
+    scene_preset = value_of(preset)
+    if dynamics is DynamicsName.LIQUID:
+        scene_preset = scene_preset or QUICK_LIQUID_PRESET
     settings = get_settings()
-    # bad names fail here, before any service starts
-    model = make_dynamics(dynamics, preset, devices=LiquidDevices.from_settings(settings))
+    # a preset for the toy fails here, before any service starts
+    model = make_dynamics(
+        dynamics.value, scene_preset, devices=LiquidDevices.from_settings(settings)
+    )
     edge_sizes = _positive_ints("--sizes", sizes or "1000,10000,100000")
     frame_sizes = None if frames is None else _positive_ints("--frames", frames)
     smallest = model.n_controls * (model.n_controls + 1) * model.frames_per_clip
@@ -127,8 +122,8 @@ def grow(
     _emit(
         bench_grow(
             settings=settings,
-            dynamics=dynamics,
-            preset=preset,
+            dynamics=dynamics.value,
+            preset=scene_preset,
             epochs=epochs,
             batch=batch,
             worker_counts=_positive_ints("--workers", workers),
@@ -141,9 +136,9 @@ def grow(
 
 @app.command("ingest")
 def ingest(
-    clients: int = typer.Option(200, help="concurrent players"),
-    uploads: int = typer.Option(2, help="traces per player (each also replayed once)"),
-    mean_steps: int = typer.Option(90, help="mean steps per trace"),
+    clients: int = typer.Option(200, min=1, help="concurrent players"),
+    uploads: int = typer.Option(2, min=1, help="traces per player (each also replayed once)"),
+    mean_steps: int = typer.Option(90, min=2, help="mean steps per trace"),
     database_url: str = typer.Option("", help="database to load ('': a temporary SQLite)"),
 ) -> None:
     """Concurrent trace uploads on loopback: every upload accounted for, p99 latency.
@@ -162,9 +157,9 @@ def ingest(
 
 @app.command("sph")
 def sph(
-    preset: str = typer.Option(DEFAULT_LIQUID_PRESET, help=PRESET_HELP),
-    fluid: str = typer.Option(DEFAULT_FLUID, help=FLUID_HELP),
-    steps: int = typer.Option(300, help="substeps timed (rounded down to whole frames)"),
+    preset: LiquidPreset = typer.Option(LiquidPreset(DEFAULT_LIQUID_PRESET), help=PRESET_HELP),
+    fluid: Fluid = typer.Option(Fluid(DEFAULT_FLUID), help=FLUID_HELP),
+    steps: int = typer.Option(300, min=1, help="substeps timed (rounded down to whole frames)"),
     splishsplash: bool = typer.Option(
         True, "--splishsplash/--no-splishsplash", help="also time SPlisHSPlasH's PCISPH"
     ),
@@ -176,61 +171,53 @@ def sph(
     ),
 ) -> None:
     """Particle-substeps per second of the PCISPH kernels (converged and at 3 iterations)."""
-    check_liquid_preset(preset)
-    check_fluid(fluid)
-    _positive("--steps", steps)
     from app.config import get_settings
 
     device = get_settings().runtime.opencl_device
     if profile:
         from app.bench.sph_profile import profile_sph
 
-        _emit(profile_sph(preset, fluid, steps, device))
+        _emit(profile_sph(preset.value, fluid.value, steps, device))
         return
     from app.bench.sph import bench_sph
 
-    result = bench_sph(preset, steps, fluid=fluid, device=device, compare_splishsplash=splishsplash)
+    result = bench_sph(
+        preset.value, steps, fluid=fluid.value, device=device, compare_splishsplash=splishsplash
+    )
     _emit(result)
 
 
 @app.command("clip")
 def clip(
-    preset: str = typer.Option(DEFAULT_LIQUID_PRESET, help=PRESET_HELP),
-    fluid: str = typer.Option(DEFAULT_FLUID, help=FLUID_HELP),
-    settle: float = typer.Option(1.0, help="seconds of settling first (half damped)"),
+    preset: LiquidPreset = typer.Option(LiquidPreset(DEFAULT_LIQUID_PRESET), help=PRESET_HELP),
+    fluid: Fluid = typer.Option(Fluid(DEFAULT_FLUID), help=FLUID_HELP),
+    settle: float = typer.Option(
+        1.0, callback=positive_finite, help="seconds of settling first (half damped)"
+    ),
     frames: int | None = typer.Option(
-        None, help="simulate this many frames of each clip and scale (default: all)"
+        None, min=1, help="simulate this many frames of each clip and scale (default: all)"
     ),
 ) -> None:
     """Seconds per clip of each stage of a liquid edge (SPH to the VP9 clip) and its bytes."""
-    check_liquid_preset(preset)
-    check_fluid(fluid)
-    if settle <= 0:
-        raise InvalidInput(f"--settle must be positive, got {settle}")
-    if frames is not None:
-        _positive("--frames", frames)
     from app.bench.clip import bench_clip
     from app.config import get_settings
     from app.liquid.devices import LiquidDevices
 
     devices = LiquidDevices.from_settings(get_settings())
-    _emit(bench_clip(preset, fluid, devices=devices, settle=settle, frames=frames))
+    _emit(bench_clip(preset.value, fluid.value, devices=devices, settle=settle, frames=frames))
 
 
 @app.command("store")
 def store(
-    edges: int = typer.Option(100_000, help="edges of the synthetic graph"),
+    edges: int = typer.Option(100_000, min=1, help="edges of the synthetic graph"),
     database_url: str | None = typer.Option(
         None, help="a migrated database (default: a temporary SQLite file)"
     ),
     distinct_bundles: int | None = typer.Option(
-        None, help="clips share this many bundles (default: one per clip)"
+        None, min=1, help="clips share this many bundles (default: one per clip)"
     ),
 ) -> None:
     """Seconds to save and to load a whole graph of N edges (the work is rolled back)."""
-    _positive("--edges", edges)
-    if distinct_bundles is not None:
-        _positive("--distinct-bundles", distinct_bundles)
     from app.bench.store import bench_store
 
     result = asdict(
@@ -285,16 +272,18 @@ def dedup(
 
 @app.command("writer")
 def writer(
-    frames: int = typer.Option(200_000, help="grow the graph to this many simulated frames"),
-    batch: int = typer.Option(30, help="expansions per epoch"),
+    frames: int = typer.Option(200_000, min=1, help="grow the graph to this many simulated frames"),
+    batch: int = typer.Option(30, min=1, help="expansions per epoch"),
     workers: str = typer.Option("50,100,200,400", help="comma-separated worker counts W"),
     clip_seconds: float = typer.Option(
         18.9,
+        callback=positive_finite,
         help="worker-seconds per clip (default: the paper preset's, renders included, "
         "docs/runtime.md)",
     ),
     liquid_seconds: float = typer.Option(
         0.33,
+        min=0,
         help="seconds the liquid adds to each integration (default: the paper preset's "
         "with warm caches, docs/runtime.md)",
     ),
@@ -303,11 +292,7 @@ def writer(
     from app.bench.writer import bench_writer
     from app.config import get_settings
 
-    _positive("--frames", frames)
-    _positive("--batch", batch)
     counts = _positive_ints("--workers", workers)
-    if not (clip_seconds > 0 and liquid_seconds >= 0):  # also refuses nan
-        raise InvalidInput("--clip-seconds must be positive and --liquid-seconds at least 0")
     with progress_bar(frames, "frames grown by the writer") as advance:
         result = bench_writer(
             settings=get_settings(),

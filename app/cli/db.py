@@ -39,7 +39,7 @@ def migrate(direction: str, revision: str) -> None:
 
 @app.command("upgrade")
 def upgrade(revision: str = typer.Argument("head", help="target revision")) -> None:
-    """Migrate the configured database up to ``revision`` (default: the latest)."""
+    """Migrate the configured database up to REVISION (default: the latest)."""
     from app.config import get_settings
     from app.db.engines import parse_database_url
 
@@ -52,5 +52,5 @@ def upgrade(revision: str = typer.Argument("head", help="target revision")) -> N
 def downgrade(
     revision: str = typer.Argument(..., help="target revision ('base': empty)"),
 ) -> None:
-    """Migrate the configured database down to ``revision``."""
+    """Migrate the configured database down to REVISION."""
     migrate("downgrade", revision)

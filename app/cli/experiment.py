@@ -2,27 +2,33 @@
 
 from __future__ import annotations
 
+from collections.abc import Sequence
 from pathlib import Path
 from typing import TYPE_CHECKING, Any
 
 import typer
 
+from app.cli.choices import DynamicsName, Fluid, LiquidPreset, choice_list, value_of
 from app.cli.output import JSON_HELP, emit, progress_bar, write_result
+from app.core.bots import BotKind
 from app.core.errors import InvalidInput
+from app.core.player_models import PlayerModelKind
+from app.core.strategies import Strategy
 
 if TYPE_CHECKING:
     from app.services.experiment.plan import ExperimentPlan
 
 
 def experiment(
-    dynamics: str | None = typer.Option(None, help="dynamics to grow: toy (default) or liquid"),
-    preset: str | None = typer.Option(None, help="liquid preset: tiny, small or paper"),
-    fluid: str | None = typer.Option(None, help="liquid fluid: low (default) or high"),
+    dynamics: DynamicsName | None = typer.Option(None, help="dynamics to grow (default toy)"),
+    preset: LiquidPreset | None = typer.Option(None, help="liquid preset (default small)"),
+    fluid: Fluid | None = typer.Option(None, help="liquid fluid (default low)"),
     quick: bool = typer.Option(False, "--quick", help="3 small checkpoints: minutes, not hours"),
-    strategies: str | None = typer.Option(
-        None,
-        help="comma-separated strategies (default: baseline, sr-heuristic, sr-crowd; "
-        "max-error only when named; sr-crowd brings sr-heuristic, its control)",
+    strategies: Sequence[Strategy] | None = choice_list(
+        Strategy,
+        what="strategy",
+        help="strategies grown (default: baseline, sr-heuristic, sr-crowd; max-error only "
+        "when named; sr-crowd brings sr-heuristic, its control)",
     ),
     seeds: str | None = typer.Option(
         None,
@@ -30,29 +36,32 @@ def experiment(
         "all or none of the selection seeds 10-14",
     ),
     checkpoints: str | None = typer.Option(None, help="comma-separated frame counts"),
-    sessions: int | None = typer.Option(None, help="bot sessions per checkpoint (default 30)"),
-    player_model: str | None = typer.Option(
-        None,
-        help="crowd model sr-crowd learns: shrunk, knn, eq2 (the paper's) or logit "
-        "(default SRG_PLAYER_MODEL)",
+    sessions: int | None = typer.Option(
+        None, min=1, help="bot sessions per checkpoint (default 30)"
     ),
-    bots: str | None = typer.Option(
-        None,
-        help="comma-separated crowds (bots) that play: goal-directed (default), heuristic, "
-        "random, hesitant, avoider; each grows its own sr-crowd runs",
+    player_model: PlayerModelKind | None = typer.Option(
+        None, help="crowd model sr-crowd learns; eq2 is the paper's (default SRG_PLAYER_MODEL)"
+    ),
+    bots: Sequence[BotKind] | None = choice_list(
+        BotKind,
+        what="bot",
+        help="crowds (bots) that play, each growing its own sr-crowd runs (default goal-directed)",
     ),
     pooled: bool = typer.Option(
         False,
         "--pooled",
         help="the crowds play as one: sr-crowd learns from all their traces, one run per seed",
     ),
-    judges: str | None = typer.Option(
-        None,
-        help="comma-separated bots that play every run at every checkpoint and teach none "
-        "(their traces are not stored); not among --bots",
+    judges: Sequence[BotKind] | None = choice_list(
+        BotKind,
+        what="bot",
+        help="bots that play every run at every checkpoint and teach none (their traces are "
+        "not stored); not among --bots",
     ),
     fixed_graph_sessions: int | None = typer.Option(
-        None, help="bot sessions per half of the fixed-graph prediction setting (default 100)"
+        None,
+        min=1,
+        help="bot sessions per half of the fixed-graph prediction setting (default 100)",
     ),
     name: str | None = typer.Option(
         None, help="experiment name (default: from dynamics, preset and fluid)"
@@ -61,10 +70,11 @@ def experiment(
         False, "--resume", help="finish the stored experiment NAME from its last checkpoint"
     ),
     jobs: int | None = typer.Option(
-        None, help="runs at once (default: the cores in-process; every run on workers)"
+        None, min=1, help="runs at once (default: the cores in-process; every run on workers)"
     ),
     through: int | None = typer.Option(
         None,
+        min=1,
         help="stop after this checkpoint (frames, one of the plan's) and report up to it; "
         "--resume goes on later",
     ),
@@ -79,14 +89,13 @@ def experiment(
     """Grow one graph per strategy and seed through checkpoints; compare what bots see.
 
     The paper's section 7 (docs/experiment.md). Graphs, traces and every checkpoint's
-    figures are stored, so an interrupted experiment continues with ``--resume``. With
+    figures are stored, so an interrupted experiment continues with --resume. With
     SRG_BROKER_URL set, growth runs on the Celery workers.
     """
     import os
     from functools import partial
 
     from app.config import get_settings
-    from app.core.strategies import Strategy
     from app.db.engines import require_intact
     from app.reports.experiment import RATIO_LABELS, interval_text, write_report
     from app.reports.provenance import with_provenance
@@ -95,11 +104,10 @@ def experiment(
     from app.services.experiment.runs import Grower, grow_in_process, run_experiment
     from app.services.loading import artifact_store
 
-    if jobs is not None and jobs < 1:
-        raise InvalidInput(f"--jobs must be positive, got {jobs}")
     options = (dynamics, preset, fluid, strategies, seeds, checkpoints, sessions)
     model_options = (player_model, bots, judges, fixed_graph_sessions)
-    name = name or "-".join(x for x in ("experiment", dynamics or "toy", preset, fluid) if x)
+    scene = (value_of(dynamics) or DynamicsName.TOY.value, value_of(preset), value_of(fluid))
+    name = name or "-".join(x for x in ("experiment", *scene) if x)
     settings = get_settings()
     report_dir = out or settings.var_dir / "experiment" / name
     _require_makeable("--out", report_dir, directory=True)
@@ -115,10 +123,14 @@ def experiment(
         plan = stored_plan(settings, name)
     else:
         plan = _experiment_plan(
-            dynamics or "toy",
+            scene[0],
             quick,
-            *options[1:],
-            player_model or settings.growth.player_model,
+            *scene[1:],
+            strategies,
+            seeds,
+            checkpoints,
+            sessions,
+            value_of(player_model) or settings.growth.player_model,
             bots,
             fixed_graph_sessions,
             pooled=pooled,
@@ -191,25 +203,23 @@ def _experiment_plan(
     quick: bool,
     preset: str | None,
     fluid: str | None,
-    strategies: str | None,
+    strategies: Sequence[Strategy] | None,
     seeds: str | None,
     checkpoints: str | None,
     sessions: int | None,
     player_model: str | None,
-    bots: str | None,
+    bots: Sequence[BotKind] | None,
     fixed_graph_sessions: int | None,
     *,
     pooled: bool = False,
-    judges: str | None = None,
+    judges: Sequence[BotKind] | None = None,
 ) -> ExperimentPlan:
-    from app.core.bots import parse_bot
     from app.core.player_models import parse_player_model
-    from app.core.strategies import parse_strategy
     from app.services.experiment.plan import ExperimentPlan, parse_checkpoints
 
     changes: dict[str, Any] = {"preset": preset, "fluid": fluid}
     if strategies is not None:
-        changes["strategies"] = tuple(parse_strategy(s.strip()) for s in strategies.split(","))
+        changes["strategies"] = tuple(strategies)
     if seeds is not None:
         try:
             changes["seeds"] = tuple(int(s) for s in seeds.split(","))
@@ -222,16 +232,12 @@ def _experiment_plan(
     if player_model is not None:
         changes["player_model"] = parse_player_model(player_model)
     if bots is not None:
-        changes["bots"] = tuple(parse_bot(b.strip()) for b in bots.split(","))
+        changes["bots"] = tuple(bots)
     if judges is not None:
-        changes["judges"] = tuple(parse_bot(b.strip()) for b in judges.split(","))
+        changes["judges"] = tuple(judges)
     if pooled:
         changes["pooled"] = True
     if fixed_graph_sessions is not None:
-        if fixed_graph_sessions < 1:
-            raise InvalidInput(
-                f"--fixed-graph-sessions must be positive, got {fixed_graph_sessions}"
-            )
         changes["fixed_graph_sessions"] = fixed_graph_sessions
     if quick:
         return ExperimentPlan.quick(dynamics, **changes)

@@ -12,42 +12,48 @@ from functools import partial
 
 import typer
 
+from app.cli.choices import DynamicsName, Fluid, LiquidPreset, value_of
 from app.cli.output import JSON_HELP, emit, progress_bar
+from app.core.bots import BotKind
 from app.core.errors import InvalidInput
+from app.core.player_models import PlayerModelKind
+from app.core.strategies import Strategy
 from app.db.engines import require_intact
 from app.db.sessions import transaction
+from app.services.catalogue import MAX_ROW_ID
+from app.services.creation import MAX_WORLD
 
 
 def init(
     name: str = typer.Argument(..., help="name of the new graph"),
-    dynamics: str = typer.Option("toy", help="toy or liquid"),
-    preset: str | None = typer.Option(None, help="liquid preset: tiny, small or paper"),
-    fluid: str | None = typer.Option(None, help="liquid fluid: low (default) or high"),
-    strategy: str = typer.Option("sr-crowd", help="max-error, baseline, sr-heuristic, sr-crowd"),
-    depth: int = typer.Option(2, help="depth of the initial simulation tree (>= 2)"),
-    player_model: str | None = typer.Option(
-        None, help="crowd model sr-crowd learns: eq2, knn or logit (default SRG_PLAYER_MODEL)"
+    dynamics: DynamicsName = typer.Option(DynamicsName.TOY, help="the dynamics the graph runs"),
+    preset: LiquidPreset | None = typer.Option(None, help="liquid preset (default small)"),
+    fluid: Fluid | None = typer.Option(None, help="liquid fluid (default low)"),
+    strategy: Strategy = typer.Option(Strategy.SR_CROWD, help="how the graph grows"),
+    depth: int = typer.Option(
+        2, min=2, help="depth of the initial simulation tree (at most 6 for three controls)"
+    ),
+    player_model: PlayerModelKind | None = typer.Option(
+        None, help="crowd model sr-crowd learns (default SRG_PLAYER_MODEL)"
     ),
     world: int | None = typer.Option(
-        None, help="world seed of the start state, >= 0 (default: the canonical start)"
+        None,
+        min=0,
+        max=MAX_WORLD,
+        help="world seed of the start state (default: the canonical start)",
     ),
     json_output: bool = typer.Option(False, "--json", help=JSON_HELP),
 ) -> None:
     """Create a graph: the initial tree of the dynamics, its leaves blended back."""
     from app.config import get_settings
     from app.core.growth import initial_tree_clips
-    from app.core.player_models import parse_player_model
-    from app.services.creation import check_world, init_graph
-    from app.services.dynamics import DEFAULT_LIQUID_PRESET, check_fluid, control_count
+    from app.services.creation import init_graph
+    from app.services.dynamics import DEFAULT_LIQUID_PRESET, control_count
     from app.services.progress import Advance
 
-    if dynamics == "liquid" and preset is None:
-        preset = DEFAULT_LIQUID_PRESET
-    if fluid is not None:
-        check_fluid(fluid)
-    if player_model is not None:  # '' too: it names no model, not the default
-        parse_player_model(player_model)
-    check_world(world)
+    scene_preset = value_of(preset)
+    if dynamics is DynamicsName.LIQUID and scene_preset is None:
+        scene_preset = DEFAULT_LIQUID_PRESET
     settings = get_settings()
     require_intact(settings)
     shown: Advance | None = None
@@ -64,12 +70,12 @@ def init(
             session,
             settings,
             name=name,
-            dynamics=dynamics,
-            preset=preset,
-            fluid=fluid,
-            strategy=strategy,
+            dynamics=dynamics.value,
+            preset=scene_preset,
+            fluid=value_of(fluid),
+            strategy=strategy.value,
             depth=depth,
-            player_model=player_model,
+            player_model=value_of(player_model),
             progress=advance,
             world=world,
         )
@@ -78,26 +84,19 @@ def init(
 
 def grow(
     name: str = typer.Argument(..., help="graph name or id"),
-    strategy: str | None = typer.Option(None, help="override the graph's strategy"),
-    frames: int | None = typer.Option(None, help="budget in simulated frames"),
-    expansions: int | None = typer.Option(None, help="budget in expansions"),
+    strategy: Strategy | None = typer.Option(None, help="override the graph's strategy"),
+    frames: int | None = typer.Option(
+        None, min=1, max=MAX_ROW_ID, help="budget in simulated frames"
+    ),
+    expansions: int | None = typer.Option(None, min=1, max=MAX_ROW_ID, help="budget in expansions"),
     json_output: bool = typer.Option(False, "--json", help=JSON_HELP),
 ) -> None:
     """Grow a graph in-process (eagerly) by a budget of frames or expansions."""
     from app.config import get_settings
-    from app.core.strategies import parse_strategy
-    from app.services.catalogue import MAX_ROW_ID
     from app.services.growing import grow_graph
 
     if frames is not None and expansions is not None:
         raise InvalidInput("give --frames or --expansions, not both")
-    for option, budget in (("--frames", frames), ("--expansions", expansions)):
-        if budget is not None and budget <= 0:  # before the bar: it never shows 0/-5
-            raise InvalidInput(f"{option} must be positive, got {budget}")
-        if budget is not None and budget > MAX_ROW_ID:  # more clips than a graph can number
-            raise InvalidInput(f"{option} must be at most {MAX_ROW_ID}, got {budget}")
-    if strategy is not None:
-        parse_strategy(strategy)
     settings = get_settings()
     require_intact(settings)
     total = frames if frames is not None else expansions or settings.growth.batch_size
@@ -107,7 +106,7 @@ def grow(
             partial(transaction, settings),
             settings,
             name=name,
-            strategy=strategy,
+            strategy=value_of(strategy),
             frames=frames,
             expansions=expansions,
             progress=advance,
@@ -141,13 +140,13 @@ def publish(
 
 def play(
     name: str = typer.Argument(..., help="graph name or id"),
-    bot: str = typer.Option(
-        "goal-directed", help="goal-directed, heuristic, random, hesitant or avoider"
-    ),
-    sessions: int = typer.Option(20, help="sessions to play"),
-    mean_steps: int = typer.Option(90, help="mean session length in steps"),
+    bot: BotKind = typer.Option(BotKind.GOAL_DIRECTED, help="the bot that plays"),
+    sessions: int = typer.Option(20, min=1, help="sessions to play"),
+    mean_steps: int = typer.Option(90, min=2, help="mean session length in steps"),
     seed: int | None = typer.Option(
-        None, help="the bots' seed (default: a fresh one, printed, so a run can be repeated)"
+        None,
+        min=0,
+        help="the bots' seed (default: a fresh one, printed, so a run can be repeated)",
     ),
     url: str | None = typer.Option(None, help="play over HTTP against `srg serve` at this URL"),
     json_output: bool = typer.Option(False, "--json", help=JSON_HELP),
@@ -157,14 +156,14 @@ def play(
     from app.config import get_settings
     from app.services.play import fresh_seed, play_graph
 
-    if seed is not None and seed < 0:
-        raise InvalidInput(f"--seed must be at least 0, got {seed}")
     seed = fresh_seed() if seed is None else seed
     if url is not None:
         from app.api.client import play_over_http
 
         emit(
-            play_over_http(url, name, bot, sessions=sessions, mean_steps=mean_steps, seed=seed),
+            play_over_http(
+                url, name, bot.value, sessions=sessions, mean_steps=mean_steps, seed=seed
+            ),
             json_output,
         )
         return
@@ -175,7 +174,7 @@ def play(
             session,
             settings,
             name=name,
-            bot=bot,
+            bot=bot.value,
             sessions=sessions,
             mean_steps=mean_steps,
             seed=seed,
@@ -203,13 +202,14 @@ def status(
     for row in rows:
         play = row.pop("play")
         assert isinstance(play, dict)
-        emit({**row, **play}, as_json=False)
+        emit({**row, **play}, as_json=False, title=f"graph {row['name']}")
 
 
 def gc(
     older_than: float | None = typer.Option(
         None,
         "--older-than",
+        min=0,
         help="grace period in seconds: newer files and rows are kept "
         "(default SRG_ARTIFACT_GC_GRACE, 3600)",
     ),
@@ -218,10 +218,10 @@ def gc(
 ) -> None:
     """Delete artifact files and rows that nothing references (what an interrupted grow left).
 
-    Only files last modified and rows created more than ``--older-than`` seconds ago are
-    collected, so that what a running step (``srg grow``, a worker) wrote and is about to
+    Only files last modified and rows created more than --older-than seconds ago are
+    collected, so that what a running step (srg grow, a worker) wrote and is about to
     reference survives: keep it above the longest step. Safe to run while graphs grow;
-    ``srg beat`` also runs it every SRG_ARTIFACT_GC_INTERVAL seconds.
+    srg beat also runs it every SRG_ARTIFACT_GC_INTERVAL seconds.
     """
     from app.config import get_settings
     from app.services.artifact_gc import collect_artifacts, count_fanout_directories, grace_seconds
@@ -245,8 +245,8 @@ def fsck(
     """Check every artifact against its hash and the database file; exit 1 if something
     is still wrong.
 
-    A file that fails is moved aside (``corrupt/`` under the artifact directory) so that
-    nothing reads it again. With ``--repair``, a clip is simulated again from the state it
+    A file that fails is moved aside (corrupt/ under the artifact directory) so that
+    nothing reads it again. With --repair, a clip is simulated again from the state it
     started from and stored only if its bytes hash to what the database holds; a warm
     start is forgotten; anything else is reported. Safe to run while graphs grow.
     """

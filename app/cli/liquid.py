@@ -1,27 +1,25 @@
 """``srg validate`` and ``srg calibrate``: the liquid's physics checked and measured.
 
 Each command checks its arguments before it imports the liquid (PyOpenCL, Mitsuba) or
-starts a simulation, so bad input fails at once with an
-:class:`~app.core.errors.InvalidInput`. Progress goes to stderr.
+starts a simulation, so bad input fails at once: a preset or fluid srg does not have in
+the parser, the rest with an :class:`~app.core.errors.InvalidInput`. Progress goes to
+stderr.
 """
 
 from __future__ import annotations
 
 from pathlib import Path
-from typing import Any
+from typing import Any, Literal
 
 import typer
 
+from app.cli.choices import Fluid, LiquidPreset
 from app.cli.output import JSON_HELP, emit, write_result
 from app.core.errors import InvalidInput
 from app.core.scene import DEFAULT_FLUID
-from app.services.dynamics import (
-    DEFAULT_LIQUID_PRESET,
-    check_fluid,
-    check_liquid_preset,
-)
+from app.services.dynamics import DEFAULT_LIQUID_PRESET
 
-PRESET_HELP = "tilt-tank preset: tiny, small or paper"
+PRESET_HELP = "tilt-tank preset"
 FLUID_HELP = "fluid: low or high viscosity"
 
 
@@ -32,7 +30,7 @@ def _verdict(check: dict[str, Any]) -> str:
 
 
 def _print_constants(stored: dict[str, Any], json_output: bool) -> None:
-    """The constants as JSON, or their top-level figures on one line (details: ``--json``)."""
+    """The constants as JSON, or a table of their top-level figures (details: ``--json``)."""
     if json_output:
         emit(stored, as_json=True)
     else:
@@ -40,8 +38,8 @@ def _print_constants(stored: dict[str, Any], json_output: bool) -> None:
 
 
 def validate(
-    preset: str = typer.Option(DEFAULT_LIQUID_PRESET, help=PRESET_HELP),
-    fluid: str = typer.Option(DEFAULT_FLUID, help=FLUID_HELP),
+    preset: LiquidPreset = typer.Option(LiquidPreset(DEFAULT_LIQUID_PRESET), help=PRESET_HELP),
+    fluid: Fluid = typer.Option(Fluid(DEFAULT_FLUID), help=FLUID_HELP),
     json_output: bool = typer.Option(False, "--json", help=JSON_HELP),
     result_path: Path | None = typer.Option(
         None, "--result", help="also write the JSON result to this file"
@@ -51,10 +49,8 @@ def validate(
 
     Runs the kernel/NumPy twins, bit-reproducibility, a hydrostatic tank, Martin and
     Moyce's dam break (water: skipped for the high-viscosity fluid) and the settling
-    after a tilt. Prints one line per check (with ``--json``: the JSON of every check).
+    after a tilt. Prints one line per check (with --json: the JSON of every check).
     """
-    check_liquid_preset(preset)
-    check_fluid(fluid)
     from app.config import get_settings
     from app.liquid import validation
     from app.reports.provenance import with_provenance
@@ -62,7 +58,8 @@ def validate(
     settings = get_settings()
     typer.echo(f"validating tilt-tank/{preset} with the {fluid} fluid (minutes) ...", err=True)
     report = with_provenance(
-        validation.validate(preset, fluid, device=settings.runtime.opencl_device), settings
+        validation.validate(preset.value, fluid.value, device=settings.runtime.opencl_device),
+        settings,
     )
     if result_path is not None:
         write_result(result_path, report)
@@ -78,10 +75,10 @@ def validate(
 
 
 def calibrate(
-    preset: str = typer.Option(..., help=PRESET_HELP),
-    fluid: str = typer.Option(DEFAULT_FLUID, help=FLUID_HELP),
-    only: str | None = typer.Option(
-        None, help="re-measure just this constant ('threshold'), keep the others stored"
+    preset: LiquidPreset = typer.Option(..., help=PRESET_HELP),
+    fluid: Fluid = typer.Option(Fluid(DEFAULT_FLUID), help=FLUID_HELP),
+    only: Literal["threshold"] | None = typer.Option(
+        None, help="re-measure just this constant, keep the others stored"
     ),
     figures: Path | None = typer.Option(
         None, help="with --only threshold: write the study's PNG figures to this directory"
@@ -93,15 +90,12 @@ def calibrate(
 ) -> None:
     """Measure T0, w_e, the crowd radius and the high-error threshold of a preset.
 
-    Stores them in ``app/data/calibration/<preset>.json`` (``<preset>-high.json`` for
-    the high-viscosity fluid; read by ``LiquidDynamics``) and prints them. The threshold
-    (``docs/threshold.md``) is most of the time: 4-8 min on tiny, about 18 min on small
-    at a load of 11 on 2 cores; the paper preset takes hours.
+    Stores them in app/data/calibration/PRESET.json (PRESET-high.json for the
+    high-viscosity fluid; read by LiquidDynamics) and prints them. The threshold
+    (docs/threshold.md) is most of the time: 4-8 min on tiny, about 18 min on small at a
+    load of 11 on 2 cores; the paper preset takes hours.
     """
-    check_liquid_preset(preset)
-    check_fluid(fluid)
-    if only not in (None, "threshold"):
-        raise InvalidInput(f"--only takes 'threshold', got {only!r}")
+    preset_name, fluid_name = preset.value, fluid.value
     if only is None and (figures or records):
         raise InvalidInput("--figures and --records go with --only threshold")
 
@@ -118,14 +112,16 @@ def calibrate(
     if only == "threshold":
         from app.liquid.calibration import calibrate_threshold
 
-        typer.echo(f"threshold of tilt-tank/{preset}, {fluid} fluid (minutes) ...", err=True)
-        stored, study = calibrate_threshold(preset, fluid, progress, devices=devices)
+        typer.echo(
+            f"threshold of tilt-tank/{preset_name}, {fluid_name} fluid (minutes) ...", err=True
+        )
+        stored, study = calibrate_threshold(preset_name, fluid_name, progress, devices=devices)
         if records:
             write_result(records, with_provenance({**stored, "blends": study.records()}, settings))
         if figures:
             from app.reports.threshold import write_threshold_figures
 
-            name = preset if fluid == DEFAULT_FLUID else f"{preset}-{fluid}"
+            name = preset_name if fluid_name == DEFAULT_FLUID else f"{preset_name}-{fluid_name}"
             old = stored.get("percentile_threshold")
             for path in write_threshold_figures(study, figures, name, old):
                 typer.echo(f"wrote {path}", err=True)
@@ -133,5 +129,7 @@ def calibrate(
         return
     from app.liquid import calibration
 
-    typer.echo(f"calibrating tilt-tank/{preset} with the {fluid} fluid ...", err=True)
-    _print_constants(calibration.calibrate(preset, fluid, progress, devices=devices), json_output)
+    typer.echo(f"calibrating tilt-tank/{preset_name} with the {fluid_name} fluid ...", err=True)
+    _print_constants(
+        calibration.calibrate(preset_name, fluid_name, progress, devices=devices), json_output
+    )

@@ -19,7 +19,7 @@ app = typer.Typer(
     help="Self-refining games: grow, publish and play precomputed state graphs.",
     no_args_is_help=True,
     pretty_exceptions_enable=False,
-    add_completion=False,
+    add_completion=True,
 )
 
 

@@ -1,9 +1,9 @@
 """What every ``srg`` command prints: progress on stderr, results on stdout, errors in one line.
 
-The rule of ``--json``: a command prints a short human form of its result unless given
-``--json``, which prints the machine-readable JSON result on stdout instead. A command
-that also writes its result to a file takes the path as ``--result PATH``. Benchmarks
-always print JSON and take no ``--json``.
+The rule of ``--json``: a command prints a short human form of its result (a table, its
+figures rounded) unless given ``--json``, which prints the machine-readable JSON result on
+stdout instead, every figure in full. A command that also writes its result to a file
+takes the path as ``--result PATH``. Benchmarks always print JSON and take no ``--json``.
 
 Errors: an :class:`~app.core.errors.SrgError` (the user can act on it) and the library
 errors mapped below (a setting pydantic refused, a database that cannot be used, a server
@@ -23,8 +23,11 @@ from pathlib import Path
 from typing import TYPE_CHECKING, Any
 
 import typer
+from rich import box
 from rich.console import Console
 from rich.progress import BarColumn, MofNCompleteColumn, Progress, TextColumn, TimeElapsedColumn
+from rich.table import Table
+from rich.text import Text
 
 from app.cli.extras import missing_extra_message
 from app.core.errors import SrgError
@@ -62,25 +65,47 @@ def _to_json(data: Any) -> str:
     return json.dumps(data, indent=2, default=str)
 
 
-#: a list or mapping of more items shows as its count in a ``key=value`` line (``--json``
-#: lists them): 53 corrupt digests would otherwise be a wall of hashes
+#: a list or mapping of more items shows as its count in a table (``--json`` lists them):
+#: 53 corrupt digests would otherwise be a wall of hashes
 SHOWN_ITEMS = 3
+#: significant digits of a measured figure in a table (``--json`` prints every digit)
+SHOWN_DIGITS = 4
 
 
-def emit(result: Any, as_json: bool) -> None:
-    """Print a result (a dataclass, a dict; a list with ``as_json``): its JSON, or one
-    ``key=value`` line."""
+def emit(result: Any, as_json: bool, title: str | None = None) -> None:
+    """Print a result (a dataclass, a dict; a list with ``as_json``): its JSON, or a table
+    of its figures, one a row, under ``title``."""
     data = asdict(result) if is_dataclass(result) and not isinstance(result, type) else result
     if as_json:
         typer.echo(_to_json(data))
-    else:
-        typer.echo(" ".join(f"{k}={_shown(v)}" for k, v in data.items()))
+        return
+    table = Table(title=None if title is None else Text(title), box=box.SIMPLE_HEAD)
+    table.add_column("figure")
+    table.add_column("value", overflow="fold")
+    for key, value in data.items():  # Text: a name in brackets is no markup
+        table.add_row(Text(key.replace("_", " ")), Text(_cell(value)))
+    Console().print(table)
 
 
-def _shown(value: Any) -> Any:
-    if isinstance(value, list | tuple | set | dict) and len(value) > SHOWN_ITEMS:
-        return f"<{len(value)} items: --json lists them>"
-    return value
+def _cell(value: Any) -> str:
+    """A value as a table shows it: measured figures rounded, long collections counted."""
+    if value is None:
+        return "-"
+    if isinstance(value, bool):
+        return "yes" if value else "no"
+    if isinstance(value, float):
+        if abs(value) >= 10**SHOWN_DIGITS:  # whole units, never 1.235e+05
+            return f"{value:.0f}"
+        return f"{value:.{SHOWN_DIGITS}g}"
+    if isinstance(value, list | tuple | set | dict):
+        if not value:
+            return "none"
+        if len(value) > SHOWN_ITEMS:
+            return f"{len(value)} items (--json lists them)"
+        if isinstance(value, dict):
+            return ", ".join(f"{k}: {_cell(v)}" for k, v in value.items())
+        return ", ".join(_cell(v) for v in value)
+    return str(value)
 
 
 def write_result(path: Path, data: Any) -> None:
@@ -101,6 +126,8 @@ def user_errors_in_one_line() -> Iterator[None]:
             ctx = getattr(exc, "ctx", None)
             hint = f" (see {ctx.command_path} --help)" if ctx is not None else ""
             message = getattr(exc, "format_message", exc.__str__)()
+            # typer checks a choice with pydantic, which leads its reason with this
+            message = message.replace(": Value error, ", ": ")
             typer.echo(f"srg: error: {message}{hint}".splitlines()[0], err=True)
             sys.exit(2)
         if _is_click(exc, "Abort"):

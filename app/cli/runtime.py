@@ -10,14 +10,18 @@ from pathlib import Path
 
 import typer
 
-from app.cli.output import emit
+from app.cli.choices import LogLevel
+from app.cli.output import JSON_HELP, emit
 from app.core.errors import Unavailable
+
+#: the largest TCP port a server may listen on (the smallest is 1)
+MAX_PORT = 65535
 
 
 def worker(
-    concurrency: int = typer.Option(1, help="worker processes (prefork pool)"),
+    concurrency: int = typer.Option(1, min=1, help="worker processes (prefork pool)"),
     queues: str = typer.Option("celery", help="comma-separated queues to consume"),
-    loglevel: str = typer.Option("INFO"),
+    loglevel: LogLevel = typer.Option(LogLevel.INFO, help="Celery's log level"),
     hostname: str | None = typer.Option(None, help="node name (default: celery@host)"),
 ) -> None:
     """Run a Celery worker of the growth tasks (needs SRG_BROKER_URL)."""
@@ -25,14 +29,14 @@ def worker(
 
     _require_broker()
     argv = ["worker", f"--concurrency={concurrency}", f"--queues={queues}"]
-    argv.append(f"--loglevel={loglevel}")
+    argv.append(f"--loglevel={loglevel.value}")
     if hostname:
         argv.append(f"--hostname={hostname}")
     celery_app.worker_main(argv)
 
 
 def beat(
-    loglevel: str = typer.Option("INFO"),
+    loglevel: LogLevel = typer.Option(LogLevel.INFO, help="Celery's log level"),
     schedule: Path | None = typer.Option(
         None, help="beat's state file (default SRG_VAR_DIR/celerybeat-schedule)"
     ),
@@ -43,7 +47,7 @@ def beat(
 
     _require_broker()
     state = beat_state_file(get_settings().var_dir, schedule)
-    celery_app.start(["beat", f"--loglevel={loglevel}", f"--schedule={state}"])
+    celery_app.start(["beat", f"--loglevel={loglevel.value}", f"--schedule={state}"])
 
 
 def beat_state_file(var_dir: Path, schedule: Path | None) -> Path:
@@ -54,8 +58,8 @@ def beat_state_file(var_dir: Path, schedule: Path | None) -> Path:
 
 
 def flower(
-    port: int = typer.Option(5555),
-    address: str = typer.Option("127.0.0.1"),
+    port: int = typer.Option(5555, min=1, max=MAX_PORT, help="TCP port of the web UI and /api"),
+    address: str = typer.Option("127.0.0.1", help="interface to listen on"),
 ) -> None:
     """Run Flower, the Celery monitor (web UI, /api and /metrics on PORT), behind HTTP
     basic auth when SRG_FLOWER_BASIC_AUTH is set."""
@@ -77,6 +81,7 @@ def flower(
 def set_growing(
     name: str = typer.Argument(..., help="graph name or id"),
     on: bool = typer.Option(..., "--on/--off", help="grow it on every beat tick, or stop"),
+    json_output: bool = typer.Option(False, "--json", help=JSON_HELP),
 ) -> None:
     """Mark a graph for beat's periodic growth (or take it off)."""
     from app.config import get_settings
@@ -87,10 +92,14 @@ def set_growing(
     settings = get_settings()
     require_intact(settings)
     with transaction(settings) as session:
-        emit(mark(session, name, on), as_json=False)
+        marked = mark(session, name, on)
+    emit(marked, json_output)
 
 
-def grow_epoch(name: str = typer.Argument(..., help="graph name or id")) -> None:
+def grow_epoch(
+    name: str = typer.Argument(..., help="graph name or id"),
+    json_output: bool = typer.Option(False, "--json", help=JSON_HELP),
+) -> None:
     """Send one grow_epoch task now (what beat sends); prints its task id."""
     from app.config import get_settings
     from app.db.sessions import transaction
@@ -103,7 +112,11 @@ def grow_epoch(name: str = typer.Argument(..., help="graph name or id")) -> None
     require_broker(settings)
     with transaction(settings) as session:
         graph_id = find_graph(session, name).id
-    typer.echo(task.delay(graph_id).id)
+    task_id = task.delay(graph_id).id
+    if json_output:
+        emit({"graph_id": graph_id, "task_id": task_id}, as_json=True)
+    else:
+        typer.echo(task_id)
 
 
 def _require_broker() -> None:

@@ -4,19 +4,28 @@ from __future__ import annotations
 
 import typer
 
-from app.core.errors import InvalidInput
+from app.cli.runtime import MAX_PORT
+
+#: worker processes of `srg serve` at most
+MAX_WORKERS = 64
+#: seconds a worker may leave uvicorn's liveness ping unanswered before it is replaced:
+#: uvicorn's 5 s kills, again and again, workers still importing on a busy machine
+WORKER_PING_TIMEOUT_S = 60
 
 
 def serve(
     host: str = typer.Option("127.0.0.1", help="interface to listen on"),
-    port: int = typer.Option(8000, help="TCP port"),
+    workers: int = typer.Option(
+        1,
+        min=1,
+        max=MAX_WORKERS,
+        help="uvicorn worker processes, each with its own database pool and caches",
+    ),
+    port: int = typer.Option(8000, min=1, max=MAX_PORT, help="TCP port"),
 ) -> None:
     """Serve the HTTP API and the browser client (open http://HOST:PORT/)."""
-    if not 0 < port < 65536:
-        raise InvalidInput(f"--port must be a TCP port, 1 to 65535, got {port}")
     import uvicorn
 
-    from app.api.app import create_app
     from app.api.serving import UVICORN_OPTIONS, require_listenable
     from app.config import get_settings
     from app.db.engines import database_engine, require_intact
@@ -28,4 +37,13 @@ def serve(
     require_current_schema(database_engine(settings))
     require_intact(settings)
     require_listenable(host, port)
-    uvicorn.run(create_app(settings), host=host, port=port, **UVICORN_OPTIONS)
+    # a factory each worker process calls (it reads the same environment's settings)
+    uvicorn.run(
+        "app.api.app:create_app",
+        factory=True,
+        host=host,
+        port=port,
+        workers=workers,
+        timeout_worker_healthcheck=WORKER_PING_TIMEOUT_S,
+        **UVICORN_OPTIONS,
+    )

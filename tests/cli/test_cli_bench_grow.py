@@ -38,7 +38,7 @@ def bench_calls(monkeypatch: pytest.MonkeyPatch) -> list[dict[str, Any]]:
         (["--frames", "2000", "--sizes", "1000"], "give --sizes (edges) or --frames, not both"),
         (["--sizes", "1k"], f"--sizes {POSITIVE_INTS} '1k'"),
         (["--workers", "1,x"], f"--workers {POSITIVE_INTS} '1,x'"),
-        (["--batch", "0"], "--batch must be positive, got 0"),
+        (["--batch", "0"], "'--batch': Input should be greater than or equal to 1"),
         (["--dynamics", "lava"], "lava"),
     ],
 )

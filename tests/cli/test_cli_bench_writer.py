@@ -33,10 +33,10 @@ def test_the_virtual_clock_adds_the_clips_rounds_and_the_writer() -> None:
 @pytest.mark.parametrize(
     ("args", "message"),
     [
-        (["--frames", "0"], "--frames must be positive, got 0"),
+        (["--frames", "0"], "'--frames': Input should be greater than or equal to 1"),
         (["--workers", "10,x"], "--workers takes comma-separated positive integers"),
-        (["--clip-seconds", "nan"], "--clip-seconds must be positive"),
-        (["--liquid-seconds", "-1"], "--liquid-seconds at least 0"),
+        (["--clip-seconds", "nan"], "'--clip-seconds': must be a finite number above 0"),
+        (["--liquid-seconds", "-1"], "'--liquid-seconds': Input should be greater than or equal"),
     ],
 )
 def test_bad_options_fail_in_one_line(tmp_path: Path, args: list[str], message: str) -> None:

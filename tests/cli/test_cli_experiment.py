@@ -50,8 +50,13 @@ def results(result: dict[str, Any], bot: str = "goal-directed") -> dict[str, Any
 
 
 def run_json(var: Path, *args: str) -> dict[str, Any]:
-    ok(var, "experiment", *args, "--result", str(var / "result.json"))
-    return dict(json.loads((var / "result.json").read_text()))
+    """The result file of ``srg experiment args``, which ``--json`` prints alike."""
+    printed = json.loads(
+        ok(var, "experiment", *args, "--json", "--result", str(var / "result.json"))
+    )
+    result = dict(json.loads((var / "result.json").read_text()))
+    assert printed == result
+    return result
 
 
 def checkpoints_stored(var: Path) -> int:
@@ -243,20 +248,20 @@ def test_baseline_shared_by_crowds_gives_the_numbers_of_baseline_grown_per_crowd
 @pytest.mark.parametrize(
     ("args", "fragment"),
     [
-        (("--dynamics", "liquid", "--preset", "huge"), "unknown preset 'huge'"),
-        (("--dynamics", "liquid", "--preset", "tiny", "--fluid", "syrup"), "unknown fluid"),
-        (("--dynamics", "fluid"), "unknown dynamics 'fluid'"),
+        (("--dynamics", "liquid", "--preset", "huge"), "'--preset': 'huge' is not one of"),
+        (("--dynamics", "liquid", "--preset", "tiny", "--fluid", "syrup"), "'syrup' is not one"),
+        (("--dynamics", "fluid"), "'--dynamics': 'fluid' is not one of"),
         (("--preset", "tiny"), "the toy dynamics has no preset or fluid"),
         (("--checkpoints", "300,200"), "checkpoints must be increasing"),
         (("--checkpoints", "a,b"), "checkpoints must be comma-separated"),
         (("--strategies", "best"), "unknown strategy"),
         (("--seeds", "x"), "seeds must be comma-separated integers"),
         (("--sessions", "0"), "sessions"),
-        (("--player-model", "softmax"), "unknown player model 'softmax'"),
+        (("--player-model", "softmax"), "'--player-model': 'softmax' is not one of"),
         (("--bots", "cheater"), "unknown bot 'cheater'"),
         (("--bots", "avoider,avoider"), "distinct bots"),
-        (("--fixed-graph-sessions", "0"), "--fixed-graph-sessions must be positive"),
-        (("--jobs", "0"), "--jobs must be positive"),
+        (("--fixed-graph-sessions", "0"), "'--fixed-graph-sessions': Input should be greater"),
+        (("--jobs", "0"), "'--jobs': Input should be greater than or equal to 1"),
         (("--resume", "--name", "never-ran"), "no experiment named 'never-ran' to resume"),
         (("--resume", "--seeds", "1"), "--resume runs the stored plan"),
         (("--resume", "--player-model", "logit"), "--resume runs the stored plan"),

@@ -65,8 +65,8 @@ def test_init_stores_the_player_model_chosen_else_the_setting(tmp_path: Path) ->
 @pytest.mark.parametrize(
     ("model", "env", "fragment"),
     [
-        ("softmax", {}, "unknown player model 'softmax'"),
-        ("", {}, "unknown player model ''"),
+        ("softmax", {}, "'--player-model': 'softmax' is not one of 'eq2', 'logit'"),
+        ("", {}, "'--player-model': '' is not one of"),
         (None, {"SRG_PLAYER_MODEL": "softmax"}, "SRG_PLAYER_MODEL: Input should be"),
     ],
 )
@@ -121,7 +121,7 @@ def test_analytics_before_two_played_publications_says_so_in_one_line(var: Path)
 
 def test_analytics_refuses_an_unknown_player_model_in_one_line(var: Path) -> None:
     done = srg(var, "analytics", "twice", "--player-model", "softmax")
-    one_line_error(done, "unknown player model 'softmax'")
+    one_line_error(done, "'--player-model': 'softmax' is not one of")
     assert done.stdout == ""
 
 
