@@ -17,6 +17,7 @@ import typer
 from app.cli.choices import DynamicsName, Fluid, LiquidPreset, positive_finite, value_of
 from app.cli.liquid import FLUID_HELP, PRESET_HELP
 from app.cli.output import emit, progress_bar
+from app.cli.serve import MAX_WORKERS
 from app.core.errors import InvalidInput
 from app.core.scene import DEFAULT_FLUID
 from app.services.dynamics import DEFAULT_LIQUID_PRESET
@@ -329,3 +330,38 @@ def epoch_traces(
             settings=get_settings(),
         )
     )
+
+
+@app.command("serve")
+def serve(
+    players: str = typer.Option(
+        "10,100,500", help="comma-separated numbers of players at once, a round each"
+    ),
+    workers: int = typer.Option(
+        2, min=1, max=MAX_WORKERS, help="uvicorn worker processes of srg serve"
+    ),
+    mean_steps: int = typer.Option(30, min=2, max=2_000, help="mean steps of a session"),
+    database_url: str = typer.Option(
+        "",
+        help="a migrated database to serve ('': a scratch PostgreSQL database on the "
+        "server of SRG_SCRATCH_POSTGRES_URL, dropped afterwards)",
+    ),
+) -> None:
+    """Players at once through srg serve: sessions per second, p50/p99 latency, errors.
+
+    Each player registers, fetches the publication and the animations its session plays
+    and uploads its trace. Exit status 1 when a request failed or a trace was not stored.
+    """
+    from app.bench.serve import bench_serve
+    from app.config import get_settings
+
+    result = bench_serve(
+        get_settings(),
+        players=_positive_ints("--players", players),
+        workers=workers,
+        mean_steps=mean_steps,
+        database_url=database_url,
+    )
+    _emit(result)
+    if not result["ok"]:
+        raise typer.Exit(1)
