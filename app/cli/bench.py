@@ -332,6 +332,17 @@ def epoch_traces(
     )
 
 
+@app.command("client")
+def client(
+    seconds: float = typer.Option(20.0, min=1.0, max=600.0, help="seconds of play"),
+) -> None:
+    """The browser's stalls while the web client plays a toy publication with the keys in
+    headless Chromium (the browser test bounds the client's gaps, not these)."""
+    from app.bench.client import bench_client
+
+    _emit(bench_client(seconds))
+
+
 @app.command("serve")
 def serve(
     players: str = typer.Option(

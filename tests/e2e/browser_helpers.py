@@ -1,35 +1,18 @@
-"""Helpers of the browser tests: the headless Chromium they drive, and a player's keys."""
+"""Helpers of the browser tests: whether they can drive headless Chromium, and the traces
+they leave. The browser, its arguments and a player's keys are ``srg bench client``'s
+(:mod:`app.bench.client`), which plays the same way."""
 
 from __future__ import annotations
 
 import os
-from pathlib import Path
-from typing import TYPE_CHECKING
 
 import numpy as np
 import pytest
 from sqlalchemy import select
 from sqlalchemy.orm import Session
 
+from app.bench.client import CHROMIUM
 from app.models import TraceStep
-
-if TYPE_CHECKING:
-    from playwright.sync_api import Page
-
-CHROMIUM = Path("/usr/bin/chromium")
-CHROMIUM_ARGS = [
-    "--headless",
-    "--no-sandbox",
-    "--disable-gpu",
-    "--disable-quic",
-    "--no-first-run",
-    "--disable-background-networking",
-    "--disable-component-update",
-    "--disable-sync",
-]
-DESKTOP = {"width": 1280, "height": 800}
-#: key held, and for how long (ms): left and right tilts, level between
-KEY_PATTERN = [("ArrowLeft", 700), (None, 400), ("ArrowRight", 800), ("ArrowUp", 300)]
 
 
 def require_chromium() -> None:
@@ -40,16 +23,6 @@ def require_chromium() -> None:
     if os.environ.get("CI") == "true":
         pytest.fail(f"{CHROMIUM} is missing in CI (infra/services.sh installs it)")
     pytest.skip(f"{CHROMIUM} is missing (apt-get install -y chromium)")
-
-
-def play_with_keys(page: Page) -> None:
-    """One round of :data:`KEY_PATTERN`."""
-    for key, ms in KEY_PATTERN:
-        if key:
-            page.keyboard.down(key)
-        page.wait_for_timeout(ms)
-        if key:
-            page.keyboard.up(key)
 
 
 def trace_steps(session: Session, trace_id: int) -> np.ndarray:

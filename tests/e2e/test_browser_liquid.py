@@ -21,18 +21,12 @@ from typing import TYPE_CHECKING, Any
 
 import numpy as np
 import pytest
-from browser_helpers import (
-    CHROMIUM,
-    CHROMIUM_ARGS,
-    DESKTOP,
-    play_with_keys,
-    require_chromium,
-    trace_steps,
-)
+from browser_helpers import require_chromium, trace_steps
 from sqlalchemy import Engine, select
 
 from app.api.app import create_app
 from app.api.local_server import serve_in_thread
+from app.bench.client import CHROMIUM, CHROMIUM_ARGS, DESKTOP, play_with_keys
 from app.config import Settings
 from app.db.engines import make_engine
 from app.db.sessions import session_factory
