@@ -67,9 +67,15 @@ KINDS = ("register", "publication", "clip", "trace")
 @dataclass(frozen=True)
 class _Request:
     kind: str
-    #: the HTTP status, or 0 where no answer came (a timeout, a refused connection)
+    #: the HTTP status, or 0 where no answer came
     status: int
     latency_s: float
+    #: why no answer came: httpx's error (ReadTimeout, RemoteProtocolError, ...)
+    failure: str = ""
+
+    @property
+    def outcome(self) -> str:
+        return self.failure or str(self.status)
 
 
 @dataclass(frozen=True)
@@ -243,8 +249,9 @@ async def _player(
         start = time.perf_counter()
         try:
             response = await http.request(method, url, **kwargs)
-        except httpx.TransportError:
-            requests.append(_Request(kind, 0, time.perf_counter() - start))
+        except httpx.TransportError as exc:
+            failure = f"{kind} {type(exc).__name__}"
+            requests.append(_Request(kind, 0, time.perf_counter() - start, failure))
             return None
         requests.append(_Request(kind, response.status_code, time.perf_counter() - start))
         return response if response.is_success else None
@@ -289,7 +296,9 @@ def _summary(players: int, sessions: list[_Session], elapsed: float, stored: int
         "ok_sessions": ok_sessions,
         "requests": len(requests),
         "errors": sum(not 200 <= request.status < 300 for request in requests),
-        "statuses": dict(sorted(Counter(str(r.status) for r in requests).items())),
+        # how many requests had each status; a request without an answer is counted
+        # under its kind and httpx's error ("clip ReadTimeout")
+        "statuses": dict(sorted(Counter(r.outcome for r in requests).items())),
         "stored_traces": stored,
         "elapsed_s": round(elapsed, 2),
         "sessions_per_s": round(ok_sessions / elapsed, 2),
