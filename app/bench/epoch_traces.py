@@ -20,15 +20,12 @@ from functools import partial
 from pathlib import Path
 from typing import Any
 
-from sqlalchemy import text
-
 from app.bench.scratch import scratch_database
 from app.config import Settings
 from app.core.bots import BotKind, play_sessions
 from app.core.refinement import Refiner
 from app.core.strategies import Strategy
 from app.db.engines import make_engine
-from app.db.migrations import alembic_config
 from app.db.sessions import session_factory, transaction
 from app.services.analytics import played_graph_analytics
 from app.services.creation import init_graph
@@ -36,32 +33,8 @@ from app.services.growing import grow_graph
 from app.services.loading import open_graph
 from app.store.graph_persistence import save_graph
 from app.store.publications import load_publication, publish
+from app.store.synthetic_play import graph_step_count, store_synthetic_steps
 from app.store.traces import bot_player, record_trace
-
-#: the revision whose backfill sums stored steps, and the one before it
-SUMS_REVISION, BEFORE_SUMS = "0010", "0009"
-
-STORED_SESSIONS = """
-INSERT INTO traces (publication_id, player_id, idempotency_key, n_steps)
-SELECT p.id, :player, 'stored-' || p.id || '-' || g, :length
-FROM publications p CROSS JOIN generate_series(1, :per_publication) g
-WHERE p.graph_id = :graph
-"""
-STORED_STEPS = """
-INSERT INTO trace_steps (trace_id, step, vertex, control)
-SELECT t.id, s, floor(random() * p.n_vertices)::int, floor(random() * :controls)::int
-FROM traces t
-JOIN publications p ON p.id = t.publication_id
-CROSS JOIN generate_series(0, :length - 1) s
-WHERE p.graph_id = :graph AND t.idempotency_key LIKE 'stored-%'
-"""
-
-GRAPH_STEPS = text("""
-SELECT COUNT(*) FROM trace_steps s
-JOIN traces t ON t.id = s.trace_id
-JOIN publications p ON p.id = t.publication_id
-WHERE p.graph_id = :graph
-""")
 
 
 def _played_graph(settings: Settings, name: str, sessions: int) -> int:
@@ -85,34 +58,6 @@ def _played_graph(settings: Settings, name: str, sessions: int) -> int:
             for i, trace in enumerate(traces):
                 record_trace(session, publication_id, player, f"{publication_id}.{i}", trace)
     return graph_id
-
-
-def _store_steps(url: str, graph_id: int, steps: int, session_steps: int) -> dict[str, float]:
-    """N steps written by the server, then summed by migration 0010's backfill (timed)."""
-    engine = make_engine(url)
-    try:
-        began = time.perf_counter()
-        with engine.begin() as connection:
-            connection.execute(text("SELECT setseed(0.5)"))
-            player = connection.scalar(text("SELECT id FROM players WHERE name = 'bench-bots'"))
-            per_publication = max(1, steps // (2 * session_steps))
-            parameters = {"graph": graph_id, "player": player, "length": session_steps}
-            connection.execute(
-                text(STORED_SESSIONS), {**parameters, "per_publication": per_publication}
-            )
-            connection.execute(text(STORED_STEPS), {**parameters, "controls": 3})
-        inserted = time.perf_counter() - began
-        from alembic import command
-
-        began = time.perf_counter()
-        with engine.begin() as connection:
-            config = alembic_config(connection)
-            command.downgrade(config, BEFORE_SUMS)
-            command.upgrade(config, "head")
-            connection.execute(text("ANALYZE"))
-        return {"insert_s": round(inserted, 2), "backfill_s": round(time.perf_counter() - began, 2)}
-    finally:
-        engine.dispose()
 
 
 def _grow_time(settings: Settings, name: str, expansions: int) -> float:
@@ -142,14 +87,14 @@ def bench_epoch_traces(
         )
         quiet = _played_graph(settings, "quiet", sessions)
         played = _played_graph(settings, "played", sessions)
-        stored = _store_steps(url, played, steps, session_steps)
+        stored = store_synthetic_steps(url, played, steps, session_steps)
         times: dict[str, list[float]] = {"quiet": [], "played": []}
         for _ in range(repeats):
             for name in times:
                 times[name].append(_grow_time(settings, name, expansions))
         with session_factory(make_engine(url))() as session:
             stored_steps = {
-                name: int(session.scalar(GRAPH_STEPS, {"graph": graph_id}) or 0)
+                name: graph_step_count(session, graph_id)
                 for name, graph_id in (("quiet", quiet), ("played", played))
             }
             began = time.perf_counter()
