@@ -22,7 +22,7 @@ import httpx
 import pytest
 from cli_helpers import SRG, one_line_error, srg
 from database_helpers import migrate, postgres_base_url, postgres_database
-from sqlalchemy import select
+from sqlalchemy import select, update
 
 from app.api.app import create_app
 from app.api.local_server import serve_in_thread
@@ -30,7 +30,7 @@ from app.config import Settings
 from app.core.graph import EdgeKind
 from app.db.engines import database_engine, dispose_engines
 from app.db.sessions import transaction
-from app.models import GrowthEpoch
+from app.models import Edge, GrowthEpoch
 from app.models import Publication as PublicationRow
 from app.services.creation import init_graph
 from app.services.loading import open_graph
@@ -181,3 +181,21 @@ def test_a_cli_grow_beside_a_server_growth_is_one_line_naming_it(
     grown = srg(tmp_path, "grow", "g", "--expansions", "4", **environment(settings))
     assert grown.returncode == 0, grown.stderr
     assert epochs(settings) == ["finished"]
+
+
+def test_a_stored_graph_that_breaks_an_invariant_is_one_line_and_a_json_500(
+    settings: Settings, tmp_path: Path
+) -> None:
+    with transaction(settings) as session:
+        graph_id = open_graph(session, settings, "g").entry.id
+        session.execute(
+            update(Edge).where(Edge.graph_id == graph_id, Edge.vertex == 0).values(dst=10_000)
+        )
+    broken = f"graph {graph_id} at revision 1: edge 0 is unfilled"
+    one_line_error(srg(tmp_path, "publish", "g", **environment(settings)), broken)
+    with (
+        serve_in_thread(create_app(settings)) as base_url,
+        httpx.Client(base_url=base_url, timeout=WAIT_S) as http,
+    ):
+        reply = http.post("/api/graphs/g/publish", headers=ADMIN)
+    assert reply.status_code == 500 and reply.json() == {"error": broken, "details": None}
