@@ -16,14 +16,13 @@ import sys
 import time
 from pathlib import Path
 
-#: the experiment's process: one spawned run process set up as the experiment sets its
-#: own, busy with ``exec(RUN)``; the parent then waits to be killed
+#: the experiment's process: one run process spawned from its main thread and set up as
+#: the experiment sets its own, busy with ``exec(RUN)``; the parent then waits to be killed
 PARENT = """
 import os, sys, time
 from multiprocessing import get_context
-from app.services.experiment.runs import die_with_parent
-pool = get_context("spawn").Pool(1, initializer=die_with_parent, initargs=(os.getpid(),))
-pool.apply_async(exec, (sys.argv[1],))
+setup = f"from app.services.experiment.runs import die_with_parent; die_with_parent({os.getpid()})"
+get_context("spawn").Process(target=exec, args=(setup + "\\n" + sys.argv[1],)).start()
 time.sleep(600)
 """
 #: the run: says it started (with its pid), then holds the GIL for ever

@@ -21,6 +21,8 @@ import time
 from collections.abc import Callable
 from functools import partial
 from multiprocessing import get_context
+from multiprocessing.connection import Connection
+from multiprocessing.process import BaseProcess
 from typing import Any
 
 from app.config import Settings
@@ -109,27 +111,75 @@ def _run_in_processes(
     last: int,
     reported: int,
 ) -> int:
-    """The runs through checkpoint ``last`` in a pool of spawned processes; the first
-    failure stops them all (what they finished is stored, so ``--resume`` goes on from
-    there). Returns the frames reported to ``progress`` so far, ``reported`` included."""
+    """The runs through checkpoint ``last`` in at most ``jobs`` spawned processes at a
+    time; the first failure stops them all (what they finished is stored, so ``--resume``
+    goes on from there). Returns the frames reported to ``progress`` so far,
+    ``reported`` included.
+
+    Every run process is started by this (the main) thread: the kernel's parent-death
+    signal (:func:`die_with_parent`) follows the thread that started a process, so run
+    processes started by a pool's helper thread were killed when that thread ended,
+    while waiting for work, holding the pool's queue lock, and the pool never closed.
+    """
     context = get_context("spawn")
-    with context.Pool(  # exit: terminate
-        jobs, maxtasksperchild=1, initializer=die_with_parent, initargs=(os.getpid(),)
-    ) as pool:
-        pending = [
-            pool.apply_async(run_one, (settings, name, run, grower, None, last))
-            for run in range(len(plan.runs))
-        ]
-        while pending:
+    waiting = list(range(len(plan.runs)))
+    running: dict[int, tuple[BaseProcess, Connection]] = {}
+    try:
+        while waiting or running:
+            while waiting and len(running) < jobs:
+                run = waiting.pop(0)
+                receive, send = context.Pipe(duplex=False)
+                started: BaseProcess = context.Process(
+                    target=_run_process,
+                    args=(os.getpid(), send, settings, name, run, grower, last),
+                    name=f"{name}-run-{run}",
+                )
+                started.start()
+                send.close()
+                running[run] = (started, receive)
             time.sleep(PROGRESS_POLL)
-            for finished in [run for run in pending if run.ready()]:
-                finished.get()  # re-raises a run's error here
-                pending.remove(finished)
+            for run, (child, receive) in list(running.items()):
+                if receive.poll():
+                    error = receive.recv()
+                elif child.is_alive():
+                    continue
+                else:
+                    error = RuntimeError(f"run {run} ended with exit code {child.exitcode}")
+                child.join()
+                receive.close()
+                del running[run]
+                if error is not None:
+                    raise error
             if progress is not None:
                 grown = frames_grown(settings, name, plan)
                 progress(grown - reported)
                 reported = grown
+    finally:
+        for child, receive in running.values():
+            child.kill()
+            child.join()
+            receive.close()
     return reported
+
+
+def _run_process(
+    parent: int,
+    report: Connection,
+    settings: Settings,
+    name: str,
+    run: int,
+    grower: Grower,
+    last: int,
+) -> None:
+    """A run process's body: one run through checkpoint ``last``; sends None when done or
+    the run's error (which the experiment's process raises)."""
+    die_with_parent(parent)
+    try:
+        run_one(settings, name, run, grower, None, last)
+    except Exception as error:  # handed to the parent, which raises it
+        report.send(error)
+        return
+    report.send(None)
 
 
 def die_with_parent(parent: int) -> None:
