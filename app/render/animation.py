@@ -28,8 +28,6 @@ from app.core.errors import InvalidInput
 
 STRIP_MEDIA_TYPE = "video/x-ivf"
 POSTER_MEDIA_TYPE = "image/webp"
-#: the codec string a browser's VideoDecoder is configured with (profile 0, 8 bits)
-WEBCODECS_CODEC = "vp09.00.10.08"
 IVF_MAGIC = b"DKIF"
 FPS = 30
 #: VP9 constant quality: 44 keeps a 480 x 360 frame near 1.5 KB at the PSNR (35 dB) of an
