@@ -56,13 +56,16 @@ def test_benchmarks_take_no_json_option() -> None:
     benches = [name for name in ALL if name.startswith("bench ")]
     assert {name.split()[1] for name in benches} == {
         "bytes",
+        "client",
         "clip",
         "dedup",
+        "epoch-traces",
         "experiment",
         "grow",
         "ingest",
         "look",
         "rank",
+        "serve",
         "sph",
         "store",
         "writer",
