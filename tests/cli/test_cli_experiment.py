@@ -17,6 +17,7 @@ from typing import Any
 
 import pytest
 from cli_helpers import SRG, ok, one_line_error, srg
+from process_helpers import alive
 from sqlalchemy import create_engine, func, select
 
 from app.models import ExperimentCheckpoint, GrowthEpoch
@@ -100,15 +101,6 @@ def children_of(pid: int) -> list[int]:
             if int(fields[1]) == pid and fields[0] != "Z":
                 found.append(int(stat.parent.name))
     return found
-
-
-def alive(pid: int) -> bool:
-    """Whether ``pid`` runs (a zombie nobody reaped has ended)."""
-    try:
-        state = Path(f"/proc/{pid}/stat").read_text().rsplit(")", 1)[1].split()[0]
-    except OSError:
-        return False
-    return state != "Z"
 
 
 def test_the_run_processes_die_with_a_killed_experiment(tmp_path: Path) -> None:

@@ -16,6 +16,8 @@ import sys
 import time
 from pathlib import Path
 
+from process_helpers import alive
+
 #: the experiment's process: one run process spawned from its main thread and set up as
 #: the experiment sets its own, busy with ``exec(RUN)``; the parent then waits to be killed
 PARENT = """
@@ -34,15 +36,6 @@ sum(itertools.repeat(1))
 #: seconds a starting run and a killed one get, against the machine's load (a run that
 #: does not die with its parent never ends)
 PATIENCE = 120
-
-
-def alive(pid: int) -> bool:
-    """Whether ``pid`` runs (a zombie nobody reaped has ended)."""
-    try:
-        state = Path(f"/proc/{pid}/stat").read_text().rsplit(")", 1)[1].split()[0]
-    except OSError:
-        return False
-    return state != "Z"
 
 
 def test_a_run_process_holding_the_gil_dies_with_its_killed_parent(tmp_path: Path) -> None:
