@@ -54,8 +54,11 @@ def test_bad_sizes_fail_in_one_line_before_any_work(
 def test_integration_only_passes_the_frame_sizes(
     tmp_path: Path, bench_calls: list[dict[str, Any]]
 ) -> None:
-    out = ok(tmp_path, "bench", "grow", "--integration-only", "--frames", "20000,200000")
-    assert json.loads(out) == {"recorded": True}
+    out = json.loads(
+        ok(tmp_path, "bench", "grow", "--integration-only", "--frames", "20000,200000")
+    )
+    assert out.pop("provenance")["command"].startswith("srg bench grow")
+    assert out == {"recorded": True}
     (call,) = bench_calls
     assert call["frames"] == [20000, 200000]
     assert call["integration_only"] is True
