@@ -175,5 +175,6 @@ def downgrade() -> None:
     op.execute('DROP VIEW analytics_steps')
     op.execute('DROP VIEW analytics_sessions')
     op.drop_table('edge_kinds')
-    with op.batch_alter_table('publications') as batch:
-        batch.drop_column('high_error_threshold')
+    # SQLite drops the column in place (3.35+): a batch rebuild drops the table first,
+    # which under foreign keys deletes every trace of every publication by cascade
+    op.drop_column('publications', 'high_error_threshold')
