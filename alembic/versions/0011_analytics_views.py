@@ -153,8 +153,7 @@ def _comment_everything(comment_of: Callable[[str], str]) -> None:
 
 
 def upgrade() -> None:
-    with op.batch_alter_table('publications') as batch:
-        batch.add_column(sa.Column('high_error_threshold', sa.Double(), nullable=True))
+    op.add_column('publications', sa.Column('high_error_threshold', sa.Double(), nullable=True))
     edge_kinds = op.create_table(
         'edge_kinds',
         sa.Column('kind', sa.SmallInteger(), autoincrement=False, nullable=False),
