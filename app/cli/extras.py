@@ -20,6 +20,7 @@ EXTRA_OF_MODULE = {
     "celery": "cluster",
     "kombu": "cluster",
     "redis": "cluster",
+    "flower": "cluster",
     "fastapi": "api",
     "fastapi_offline": "api",
     "starlette": "api",
