@@ -178,7 +178,7 @@ def bench_client(seconds: float) -> dict[str, Any]:
     try:
         from playwright.sync_api import sync_playwright
     except ImportError:
-        raise Unavailable("srg bench client needs playwright (the test extras)") from None
+        raise Unavailable("srg bench client needs playwright (the bench extra)") from None
     if not CHROMIUM.exists():
         raise Unavailable(f"srg bench client needs {CHROMIUM} (apt-get install chromium)")
     with (

@@ -21,6 +21,7 @@ EXTRA_OF_MODULE = {
     "kombu": "cluster",
     "redis": "cluster",
     "flower": "cluster",
+    "tornado": "cluster",
     "fastapi": "api",
     "fastapi_offline": "api",
     "starlette": "api",
@@ -31,6 +32,7 @@ EXTRA_OF_MODULE = {
     "cachetools": "api",
     "matplotlib": "plots",
     "networkx": "bench",
+    "playwright": "bench",
 }
 
 
