@@ -281,7 +281,7 @@ def test_the_experiment_benchmark_times_a_fresh_run_and_refuses_resume(tmp_path:
     assert figures["frames"] >= 300 and figures["wall_s"] > 0 and figures["cpu_s"] > 0
     assert set(figures["runs"]) == {"baseline/0"}
     one_line_error(srg(tmp_path, "bench", "experiment", "--resume"), "fresh experiment")
-    one_line_error(srg(tmp_path, "bench", "experiment", "--preset", "huge"), "no preset")
+    one_line_error(srg(tmp_path, "bench", "experiment", "--preset", "tiny"), "no preset")
 
 
 def test_through_stops_at_a_checkpoint_with_a_complete_report_and_resume_goes_on(
