@@ -20,7 +20,8 @@ def test_the_epoch_bench_stores_the_steps_it_reports(tmp_path: Path) -> None:
     assert done.returncode == 0, done.stderr
     result = json.loads(done.stdout)
     quiet, played = result["stored_steps"]["quiet"], result["stored_steps"]["played"]
-    # the played graph holds its bots' steps (as the quiet one does) and the 400 written
-    assert played >= 400 + 2 > quiet > 0
+    # both graphs hold their bots' steps; the played one also the 400 the server wrote
+    assert quiet > 0
+    assert played > 400
     assert len(result["grow_s"]["quiet"]) == len(result["grow_s"]["played"]) == 1
     assert result["ratio"] > 0 and result["analytics_sessions"] > 0
