@@ -20,8 +20,6 @@ import numpy as np
 from app.core.graph import edge_vertex_control
 from app.core.player_models import (
     Trace,
-    mean_session_length,
-    observed_control_counts,
     observed_player_model,
     trace_edges,
 )
@@ -151,24 +149,19 @@ def predicted_edge_probabilities(
 
 
 def per_vertex_bound_edge_probabilities(
-    traces: Sequence[Trace], edge_dst: np.ndarray, start: int, fallback: np.ndarray
+    counts: np.ndarray, mean_length: float, edge_dst: np.ndarray, start: int, fallback: np.ndarray
 ) -> np.ndarray:
-    """P(e) under :func:`~app.core.player_models.observed_player_model` of these traces.
+    """P(e) under :func:`~app.core.player_models.observed_player_model` of played sessions:
+    their control ``counts`` (V, N) and their ``mean_length`` in steps.
 
-    The restart is 1 / L with L these traces' own mean session length, so neither the
-    per-vertex controls nor the session length are predicted: what still separates this
-    expected error from the observed one is what no per-vertex Markov model can hold
-    (controls that depend on more than the vertex) and sampling noise. ``fallback`` is the
-    model for vertices no trace visited.
-
-    Raises ValueError when the traces have no step.
+    The restart is 1 / L with L the sessions' own mean length, so neither the per-vertex
+    controls nor the session length are predicted: what still separates this expected
+    error from the observed one is what no per-vertex Markov model can hold (controls that
+    depend on more than the vertex) and sampling noise. ``fallback`` is the model for
+    vertices no session visited.
     """
-    fallback = np.asarray(fallback, dtype=np.float64)
-    counts = observed_control_counts(traces, fallback.shape[0], fallback.shape[1])
-    model = observed_player_model(counts, fallback=fallback)
-    return predicted_edge_probabilities(
-        edge_dst, model, start, 1.0 / max(mean_session_length(traces), 1.0)
-    )
+    model = observed_player_model(counts, fallback=np.asarray(fallback, dtype=np.float64))
+    return predicted_edge_probabilities(edge_dst, model, start, 1.0 / max(mean_length, 1.0))
 
 
 @dataclass(frozen=True)

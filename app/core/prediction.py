@@ -10,30 +10,71 @@ from earlier publications' play and predicts the next one's.
 from __future__ import annotations
 
 from collections.abc import Sequence
+from dataclasses import dataclass
 
 import numpy as np
 
+from app.core.crowd_play import PlayCounts
 from app.core.metrics import (
     density_agreement,
     observed_edge_density,
-    observed_mean_error,
     per_vertex_bound_edge_probabilities,
     predicted_edge_probabilities,
     relative_difference,
 )
-from app.core.player_models import Trace, observed_control_counts, trace_edges
+from app.core.player_models import Trace
 from app.core.publication import Publication
 from app.core.session_figures import SessionFigure
 from app.core.staterank import expected_error
+
+
+@dataclass(frozen=True)
+class PlayedSessions:
+    """Sessions played on one publication, as a prediction is judged against them: their
+    sums (where they went) and each session's summed error and length, in one order (how
+    sure their observed mean is). The store keeps all three as traces are accepted, so a
+    prediction never reads the steps (docs/analytics.md)."""
+
+    counts: PlayCounts
+    errors: np.ndarray
+    lengths: np.ndarray
+
+    @classmethod
+    def of_traces(cls, traces: Sequence[Trace], publication: Publication) -> PlayedSessions:
+        """The sessions of ``traces`` (those with a step) played on ``publication``."""
+        sessions = [np.asarray(t, dtype=np.int64).reshape(-1, 2) for t in traces if len(t)]
+        return cls(
+            PlayCounts.of_traces(sessions),
+            np.array([publication.step_errors(t).sum() for t in sessions], dtype=np.float64),
+            np.array([len(t) for t in sessions], dtype=np.int64),
+        )
+
+    def observed_mean_error(self) -> float:
+        """Mean error per step. Raises ValueError without a step."""
+        if not self.lengths.sum():
+            raise ValueError("no session has a step; the observed error is undefined")
+        return float(self.errors.sum() / self.lengths.sum())
+
+    def error_relative_se(self) -> float:
+        """Standard error of the observed mean error per step, relative to it (NaN when it
+        cannot be told: fewer than two sessions, or no error met).
+
+        Sessions are resampled, not steps (:class:`~app.core.session_figures.SessionFigure`).
+        A prediction cannot be judged closer to the observation than this: with 30 sessions
+        on a refined graph, where a few blend steps carry all the error, it is tens of per
+        cent.
+        """
+        relative_se = SessionFigure.over_sessions(self.errors, self.lengths).relative_se
+        return float("nan") if relative_se is None else relative_se
 
 
 def prediction_figures(
     publication: Publication,
     model: np.ndarray,
     restart: float,
-    played: Sequence[Trace],
+    played: PlayedSessions,
     *,
-    learned_from: Sequence[Trace],
+    learned_from: PlayCounts,
 ) -> dict[str, float]:
     """The prediction of ``model`` (P(c|v), restart rate ``restart``) against ``played``.
 
@@ -49,19 +90,20 @@ def prediction_figures(
     Raises ValueError when ``played`` has no step.
     """
     n, err, dst = publication.n_controls, publication.edge_err, publication.edge_dst
+    counts = played.counts.control_counts(publication.n_vertices, n)
+    observed = played.observed_mean_error()
     predicted = predicted_edge_probabilities(dst, model, publication.start, restart)
-    correlation, tv_distance = density_agreement(
-        predicted, observed_edge_density(played, err.size, n)
-    )
-    observed = observed_mean_error(played, err, n)
+    correlation, tv_distance = density_agreement(predicted, counts.reshape(-1) / counts.sum())
     forecast = expected_error(predicted, err)
     bound = expected_error(
-        per_vertex_bound_edge_probabilities(played, dst, publication.start, fallback=model),
+        per_vertex_bound_edge_probabilities(
+            counts, float(played.lengths.mean()), dst, publication.start, fallback=model
+        ),
         err,
     )
-    visited = observed_control_counts(learned_from, publication.n_vertices, n).sum(axis=1) > 0
+    visited = learned_from.control_counts(publication.n_vertices, n).sum(axis=1) > 0
     return {
-        "observed_mean_error_relative_se": observed_error_relative_se(played, err, n),
+        "observed_mean_error_relative_se": played.error_relative_se(),
         "density_correlation": correlation,
         "density_tv_distance": tv_distance,
         "predicted_expected_error": forecast,
@@ -71,20 +113,6 @@ def prediction_figures(
         "per_vertex_bound_relative_difference": relative_difference(bound, observed),
         "predicted_mass_unvisited": float(predicted.reshape(-1, n).sum(axis=1)[~visited].sum()),
     }
-
-
-def observed_error_relative_se(played: Sequence[Trace], err: np.ndarray, n_controls: int) -> float:
-    """Standard error of the observed mean error per step, relative to it (NaN when it
-    cannot be told: fewer than two sessions, or no error met).
-
-    Sessions are resampled, not steps (:class:`~app.core.session_figures.SessionFigure`).
-    A prediction cannot be judged closer to the observation than this: with 30 sessions on
-    a refined graph, where a few blend steps carry all the error, it is tens of per cent.
-    """
-    n_vertices = err.size // n_controls
-    sums = [float(err[trace_edges([t], n_vertices, n_controls)].sum()) for t in played]
-    relative_se = SessionFigure.over_sessions(sums, [len(t) for t in played]).relative_se
-    return float("nan") if relative_se is None else relative_se
 
 
 def split_half_correlation(

@@ -34,6 +34,11 @@ class Publication:
         steps = np.concatenate(traces)
         return float(self.edge_score[edge_index(steps[:, 0], steps[:, 1], self.n_controls)].mean())
 
+    def step_errors(self, steps: np.ndarray) -> np.ndarray:
+        """The error of the edge each of a trace's (vertex, control) steps took."""
+        steps = np.asarray(steps).reshape(-1, 2)
+        return self.edge_err[edge_index(steps[:, 0], steps[:, 1], self.n_controls)]
+
     def follows_edges(self, steps: np.ndarray) -> bool:
         """Whether a trace (rows of vertex, control) starts anywhere valid and follows edges."""
         if steps.ndim != 2 or steps.shape[1] != 2 or len(steps) == 0:

@@ -186,6 +186,9 @@ COMMENTS: dict[str, tuple[str, dict[str, str]]] = {
             "idempotency_key": "the client's key: an upload sent twice is stored once",
             "created_at": "when it was uploaded (UTC)",
             "n_steps": "steps of the session",
+            "error": "the summed error of its steps on the publication's edges",
+            "high_error_steps": "its steps above the publication's high_error_threshold; "
+            "NULL where the publication stored none",
         },
     ),
     "trace_steps": (
@@ -209,6 +212,7 @@ COMMENTS: dict[str, tuple[str, dict[str, str]]] = {
         "bucket: what the crowd models read.",
         {
             "publication_id": "the publication (publications.id)",
+            "player_kind": "the kind of player whose sessions are summed (players.kind)",
             "bucket": "the sessions' ordinal in the graph modulo the fold buckets",
             "vertex": "the vertex",
             "control": "the control taken there",
@@ -219,8 +223,18 @@ COMMENTS: dict[str, tuple[str, dict[str, str]]] = {
         "Sessions of a publication by their length in steps.",
         {
             "publication_id": "the publication (publications.id)",
+            "player_kind": "the kind of player whose sessions are counted (players.kind)",
             "n_steps": "a session length in steps",
             "sessions": "sessions of that length",
+        },
+    ),
+    "play_visits": (
+        "Sessions of a publication that stepped at a vertex at least once.",
+        {
+            "publication_id": "the publication (publications.id)",
+            "player_kind": "the kind of player whose sessions are counted (players.kind)",
+            "vertex": "the vertex",
+            "sessions": "sessions that stepped there",
         },
     ),
     "experiments": (

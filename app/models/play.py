@@ -13,6 +13,7 @@ from sqlalchemy import (
     SmallInteger,
     String,
     UniqueConstraint,
+    text,
 )
 from sqlalchemy.orm import Mapped, mapped_column
 
@@ -94,6 +95,10 @@ class Trace(Base):
     idempotency_key: Mapped[str] = mapped_column(String(128))
     created_at: Mapped[datetime] = created_at_column()
     n_steps: Mapped[int] = mapped_column(Integer)
+    #: summed over the steps, on the publication's frozen edge errors, when it was stored
+    error: Mapped[float] = mapped_column(Double, server_default=text("0"))
+    #: its steps above the publication's stored threshold; NULL where it stored none
+    high_error_steps: Mapped[int | None] = mapped_column(Integer)
 
 
 class TraceStep(Base):
@@ -126,13 +131,15 @@ class GraphSessions(Base):
 class PlayCount(Base):
     """Steps taken with ``control`` at ``vertex`` on a publication by the sessions whose
     ordinal in the graph is ``bucket`` modulo :data:`~app.core.crowd_play.FOLD_BUCKETS`:
-    what the crowd models read, kept as traces are accepted (app.store.play_counts)."""
+    what the crowd models read, kept as traces are accepted (app.store.play_counts), per
+    kind of player so that analytics can answer for people or bots."""
 
     __tablename__ = "play_counts"
 
     publication_id: Mapped[int] = mapped_column(
         ForeignKey("publications.id", ondelete="CASCADE"), primary_key=True
     )
+    player_kind: Mapped[str] = mapped_column(String(8), primary_key=True)
     bucket: Mapped[int] = mapped_column(SmallInteger, primary_key=True)
     vertex: Mapped[int] = mapped_column(Integer, primary_key=True)
     control: Mapped[int] = mapped_column(SmallInteger, primary_key=True)
@@ -147,5 +154,20 @@ class PlayLength(Base):
     publication_id: Mapped[int] = mapped_column(
         ForeignKey("publications.id", ondelete="CASCADE"), primary_key=True
     )
+    player_kind: Mapped[str] = mapped_column(String(8), primary_key=True)
     n_steps: Mapped[int] = mapped_column(Integer, primary_key=True)
+    sessions: Mapped[int] = mapped_column(BigInteger)
+
+
+class PlayVisit(Base):
+    """Sessions accepted on a publication that stepped at ``vertex`` at least once (the
+    analytics' sessions per vertex, kept as traces are accepted)."""
+
+    __tablename__ = "play_visits"
+
+    publication_id: Mapped[int] = mapped_column(
+        ForeignKey("publications.id", ondelete="CASCADE"), primary_key=True
+    )
+    player_kind: Mapped[str] = mapped_column(String(8), primary_key=True)
+    vertex: Mapped[int] = mapped_column(Integer, primary_key=True)
     sessions: Mapped[int] = mapped_column(BigInteger)

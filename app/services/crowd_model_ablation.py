@@ -16,6 +16,7 @@ from typing import Any
 import numpy as np
 
 from app.config import Settings
+from app.core.crowd_play import PlayCounts
 from app.core.player_models import (
     crowd_player_model,
     heuristic_player_model,
@@ -23,7 +24,7 @@ from app.core.player_models import (
     observed_control_counts,
     robust_session_length,
 )
-from app.core.prediction import prediction_figures
+from app.core.prediction import PlayedSessions, prediction_figures
 from app.core.strategies import Strategy
 from app.db.sessions import transaction
 from app.services.experiment.plan import stored_experiment_id, stored_plan
@@ -97,7 +98,11 @@ def eq2_ingredients(settings: Settings, name: str) -> list[dict[str, Any]]:
                 )
                 steps = mean_session_length(played) if oracle else length
                 figures = prediction_figures(
-                    publication, model, 1.0 / steps, played, learned_from=past
+                    publication,
+                    model,
+                    1.0 / steps,
+                    PlayedSessions.of_traces(played, publication),
+                    learned_from=PlayCounts.of_traces(past),
                 )
                 rows.append(
                     {

@@ -17,12 +17,15 @@ from app.config import Settings
 from app.core.bots import BotKind, play_sessions
 from app.core.player_models import PlayerModelKind, parse_player_model
 from app.core.players import PlayerSelection
-from app.core.prediction import prediction_figures, split_half_correlation
+from app.core.prediction import PlayedSessions, prediction_figures, split_half_correlation
 from app.core.publication import Publication
 from app.core.refinement import Refiner
 from app.core.strategies import Strategy
 from app.services.loading import LoadedGraph, open_graph
-from app.services.refining import graph_play, refiner_config
+from app.services.refining import learn_play, refiner_config
+from app.store.play_counts import played_sessions
+from app.store.publications import load_publication
+from app.store.traces import played_publications
 
 
 def crowd_refiner(settings: Settings, loaded: LoadedGraph, model: PlayerModelKind) -> Refiner:
@@ -82,7 +85,11 @@ def fixed_graph_prediction(
     refiner = crowd_refiner(settings, loaded, model)
     refiner.learn(learn, publication)
     figures: dict[str, Any] = prediction_figures(
-        publication, refiner.player_model(), refiner.restart, held_out, learned_from=learn
+        publication,
+        refiner.player_model(),
+        refiner.restart,
+        PlayedSessions.of_traces(held_out, publication),
+        learned_from=refiner.play,
     )
     figures["observed_split_half_correlation"] = split_half_correlation(
         learn, held_out, publication
@@ -101,27 +108,33 @@ def latest_play_prediction(
 ) -> dict[str, Any] | None:
     """How well the graph's crowd model, learned from every publication's play but the
     latest one's, predicts the latest one's; None before ``players`` played two
-    publications. Only their sessions teach the model and are predicted."""
+    publications. Only their sessions teach the model and are predicted.
+
+    It reads the sums kept as traces were accepted, never the steps, so it answers as
+    fast after millions of sessions as after a few (docs/analytics.md). The sessions
+    learnt keep their ordinals in the graph, so their folds are those growth deals.
+    """
     loaded = open_graph(session, settings, name)
-    played = graph_play(session, loaded.entry.id, players)
+    played = played_publications(session, loaded.entry.id, players)
     if len(played) < 2:
         return None
     chosen = parse_player_model(model or loaded.entry.player_model)
     refiner = crowd_refiner(settings, loaded, chosen)
-    for publication, traces in played[:-1]:
-        refiner.learn(traces, publication)
-    learned_from = [trace for _, traces in played[:-1] for trace in traces]
-    latest, traces = played[-1]
+    learn_play(session, refiner, loaded.entry.id, players, before=played[-1])
+    latest, predicted = (
+        load_publication(session, played[-1]),
+        played_sessions(session, played[-1], players),
+    )
     figures: dict[str, Any] = prediction_figures(
         latest,
         refiner.player_model(on=latest),
         refiner.restart,
-        traces,
-        learned_from=learned_from,
+        predicted,
+        learned_from=refiner.play,
     )
     figures["player_model"] = chosen.value
     figures["publications_learned_from"] = len(played) - 1
-    figures["sessions_learned_from"] = len(learned_from)
-    figures["sessions_predicted"] = len(traces)
+    figures["sessions_learned_from"] = refiner.play.sessions
+    figures["sessions_predicted"] = predicted.counts.sessions
     figures["model_fit"] = model_fit(refiner)
     return figures

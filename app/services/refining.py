@@ -13,14 +13,12 @@ from app.config import Settings
 from app.core.dynamics import Dynamics
 from app.core.player_models import PlayerModelKind, parse_player_model
 from app.core.players import PlayerSelection
-from app.core.publication import Publication
 from app.core.refinement import Refiner, RefinerConfig
 from app.core.strategies import EdgeWeights, Strategy, parse_strategy
 from app.services.loading import LoadedGraph
 from app.store.epochs import latest_warm_start
 from app.store.play_counts import graph_play_counts, publication_play_counts
 from app.store.publications import load_publication
-from app.store.traces import load_traces, played_publications
 
 
 def refiner_config(
@@ -38,24 +36,6 @@ def refiner_config(
     )
 
 
-def graph_play(
-    session: Session, graph_id: int, players: PlayerSelection = PlayerSelection.ALL
-) -> list[tuple[Publication, list[np.ndarray]]]:
-    """Every publication of the graph that ``players`` played, with their traces, oldest
-    first.
-
-    Vertex ids are stable across publications (vertices are only appended), so traces of
-    any of them read on the graph as it is now; the publication says what players saw.
-    """
-    return [
-        (
-            load_publication(session, publication_id),
-            load_traces(session, [publication_id], players),
-        )
-        for publication_id in played_publications(session, graph_id, players)
-    ]
-
-
 def refiner_for(
     session: Session, settings: Settings, loaded: LoadedGraph, strategy: Strategy | None = None
 ) -> Refiner:
@@ -70,12 +50,30 @@ def refiner_for(
         strategy,
         refiner_config(settings, loaded.dynamics, parse_player_model(loaded.entry.player_model)),
     )
-    if strategy.learns_from_traces and refiner.config.player_model is PlayerModelKind.LOGIT:
-        for publication_id, play in publication_play_counts(session, loaded.entry.id):
-            refiner.learn_counts(play, load_publication(session, publication_id))
-    elif strategy.learns_from_traces:  # the others read no publication: one sum of all play
-        refiner.learn_counts(graph_play_counts(session, loaded.entry.id))
+    if strategy.learns_from_traces:
+        learn_play(session, refiner, loaded.entry.id)
     return refiner
+
+
+def learn_play(
+    session: Session,
+    refiner: Refiner,
+    graph_id: int,
+    players: PlayerSelection = PlayerSelection.ALL,
+    *,
+    before: int | None = None,
+) -> None:
+    """Teach ``refiner`` the sums of the sessions ``players`` played on the graph's
+    publications (those older than publication ``before`` only, when given): per
+    publication, with it, for the logit model, which reads the goals players saw; one sum
+    over them for the others, which read none."""
+    if refiner.config.player_model is PlayerModelKind.LOGIT:
+        for publication_id, play in publication_play_counts(
+            session, graph_id, players, before=before
+        ):
+            refiner.learn_counts(play, load_publication(session, publication_id))
+    else:
+        refiner.learn_counts(graph_play_counts(session, graph_id, players, before=before))
 
 
 def rank_stored(session: Session, loaded: LoadedGraph, refiner: Refiner) -> EdgeWeights:

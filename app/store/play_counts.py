@@ -17,7 +17,9 @@ from sqlalchemy.dialects import postgresql, sqlite
 from sqlalchemy.orm import Session
 
 from app.core.crowd_play import FOLD_BUCKETS, PlayCounts
-from app.models import GraphSessions, PlayCount, PlayLength
+from app.core.players import PlayerKind, PlayerSelection
+from app.core.prediction import PlayedSessions
+from app.models import GraphSessions, PlayCount, Player, PlayLength, PlayVisit, Trace
 from app.models import Publication as PublicationRow
 
 
@@ -44,38 +46,54 @@ def next_session_ordinal(session: Session, publication_id: int) -> int:
     return int(session.execute(counted, first).scalar_one()) - 1
 
 
-def count_session(session: Session, publication_id: int, ordinal: int, steps: np.ndarray) -> None:
-    """Add one stored session's (n, 2) steps to the publication's sums.
+def count_session(
+    session: Session, publication_id: int, kind: PlayerKind, ordinal: int, steps: np.ndarray
+) -> None:
+    """Add one stored session's (n, 2) steps, played by a player of ``kind``, to the
+    publication's sums.
 
     Rows go in key order, so that concurrent writers lock shared rows in one order.
     """
-    pairs, taken = np.unique(np.asarray(steps, dtype=np.int64), axis=0, return_counts=True)
+    steps = np.asarray(steps, dtype=np.int64)
+    pairs, taken = np.unique(steps, axis=0, return_counts=True)
+    key = {"publication_id": publication_id, "player_kind": kind.value}
     bucket = ordinal % FOLD_BUCKETS
     counts = [
-        {
-            "publication_id": publication_id,
-            "bucket": bucket,
-            "vertex": int(vertex),
-            "control": int(control),
-            "steps": int(n),
-        }
+        {**key, "bucket": bucket, "vertex": int(vertex), "control": int(control), "steps": int(n)}
         for (vertex, control), n in zip(pairs, taken, strict=True)
     ]
-    keys = ["publication_id", "bucket", "vertex", "control"]
-    session.execute(_upsert(session, PlayCount, counts, keys), counts)
-    length = [{"publication_id": publication_id, "n_steps": len(steps), "sessions": 1}]
-    session.execute(_upsert(session, PlayLength, length, ["publication_id", "n_steps"]), length)
+    session.execute(
+        _upsert(session, PlayCount, counts, [*key, "bucket", "vertex", "control"]), counts
+    )
+    visits = [{**key, "vertex": int(vertex), "sessions": 1} for vertex in np.unique(steps[:, 0])]
+    session.execute(_upsert(session, PlayVisit, visits, [*key, "vertex"]), visits)
+    length = [{**key, "n_steps": len(steps), "sessions": 1}]
+    session.execute(_upsert(session, PlayLength, length, [*key, "n_steps"]), length)
 
 
-def graph_play_counts(session: Session, graph_id: int) -> PlayCounts:
-    """Every session played on the graph's publications, summed over them."""
-    counts, lengths = _sums(session, graph_id, by_publication=False)
+def graph_play_counts(
+    session: Session,
+    graph_id: int,
+    players: PlayerSelection = PlayerSelection.ALL,
+    *,
+    before: int | None = None,
+) -> PlayCounts:
+    """Every session ``players`` played on the graph's publications (those older than
+    publication ``before`` only, when given), summed over them."""
+    counts, lengths = _sums(session, graph_id, players, before, by_publication=False)
     return PlayCounts(*counts.T, *lengths.T)
 
 
-def publication_play_counts(session: Session, graph_id: int) -> list[tuple[int, PlayCounts]]:
-    """Each played publication of the graph (by id, oldest first) with its sessions' sums."""
-    counts, lengths = _sums(session, graph_id, by_publication=True)
+def publication_play_counts(
+    session: Session,
+    graph_id: int,
+    players: PlayerSelection = PlayerSelection.ALL,
+    *,
+    before: int | None = None,
+) -> list[tuple[int, PlayCounts]]:
+    """Each publication of the graph that ``players`` played (by id, oldest first; those
+    older than publication ``before`` only, when given) with their sessions' sums."""
+    counts, lengths = _sums(session, graph_id, players, before, by_publication=True)
     return [
         (
             int(publication),
@@ -89,11 +107,21 @@ def publication_play_counts(session: Session, graph_id: int) -> list[tuple[int, 
 
 
 def _sums(
-    session: Session, graph_id: int, *, by_publication: bool
+    session: Session,
+    graph_id: int,
+    players: PlayerSelection,
+    before: int | None,
+    *,
+    by_publication: bool,
 ) -> tuple[np.ndarray, np.ndarray]:
     """The graph's (publication?, bucket, vertex, control, steps) and (publication?,
-    n_steps, sessions) rows, summed in the database over publications unless
-    ``by_publication``, as two int64 tables."""
+    n_steps, sessions) rows of ``players``' sessions on publications older than
+    ``before`` (all: None), summed in the database over player kinds, and over
+    publications unless ``by_publication``, as two int64 tables."""
+    chosen = [PublicationRow.graph_id == graph_id]
+    if before is not None:
+        chosen.append(PublicationRow.id < before)
+    kinds = [kind.value for kind in players.kinds]
     count_key = [PlayCount.publication_id] if by_publication else []
     counts = session.execute(
         select(
@@ -104,17 +132,48 @@ def _sums(
             func.sum(PlayCount.steps).cast(BigInteger),
         )
         .join(PublicationRow, PublicationRow.id == PlayCount.publication_id)
-        .where(PublicationRow.graph_id == graph_id)
+        .where(*chosen, PlayCount.player_kind.in_(kinds))
         .group_by(*count_key, PlayCount.bucket, PlayCount.vertex, PlayCount.control)
     ).all()
     length_key = [PlayLength.publication_id] if by_publication else []
     lengths = session.execute(
         select(*length_key, PlayLength.n_steps, func.sum(PlayLength.sessions).cast(BigInteger))
         .join(PublicationRow, PublicationRow.id == PlayLength.publication_id)
-        .where(PublicationRow.graph_id == graph_id)
+        .where(*chosen, PlayLength.player_kind.in_(kinds))
         .group_by(*length_key, PlayLength.n_steps)
     ).all()
     return (
         np.array(counts, dtype=np.int64).reshape(len(counts), len(count_key) + 4),
         np.array(lengths, dtype=np.int64).reshape(len(lengths), len(length_key) + 2),
+    )
+
+
+def played_sessions(
+    session: Session, publication_id: int, players: PlayerSelection = PlayerSelection.ALL
+) -> PlayedSessions:
+    """The sessions ``players`` played on the publication, as a prediction is judged
+    against them: their sums, and each one's error and length from its trace row."""
+    kinds = [kind.value for kind in players.kinds]
+    counts = session.execute(
+        select(
+            PlayCount.bucket,
+            PlayCount.vertex,
+            PlayCount.control,
+            func.sum(PlayCount.steps).cast(BigInteger),
+        )
+        .where(PlayCount.publication_id == publication_id, PlayCount.player_kind.in_(kinds))
+        .group_by(PlayCount.bucket, PlayCount.vertex, PlayCount.control)
+    ).all()
+    traces = session.execute(
+        select(Trace.error, Trace.n_steps)
+        .join(Player, Player.id == Trace.player_id)
+        .where(Trace.publication_id == publication_id, Player.kind.in_(kinds))
+        .order_by(Trace.id)
+    ).all()
+    errors = np.array([row.error for row in traces], dtype=np.float64)
+    lengths = np.array([row.n_steps for row in traces], dtype=np.int64)
+    bucket, vertex, control, steps = np.array(counts, dtype=np.int64).reshape(len(counts), 4).T
+    length, sessions = np.unique(lengths, return_counts=True)
+    return PlayedSessions(
+        PlayCounts(bucket, vertex, control, steps, length, sessions), errors, lengths
     )

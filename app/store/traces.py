@@ -115,8 +115,13 @@ def record_trace(
     existing = _replay(session, publication_id, player_id, idempotency_key, steps)
     if existing is not None:
         return existing, False
-    if session.get(Player, player_id) is None:
+    player = session.get(Player, player_id)
+    if player is None:
         raise InvalidTrace(f"no player {player_id}")
+    errors = publication.step_errors(steps)
+    threshold = session.scalar(
+        select(PublicationRow.high_error_threshold).where(PublicationRow.id == publication_id)
+    )
     try:
         with session.begin_nested():  # a duplicate key undoes the ordinal taken too
             ordinal = next_session_ordinal(session, publication_id)
@@ -125,6 +130,8 @@ def record_trace(
                 player_id=player_id,
                 idempotency_key=idempotency_key,
                 n_steps=len(steps),
+                error=float(errors.sum()),
+                high_error_steps=None if threshold is None else int((errors > threshold).sum()),
             )
             session.add(trace)
             session.flush()
@@ -141,7 +148,7 @@ def record_trace(
             for i, (v, c) in enumerate(steps)
         ],
     )
-    count_session(session, publication_id, ordinal, steps)
+    count_session(session, publication_id, PlayerKind(player.kind), ordinal, steps)
     return trace.id, True
 
 

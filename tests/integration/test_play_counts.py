@@ -22,7 +22,8 @@ from alembic import command
 from app.config import Settings
 from app.core.bots import BotKind, play_sessions
 from app.core.crowd_play import PlayCounts
-from app.core.player_models import observed_control_counts
+from app.core.player_models import PlayerModelKind, observed_control_counts
+from app.core.prediction import PlayedSessions, prediction_figures
 from app.core.refinement import Refiner
 from app.core.session_folds import FOLDS, SessionFolds
 from app.core.shrunk_model import shrunk_player_model
@@ -32,6 +33,7 @@ from app.models import GraphSessions, Player
 from app.services.creation import init_graph
 from app.services.graph_cache import graph_cache
 from app.services.loading import LoadedGraph, open_graph
+from app.services.prediction import crowd_refiner, latest_play_prediction
 from app.services.refining import refiner_config, refiner_for
 from app.store.graph_persistence import save_graph
 from app.store.play_counts import graph_play_counts, publication_play_counts
@@ -52,8 +54,9 @@ def settings_for(db_url: str, tmp_path: Path) -> Settings:
 
 
 def played_graph(session: Session, settings: Settings, model: str) -> LoadedGraph:
-    """A toy graph published twice (before and after 8 expansions) and played on both,
-    the older publication's sessions uploaded between the newer one's."""
+    """A toy graph published twice (before and after 8 expansions; the newer one with its
+    threshold) and played on both, the older publication's sessions uploaded between the
+    newer one's."""
     graph_cache.clear()
     graph_id = int(init_graph(session, settings, name=f"g-{model}", player_model=model)["id"])  # type: ignore[call-overload]
     loaded = open_graph(session, settings, graph_id)
@@ -61,7 +64,9 @@ def played_graph(session: Session, settings: Settings, model: str) -> LoadedGrap
     grower = Refiner(loaded.graph, loaded.bank, loaded.dynamics, Strategy.SR_HEURISTIC)
     grower.grow(expansions=8)
     save_graph(session, graph_id, loaded.graph, loaded.bank, loaded.artifacts)
-    second = publish(session, graph_id, loaded.graph)
+    second = publish(
+        session, graph_id, loaded.graph, threshold=loaded.dynamics.high_error_threshold
+    )
     player = bot_player(session, "bots")
     for number, (publication_id, seed) in enumerate(
         [(second, 1), (first, 2), (second, 3), (first, 4)]
@@ -172,10 +177,12 @@ def test_sums_follow_every_accepted_trace_once(
 def test_the_migration_sums_the_steps_stored_before_it(
     empty_db_url: str, make_alembic_config: Callable[[object | None], Config], tmp_path: Path
 ) -> None:
-    """Sums kept upload by upload and sums computed from the steps by 0010 are one (the
-    models are at head, so the steps are stored at head and the sums dropped under them)."""
+    """Sums kept upload by upload and sums computed from the steps by 0010 and 0012 are
+    one, each session's error too (the models are at head, so the steps are stored at
+    head and the sums dropped under them)."""
     engine = make_engine(empty_db_url)
-    tables = ("graph_sessions", "play_counts", "play_lengths")
+    tables = ("graph_sessions", "play_counts", "play_lengths", "play_visits")
+    errors = text("SELECT id, error, high_error_steps FROM traces ORDER BY id")
     try:
         with engine.begin() as connection:
             config = make_alembic_config(connection)
@@ -185,9 +192,53 @@ def test_the_migration_sums_the_steps_stored_before_it(
                 session.flush()
             kept = {t: sorted(connection.execute(text(f"SELECT * FROM {t}")).all()) for t in tables}
             assert all(kept.values())
-            command.downgrade(config, "0009")
-            command.upgrade(config, "head")
-            for t in tables:
-                assert sorted(connection.execute(text(f"SELECT * FROM {t}")).all()) == kept[t]
+            accepted = connection.execute(errors).all()
+            with_threshold = [
+                r.high_error_steps for r in accepted if r.high_error_steps is not None
+            ]
+            assert 0 < len(with_threshold) < len(accepted)  # NULL on the older publication
+            # below 0011 the publications' thresholds are gone, so is every high-error count
+            for revision in ("0011", "0009"):
+                command.downgrade(config, revision)
+                command.upgrade(config, "head")
+                for t in tables:
+                    assert sorted(connection.execute(text(f"SELECT * FROM {t}")).all()) == kept[t]
+                summed = connection.execute(errors).all()
+                assert [r.id for r in summed] == [r.id for r in accepted]
+                assert [r.high_error_steps for r in summed] == (
+                    [r.high_error_steps for r in accepted]
+                    if revision == "0011"
+                    else [None] * len(accepted)
+                )
+                # SQL adds the steps' errors in its own order: equal up to rounding
+                assert [r.error for r in summed] == pytest.approx([r.error for r in accepted])
     finally:
         engine.dispose()
+
+
+def test_the_latest_publications_prediction_reads_sums_not_steps(
+    session: Session, db_url: str, tmp_path: Path
+) -> None:
+    """``srg analytics``' prediction equals the one computed from the steps in memory, and
+    is unchanged when the steps are gone: it reads the sums and each session's error."""
+    settings = settings_for(db_url, tmp_path)
+    loaded = played_graph(session, settings, "eq2")
+    summed = latest_play_prediction(session, settings, loaded.entry.id)
+    assert summed is not None
+    older, latest_id = played_publications(session, loaded.entry.id)
+    latest = load_publication(session, latest_id)
+    refiner = crowd_refiner(settings, loaded, PlayerModelKind.EQ2)
+    learnt = load_traces(session, [older])
+    refiner.learn(learnt)
+    stepped = prediction_figures(
+        latest,
+        refiner.player_model(on=latest),
+        refiner.restart,
+        PlayedSessions.of_traces(load_traces(session, [latest_id]), latest),
+        learned_from=PlayCounts.of_traces(learnt),
+    )
+    assert summed["sessions_learned_from"] == summed["sessions_predicted"] == 18
+    for name, value in stepped.items():
+        assert summed[name] == pytest.approx(value, rel=1e-12), name
+    session.execute(text("DELETE FROM trace_steps"))
+    assert latest_play_prediction(session, settings, loaded.entry.id) == summed

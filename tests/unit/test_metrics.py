@@ -19,6 +19,7 @@ from app.core.metrics import (
     per_vertex_bound_edge_probabilities,
     predicted_edge_probabilities,
 )
+from app.core.player_models import mean_session_length, observed_control_counts
 
 ERR = np.array([0.0, 0.5, 1.0, 0.0])
 TRACES = [[(0, 1), (1, 0)], [(0, 0), (0, 1), (1, 1), (1, 0)]]
@@ -125,7 +126,8 @@ def test_predicted_edge_probabilities_solve_the_restarted_chain() -> None:
 
 def test_per_vertex_bound_uses_the_traces_frequencies_and_session_length() -> None:
     fallback = np.full((2, 2), 0.5)
-    bound = per_vertex_bound_edge_probabilities(TRACES, EDGE_DST, 0, fallback)
+    counts = observed_control_counts(TRACES, 2, 2)
+    bound = per_vertex_bound_edge_probabilities(counts, 3.0, EDGE_DST, 0, fallback)
     # controls at 0: 1 x c0, 2 x c1; at 1: 2 x c0, 1 x c1; L = (2 + 4) / 2 = 3
     model = np.array([[1 / 3, 2 / 3], [2 / 3, 1 / 3]])
     expected = predicted_edge_probabilities(EDGE_DST, model, start=0, restart=1 / 3)
@@ -149,7 +151,10 @@ def test_per_vertex_bound_matches_markov_play() -> None:
             vertex = int(edge_dst[vertex * n_controls + control])
         traces.append(trace)
     fallback = np.full((n_vertices, n_controls), 1 / n_controls)
-    bound = per_vertex_bound_edge_probabilities(traces, edge_dst, 0, fallback)
+    counts = observed_control_counts(traces, n_vertices, n_controls)
+    bound = per_vertex_bound_edge_probabilities(
+        counts, mean_session_length(traces), edge_dst, 0, fallback
+    )
     observed = observed_mean_error(traces, err, n_controls)
     assert abs(bound @ err - observed) < 0.005 * observed
     # a model that ignores the traces is far off on the same play

@@ -2,23 +2,22 @@
 
 from __future__ import annotations
 
+from dataclasses import replace
+
 import numpy as np
 import pytest
 
 from app.core.bots import BotKind, play_sessions
 from app.core.clipbank import MemoryClipBank
+from app.core.crowd_play import PlayCounts
 from app.core.growth import initial_tree
-from app.core.metrics import predicted_edge_probabilities
+from app.core.metrics import observed_mean_error, predicted_edge_probabilities
 from app.core.player_models import (
     mean_session_length,
     observed_control_counts,
     observed_player_model,
 )
-from app.core.prediction import (
-    observed_error_relative_se,
-    prediction_figures,
-    split_half_correlation,
-)
+from app.core.prediction import PlayedSessions, prediction_figures, split_half_correlation
 from app.core.publication import Publication
 from app.core.refinement import Refiner, RefinerConfig
 from app.core.strategies import Strategy
@@ -40,6 +39,23 @@ def played(publication: Publication) -> list[np.ndarray]:
     return play_sessions(publication, BotKind.GOAL_DIRECTED, sessions=40, mean_steps=30, seed=4)
 
 
+def judged(
+    publication: Publication,
+    model: np.ndarray,
+    restart: float,
+    played: list[np.ndarray],
+    learned_from: list[np.ndarray],
+) -> dict[str, float]:
+    """The prediction figures of sessions in memory."""
+    return prediction_figures(
+        publication,
+        model,
+        restart,
+        PlayedSessions.of_traces(played, publication),
+        learned_from=PlayCounts.of_traces(learned_from),
+    )
+
+
 def uniform(publication: Publication) -> np.ndarray:
     return np.full((publication.n_vertices, publication.n_controls), 1.0 / publication.n_controls)
 
@@ -51,7 +67,7 @@ def test_the_per_vertex_model_of_the_judged_play_reaches_the_bound(
     counts = observed_control_counts(played, publication.n_vertices, n)
     model = observed_player_model(counts, fallback=uniform(publication))
     restart = 1.0 / mean_session_length(played)
-    figures = prediction_figures(publication, model, restart, played, learned_from=played)
+    figures = judged(publication, model, restart, played, played)
     assert figures["predicted_expected_error"] == pytest.approx(
         figures["per_vertex_bound_expected_error"], rel=1e-9
     )
@@ -67,9 +83,7 @@ def test_the_per_vertex_model_of_the_judged_play_reaches_the_bound(
 
 
 def test_another_model_misses_the_bound(publication: Publication, played: list[np.ndarray]) -> None:
-    figures = prediction_figures(
-        publication, uniform(publication), 1 / 30, played, learned_from=played
-    )
+    figures = judged(publication, uniform(publication), 1 / 30, played, played)
     assert figures["predicted_expected_error"] != pytest.approx(
         figures["per_vertex_bound_expected_error"]
     )
@@ -77,9 +91,7 @@ def test_another_model_misses_the_bound(publication: Publication, played: list[n
         observed_control_counts(played, publication.n_vertices, publication.n_controls),
         fallback=uniform(publication),
     )
-    fitted = prediction_figures(
-        publication, own, 1.0 / mean_session_length(played), played, learned_from=played
-    )
+    fitted = judged(publication, own, 1.0 / mean_session_length(played), played, played)
     assert fitted["density_correlation"] > figures["density_correlation"]
 
 
@@ -91,7 +103,7 @@ def test_predicted_mass_unvisited_is_the_mass_off_the_learnt_vertices(
     restart = 1 / 30
 
     def unvisited(learned_from: list[np.ndarray]) -> float:
-        figures = prediction_figures(publication, model, restart, played, learned_from=learned_from)
+        figures = judged(publication, model, restart, played, learned_from)
         return figures["predicted_mass_unvisited"]
 
     everywhere = [np.array([[vertex, 0]]) for vertex in range(v)]
@@ -110,7 +122,7 @@ def test_predicted_mass_unvisited_is_the_mass_off_the_learnt_vertices(
 
 def test_prediction_of_no_play_is_an_error(publication: Publication) -> None:
     with pytest.raises(ValueError):
-        prediction_figures(publication, uniform(publication), 1 / 30, [], learned_from=[])
+        judged(publication, uniform(publication), 1 / 30, [], [])
 
 
 def test_split_half_correlation_is_one_for_identical_halves_and_less_otherwise(
@@ -130,13 +142,27 @@ def test_split_half_correlation_is_one_for_identical_halves_and_less_otherwise(
 def test_the_observed_errors_standard_error_shrinks_with_more_sessions(
     publication: Publication,
 ) -> None:
-    err, n = publication.edge_err, publication.n_controls
     few = play_sessions(publication, BotKind.RANDOM, sessions=10, mean_steps=30, seed=5)
     many = play_sessions(publication, BotKind.RANDOM, sessions=400, mean_steps=30, seed=5)
     se_few, se_many = (
-        observed_error_relative_se(few, err, n),
-        observed_error_relative_se(many, err, n),
+        PlayedSessions.of_traces(few, publication).error_relative_se(),
+        PlayedSessions.of_traces(many, publication).error_relative_se(),
     )
     assert 0.0 < se_many < se_few / 3  # about sqrt(40) times smaller
-    assert observed_error_relative_se(few, err, n) == se_few  # seeded: the same every time
-    assert np.isnan(observed_error_relative_se(few, np.zeros_like(err), n))
+    # seeded: the same every time
+    assert PlayedSessions.of_traces(few, publication).error_relative_se() == se_few
+    errorless = replace(publication, edge_err=np.zeros_like(publication.edge_err))
+    assert np.isnan(PlayedSessions.of_traces(few, errorless).error_relative_se())
+
+
+def test_the_sessions_errors_are_their_steps_errors(
+    publication: Publication, played: list[np.ndarray]
+) -> None:
+    sessions = PlayedSessions.of_traces([*played, np.empty((0, 2))], publication)
+    n = publication.n_controls
+    assert sessions.lengths.tolist() == [len(t) for t in played]  # the empty one is no session
+    for trace, error in zip(played, sessions.errors, strict=True):
+        assert error == pytest.approx(sum(publication.edge_err[v * n + c] for v, c in trace))
+    assert sessions.observed_mean_error() == pytest.approx(
+        observed_mean_error(played, publication.edge_err, n), rel=1e-12
+    )

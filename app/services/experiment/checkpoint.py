@@ -27,9 +27,10 @@ from app.core.neighbour_model import nearest_visited_distance
 from app.core.player_models import (
     kernel_support,
     mean_session_length,
+    observed_control_counts,
     trace_edges,
 )
-from app.core.prediction import observed_error_relative_se
+from app.core.prediction import PlayedSessions
 from app.core.publication import Publication
 from app.core.refinement import Refiner
 from app.core.strategies import Strategy
@@ -78,9 +79,7 @@ def checkpoint_figures(
     unexpected = _unexpected_edges(refiner, publication, predicted)
     context["blend_edges"] = graph_summary(session, graph)["blend_edges"]
     context["model_fit"] = model_fit(refiner)
-    predicted_on = _Predicted(
-        published, publication, loaded, model, predicted, context, unexpected
-    )
+    predicted_on = _Predicted(published, publication, loaded, model, predicted, context, unexpected)
     last = index == len(plan.checkpoints) - 1
     return [
         _crowd_figures(
@@ -155,7 +154,11 @@ def _crowd_figures(
         predicted,
         plan.high_error_threshold or loaded.dynamics.high_error_threshold,
         bound_edge_prob=per_vertex_bound_edge_probabilities(
-            traces, publication.edge_dst, publication.start, fallback=model
+            observed_control_counts(traces, publication.n_vertices, n),
+            mean_session_length(traces),
+            publication.edge_dst,
+            publication.start,
+            fallback=model,
         ),
     )
     figures: dict[str, Any] = {
@@ -169,9 +172,9 @@ def _crowd_figures(
         "observed_session_steps": mean_session_length(traces),
         **on.context,
         **report.to_dict(),
-        "observed_mean_error_relative_se": observed_error_relative_se(
-            traces, publication.edge_err, n
-        ),
+        "observed_mean_error_relative_se": PlayedSessions.of_traces(
+            traces, publication
+        ).error_relative_se(),
     }
     if on.unexpected is not None:
         figures.update(_unexpected_play(traces, publication, on.unexpected))
