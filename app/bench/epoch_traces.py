@@ -29,6 +29,7 @@ from app.db.engines import make_engine
 from app.db.sessions import session_factory, transaction
 from app.services.analytics import played_graph_analytics
 from app.services.creation import init_graph
+from app.services.dynamics import threshold_in_force
 from app.services.growing import grow_graph
 from app.services.loading import open_graph
 from app.store.graph_persistence import save_graph
@@ -38,17 +39,18 @@ from app.store.traces import bot_player, record_trace
 
 
 def _played_graph(settings: Settings, name: str, sessions: int) -> int:
-    """A toy sr-crowd graph published before and after 8 expansions, ``sessions`` bot
-    sessions uploaded on each publication."""
+    """A toy sr-crowd graph published before and after 8 expansions (with the threshold in
+    force, as ``srg publish`` does), ``sessions`` bot sessions uploaded on each."""
     with transaction(settings) as session:
         graph_id = int(init_graph(session, settings, name=name, player_model="shrunk")["id"])  # type: ignore[call-overload]
         loaded = open_graph(session, settings, graph_id)
-        publications = [publish(session, graph_id, loaded.graph)]
+        threshold = threshold_in_force(settings, loaded.dynamics)
+        publications = [publish(session, graph_id, loaded.graph, threshold=threshold)]
         Refiner(loaded.graph, loaded.bank, loaded.dynamics, Strategy.SR_HEURISTIC).grow(
             expansions=8
         )
         save_graph(session, graph_id, loaded.graph, loaded.bank, loaded.artifacts)
-        publications.append(publish(session, graph_id, loaded.graph))
+        publications.append(publish(session, graph_id, loaded.graph, threshold=threshold))
         player = bot_player(session, "bench-bots")
         for publication_id in publications:
             publication = load_publication(session, publication_id)

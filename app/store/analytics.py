@@ -3,7 +3,10 @@
 Plain SQL text, portable between SQLite (3.25+, for window functions) and PostgreSQL, so
 the same statements can be read in docs/play.md and pasted into ``psql`` or ``sqlite3``.
 Vertex indices are stable across a graph's publications (vertices are only ever
-appended), so the per-vertex figures pool every publication of the graph.
+appended), so the per-vertex figures pool every publication of the graph. The reports
+read the sums and per-session figures kept as traces are accepted (``play_counts``,
+``play_visits``, ``traces.error``), so they answer as fast after millions of steps as
+after a few (docs/analytics.md, "What analytics reads").
 
 Every statement reads only the sessions of the players chosen (``:kinds``, the
 :class:`~app.core.players.PlayerKind` values of a
@@ -30,26 +33,28 @@ def _chosen_players(statement: str) -> TextClause:
 
 
 CONTROL_PROBABILITIES = _chosen_players("""
-SELECT s.vertex, s.control, COUNT(*) AS n,
-       CAST(COUNT(*) AS FLOAT) / SUM(COUNT(*)) OVER (PARTITION BY s.vertex) AS p
-FROM trace_steps s
-JOIN traces t ON t.id = s.trace_id
-JOIN publications p ON p.id = t.publication_id
-JOIN players pl ON pl.id = t.player_id
-WHERE p.graph_id = :graph_id AND pl.kind IN :kinds
-GROUP BY s.vertex, s.control
-ORDER BY s.vertex, s.control
+SELECT c.vertex, c.control, CAST(SUM(c.steps) AS BIGINT) AS n,
+       CAST(SUM(c.steps) AS FLOAT) / SUM(SUM(c.steps)) OVER (PARTITION BY c.vertex) AS p
+FROM play_counts c
+JOIN publications p ON p.id = c.publication_id
+WHERE p.graph_id = :graph_id AND c.player_kind IN :kinds
+GROUP BY c.vertex, c.control
+ORDER BY c.vertex, c.control
 """)
 
 VISIT_COUNTS = _chosen_players("""
-SELECT s.vertex, COUNT(*) AS visits, COUNT(DISTINCT s.trace_id) AS sessions
-FROM trace_steps s
-JOIN traces t ON t.id = s.trace_id
-JOIN publications p ON p.id = t.publication_id
-JOIN players pl ON pl.id = t.player_id
-WHERE p.graph_id = :graph_id AND pl.kind IN :kinds
-GROUP BY s.vertex
-ORDER BY visits DESC, s.vertex
+SELECT s.vertex, s.visits, v.sessions
+FROM (SELECT c.vertex, CAST(SUM(c.steps) AS BIGINT) AS visits
+      FROM play_counts c
+      JOIN publications p ON p.id = c.publication_id
+      WHERE p.graph_id = :graph_id AND c.player_kind IN :kinds
+      GROUP BY c.vertex) s
+JOIN (SELECT w.vertex, CAST(SUM(w.sessions) AS BIGINT) AS sessions
+      FROM play_visits w
+      JOIN publications p ON p.id = w.publication_id
+      WHERE p.graph_id = :graph_id AND w.player_kind IN :kinds
+      GROUP BY w.vertex) v ON v.vertex = s.vertex
+ORDER BY s.visits DESC, s.vertex
 """)
 
 SESSION_LENGTHS = _chosen_players("""
@@ -60,10 +65,23 @@ JOIN players pl ON pl.id = t.player_id
 WHERE p.graph_id = :graph_id AND pl.kind IN :kinds
 """)
 
-#: one row per session: its steps, their summed error and how many were above the threshold
+#: one row per session: its steps, their summed error and, where its publication stored
+#: the threshold asked for, how many were above it (else NULL: HIGH_ERROR_STEPS counts them)
 SESSION_ERRORS = _chosen_players("""
-SELECT p.id AS publication_id, p.number, COUNT(*) AS steps, SUM(e.err) AS error,
-       SUM(CASE WHEN e.err > :threshold THEN 1 ELSE 0 END) AS high_error_steps
+SELECT p.id AS publication_id, p.number, t.id AS trace_id, t.n_steps AS steps, t.error,
+       CASE WHEN p.high_error_threshold = :threshold THEN t.high_error_steps END
+         AS high_error_steps
+FROM traces t
+JOIN publications p ON p.id = t.publication_id
+JOIN players pl ON pl.id = t.player_id
+WHERE p.graph_id = :graph_id AND pl.kind IN :kinds
+ORDER BY p.number, t.id
+""")
+
+#: the steps above :threshold of each session of the publications whose stored threshold
+#: is another (or none): the only report that reads the steps
+HIGH_ERROR_STEPS = _chosen_players("""
+SELECT t.id AS trace_id, SUM(CASE WHEN e.err > :threshold THEN 1 ELSE 0 END) AS high_error_steps
 FROM trace_steps s
 JOIN traces t ON t.id = s.trace_id
 JOIN publications p ON p.id = t.publication_id
@@ -71,8 +89,8 @@ JOIN players pl ON pl.id = t.player_id
 JOIN publication_edges e
   ON e.publication_id = t.publication_id AND e.vertex = s.vertex AND e.control = s.control
 WHERE p.graph_id = :graph_id AND pl.kind IN :kinds
-GROUP BY p.id, p.number, t.id
-ORDER BY p.number, t.id
+  AND (p.high_error_threshold IS NULL OR p.high_error_threshold <> :threshold)
+GROUP BY t.id
 """)
 
 #: every session of the graph by its player's kind, whichever players were chosen
@@ -120,10 +138,19 @@ def observed_error(
     players: PlayerSelection = PlayerSelection.ALL,
 ) -> list[dict[str, Any]]:
     """Per publication: the mean err of the edge taken at each step and the share of steps
-    above ``threshold``, each with its standard error over sessions (relative to it)."""
-    rows = session.execute(
-        SESSION_ERRORS, _parameters(graph_id, players, threshold=threshold)
-    ).all()
+    above ``threshold``, each with its standard error over sessions (relative to it).
+
+    Each session's error and its high-error steps at its publication's threshold were
+    kept when it was stored; only a threshold other than the one a publication stored
+    makes its steps be read again (``HIGH_ERROR_STEPS``)."""
+    parameters = _parameters(graph_id, players, threshold=threshold)
+    rows = session.execute(SESSION_ERRORS, parameters).all()
+    counted: dict[int, int] = {}
+    if any(row.high_error_steps is None for row in rows):
+        counted = {
+            row.trace_id: row.high_error_steps
+            for row in session.execute(HIGH_ERROR_STEPS, parameters)
+        }
     by_publication: dict[tuple[int, int], list[Any]] = {}
     for row in rows:
         by_publication.setdefault((row.publication_id, row.number), []).append(row)
@@ -131,7 +158,13 @@ def observed_error(
     for (publication_id, number), sessions in by_publication.items():
         steps = [row.steps for row in sessions]
         mean_error = SessionFigure.over_sessions([row.error for row in sessions], steps)
-        high = SessionFigure.over_sessions([row.high_error_steps for row in sessions], steps)
+        high = SessionFigure.over_sessions(
+            [
+                counted[row.trace_id] if row.high_error_steps is None else row.high_error_steps
+                for row in sessions
+            ],
+            steps,
+        )
         out.append(
             {
                 "publication_id": publication_id,

@@ -8,10 +8,12 @@ from typing import Any
 import numpy as np
 import pytest
 from api_helpers import Published, walk
+from sqlalchemy import text, update
 from sqlalchemy.orm import Session
 
 from app.core.players import PlayerKind, PlayerSelection
 from app.core.session_figures import SessionFigure
+from app.models import Publication as PublicationRow
 from app.store.analytics import graph_analytics, session_lengths
 from app.store.traces import bot_player, get_or_create_player, record_trace
 
@@ -120,3 +122,31 @@ def test_a_graph_without_traces_of_the_players_chosen_reports_empty(
     assert report["session_lengths"]["sessions"] == 0
     assert report["session_lengths"]["percentiles"] == {}
     assert report["sessions_by_kind"] == {"person": 0, "bot": 1}
+
+
+def test_at_the_publications_own_threshold_the_reports_read_no_step(
+    session: Session, published: Published
+) -> None:
+    """Sums and each session's figures were kept when its trace was stored: with the steps
+    gone the reports are the same, and still the hand counts."""
+    session.execute(
+        update(PublicationRow)
+        .where(PublicationRow.id == published.publication_id)
+        .values(high_error_threshold=THRESHOLD)
+    )
+    bot = bot_player(session, "analyst")
+    played = [np.array(walk(published.publication, controls)) for controls in BOTS]
+    for i, steps in enumerate(played):
+        record_trace(session, published.publication_id, bot, f"k{i}", steps)
+    kept = graph_analytics(session, published.graph_id, THRESHOLD)
+    session.execute(text("DELETE FROM trace_steps"))
+    report = graph_analytics(session, published.graph_id, THRESHOLD)
+    assert report == kept
+    core, steps = published.publication, np.concatenate(played)
+    err = core.edge_err[steps[:, 0] * core.n_controls + steps[:, 1]]
+    (observed,) = report["observed_error"]
+    assert observed["mean_error"] == pytest.approx(err.mean())
+    assert observed["high_error_fraction"] == pytest.approx((err > THRESHOLD).mean())
+    vertices, counts = np.unique(steps[:, 0], return_counts=True)
+    visits = {row["vertex"]: row["visits"] for row in report["visit_counts"]}
+    assert visits == dict(zip(vertices.tolist(), counts.tolist(), strict=True))
