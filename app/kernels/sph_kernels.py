@@ -37,6 +37,8 @@ MAX_WALL_NEIGHBOURS = 56
 WORK_GROUP = 64
 #: ``check_from`` of a pressure iteration that must run whatever the errors so far
 ALWAYS = 2**30
+#: cells per work-item of the cell scan on a GPU (see :func:`scan_block`)
+GPU_SCAN_BLOCK = 64
 
 _I32, _F32 = np.int32, np.float32
 
@@ -80,6 +82,14 @@ def _work_group(size: int) -> tuple[int] | None:
     return None
 
 
+def scan_block(device: cl.Device, n_cells: int) -> int:
+    """Cells each work-item of the cell scan walks: all of them on a CPU, where one walk
+    costs microseconds and each launch more; :data:`GPU_SCAN_BLOCK` elsewhere, where one
+    work-item walking 18k cells (`paper`) takes milliseconds of a 3 ms substep and blocks
+    of cells are scanned in parallel in three launches. Both give the same integers."""
+    return n_cells if device.type & cl.device_type.CPU else GPU_SCAN_BLOCK
+
+
 class SphKernels:
     """Particle buffers and kernel launches for one scene on the OpenCL ``device``.
 
@@ -93,6 +103,7 @@ class SphKernels:
         build_options: tuple[str, ...] = (),
         device: str = "",
         profile: bool = False,
+        cells_per_scan: int | None = None,
     ) -> None:
         rt = runtime(device)
         self.scene, self.n = scene, n_particles
@@ -152,6 +163,11 @@ class SphKernels:
         self.ids, self.ids_spare, self.cell, self.order = (buf(4 * n) for _ in range(4))
         self.counts = const(np.zeros(nc, dtype=_I32))
         self.start, self.cursor = buf(4 * (nc + 1)), buf(4 * nc)
+        #: cells per work-item of the scan (``cells_per_scan``, else the device's
+        #: :func:`scan_block`), and each block's first slot
+        self.scan_block = cells_per_scan or scan_block(rt.device, nc)
+        self.scan_blocks = -(-nc // self.scan_block)
+        self.block_first = const(np.zeros(self.scan_blocks, dtype=_I32))
         self.nb, self.nb_count = buf(4 * n * MAX_NEIGHBOURS), buf(4 * n)
         # x(t)-geometry of the pressure loop, written by nonpressure_accel (see sph.cl)
         self.pair_scale, self.wall_grad = buf(4 * n * MAX_NEIGHBOURS), buf(16 * n)
@@ -229,7 +245,20 @@ class SphKernels:
         g = self.grid_args
         nc = self.grid.n_cells
         self._run("count_cells", self.n, self.pos, self.cell, self.counts, g[0], g[2], g[1])
-        self._run("scan_cells", 1, self.counts, self.start, self.cursor, self._i32(nc))
+        blocks, block = self.scan_blocks, self._i32(self.scan_block)
+        if blocks > 1:
+            self._run("block_totals", blocks, self.counts, self.block_first, self._i32(nc), block)
+            self._run("scan_block_totals", 1, self.block_first, self._i32(blocks))
+        self._run(
+            "scan_cells",
+            blocks,
+            self.counts,
+            self.start,
+            self.cursor,
+            self.block_first,
+            self._i32(nc),
+            block,
+        )
         self._run("scatter_cells", self.n, self.cell, self.cursor, self.order)
         self._run("sort_cells", nc, self.start, self.order)
         self._run(

@@ -3,13 +3,19 @@
 from __future__ import annotations
 
 import numpy as np
+import pyopencl as cl
 import pytest
 
 from app.core import sph as twin
 from app.core.scene import initial_particles, kinetic_energy, tilt_tank
 from app.kernels.context import runtime
 from app.kernels.sph import SphSimulator
-from app.kernels.sph_kernels import MAX_NEIGHBOURS, MAX_WALL_NEIGHBOURS, SphKernels
+from app.kernels.sph_kernels import (
+    GPU_SCAN_BLOCK,
+    MAX_NEIGHBOURS,
+    MAX_WALL_NEIGHBOURS,
+    SphKernels,
+)
 from app.liquid import validation as v
 
 
@@ -51,6 +57,30 @@ def test_neighbour_lists_match_twin() -> None:
     i = int(np.argmax(count))
     assert set(lists[i, : count[i]]) == set(expected.fluid[expected.fluid[:, 0] == i, 1])
     assert k.overflowed() == 0
+
+
+def test_the_cell_scan_in_blocks_is_the_scan_in_one_walk() -> None:
+    """A GPU's scan (blocks of cells, three launches) gives the CPU's integers: the same
+    cell starts, the cumulative sums of the counts, and the same sort."""
+    scene = tilt_tank("tiny")
+    state = initial_particles(scene)
+    state[:, :3] += np.random.default_rng(2).normal(0, 0.1 * scene.spacing, (len(state), 3))
+    sorted_by: dict[int | None, tuple[np.ndarray, ...]] = {}
+    for block in (None, GPU_SCAN_BLOCK, 7, 1):
+        k = SphKernels(scene, len(state), cells_per_scan=block)
+        k.load(state)
+        k.sort()
+        n_cells = k.grid.n_cells
+        start = np.empty(n_cells + 1, dtype=np.int32)
+        cl.enqueue_copy(k.queue, start, k.start)
+        cells = k.read(k.cell, np.int32)
+        sorted_by[block] = (start, k.read(k.ids, np.int32), k.read(k.pos, np.float32, 4))
+        expected = np.concatenate([[0], np.cumsum(np.bincount(cells, minlength=n_cells))])
+        np.testing.assert_array_equal(start, expected)
+    assert sorted_by[None][0].size > GPU_SCAN_BLOCK * 7  # several blocks, a partial last
+    for block, arrays in sorted_by.items():
+        for a, b in zip(arrays, sorted_by[None], strict=True):
+            assert np.array_equal(a, b), block
 
 
 def test_portable_list_compaction_gives_the_same_lists() -> None:
@@ -157,6 +187,10 @@ def test_clips_are_bit_identical(tiny_rest: tuple[SphSimulator, np.ndarray]) -> 
     assert a_end.shape == (sim.n, 6)
     assert np.array_equal(a_frames, b_frames) and np.array_equal(a_end, b_end)
     assert not np.array_equal(a_frames[0], a_frames[-1])
+    blocked = SphSimulator(sim.scene)
+    blocked.kernels = SphKernels(sim.scene, sim.n, cells_per_scan=GPU_SCAN_BLOCK)
+    c_frames, c_end = blocked.simulate_clip(rest, 2)
+    assert np.array_equal(a_frames, c_frames) and np.array_equal(a_end, c_end)
 
 
 def test_tilted_clip_stays_in_tank_and_moves_the_liquid(
