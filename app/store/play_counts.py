@@ -12,7 +12,7 @@ from __future__ import annotations
 from typing import Any
 
 import numpy as np
-from sqlalchemy import BigInteger, func, select
+from sqlalchemy import BigInteger, ColumnElement, func, select
 from sqlalchemy.dialects import postgresql, sqlite
 from sqlalchemy.orm import Session
 
@@ -80,7 +80,7 @@ def graph_play_counts(
 ) -> PlayCounts:
     """Every session ``players`` played on the graph's publications (those older than
     publication ``before`` only, when given), summed over them."""
-    counts, lengths = _sums(session, graph_id, players, before, by_publication=False)
+    counts, lengths = _sums(session, players, _published(graph_id, before), by_publication=False)
     return PlayCounts(*counts.T, *lengths.T)
 
 
@@ -93,7 +93,7 @@ def publication_play_counts(
 ) -> list[tuple[int, PlayCounts]]:
     """Each publication of the graph that ``players`` played (by id, oldest first; those
     older than publication ``before`` only, when given) with their sessions' sums."""
-    counts, lengths = _sums(session, graph_id, players, before, by_publication=True)
+    counts, lengths = _sums(session, players, _published(graph_id, before), by_publication=True)
     return [
         (
             int(publication),
@@ -106,21 +106,25 @@ def publication_play_counts(
     ]
 
 
-def _sums(
-    session: Session,
-    graph_id: int,
-    players: PlayerSelection,
-    before: int | None,
-    *,
-    by_publication: bool,
-) -> tuple[np.ndarray, np.ndarray]:
-    """The graph's (publication?, bucket, vertex, control, steps) and (publication?,
-    n_steps, sessions) rows of ``players``' sessions on publications older than
-    ``before`` (all: None), summed in the database over player kinds, and over
-    publications unless ``by_publication``, as two int64 tables."""
+def _published(graph_id: int, before: int | None) -> list[ColumnElement[bool]]:
+    """The graph's publications older than publication ``before`` (all: None)."""
     chosen = [PublicationRow.graph_id == graph_id]
     if before is not None:
         chosen.append(PublicationRow.id < before)
+    return chosen
+
+
+def _sums(
+    session: Session,
+    players: PlayerSelection,
+    chosen: list[ColumnElement[bool]],
+    *,
+    by_publication: bool,
+) -> tuple[np.ndarray, np.ndarray]:
+    """The (publication?, bucket, vertex, control, steps) and (publication?, n_steps,
+    sessions) rows of ``players``' sessions on the ``chosen`` publications, summed in the
+    database over player kinds, and over publications unless ``by_publication``, as two
+    int64 tables."""
     kinds = [kind.value for kind in players.kinds]
     count_key = [PlayCount.publication_id] if by_publication else []
     counts = session.execute(
@@ -153,27 +157,17 @@ def played_sessions(
 ) -> PlayedSessions:
     """The sessions ``players`` played on the publication, as a prediction is judged
     against them: their sums, and each one's error and length from its trace row."""
+    chosen = [PublicationRow.id == publication_id]
+    counts, lengths = _sums(session, players, chosen, by_publication=False)
     kinds = [kind.value for kind in players.kinds]
-    counts = session.execute(
-        select(
-            PlayCount.bucket,
-            PlayCount.vertex,
-            PlayCount.control,
-            func.sum(PlayCount.steps).cast(BigInteger),
-        )
-        .where(PlayCount.publication_id == publication_id, PlayCount.player_kind.in_(kinds))
-        .group_by(PlayCount.bucket, PlayCount.vertex, PlayCount.control)
-    ).all()
     traces = session.execute(
         select(Trace.error, Trace.n_steps)
         .join(Player, Player.id == Trace.player_id)
         .where(Trace.publication_id == publication_id, Player.kind.in_(kinds))
         .order_by(Trace.id)
     ).all()
-    errors = np.array([row.error for row in traces], dtype=np.float64)
-    lengths = np.array([row.n_steps for row in traces], dtype=np.int64)
-    bucket, vertex, control, steps = np.array(counts, dtype=np.int64).reshape(len(counts), 4).T
-    length, sessions = np.unique(lengths, return_counts=True)
     return PlayedSessions(
-        PlayCounts(bucket, vertex, control, steps, length, sessions), errors, lengths
+        PlayCounts(*counts.T, *lengths.T),
+        np.array([row.error for row in traces], dtype=np.float64),
+        np.array([row.n_steps for row in traces], dtype=np.int64),
     )
