@@ -8,7 +8,6 @@ twin in ``app/core``. :class:`app.kernels.sph.SphSimulator` strings the stages t
 
 from __future__ import annotations
 
-import functools
 import math
 from typing import Any
 
@@ -26,6 +25,7 @@ from app.core.sph_grid import (
     wall_volumes,
 )
 from app.kernels.context import runtime
+from app.kernels.launch_shapes import scan_block, work_group
 
 #: neighbour list rows (multiples of 8: the kernels load eight slots at a time, aligned);
 #: a row holds 8 neighbours less (room for a whole block of eight candidates), 56 fluid
@@ -33,12 +33,8 @@ from app.kernels.context import runtime
 #: corner about 40 wall particles); overflows are counted, never written out of bounds
 MAX_NEIGHBOURS = 64
 MAX_WALL_NEIGHBOURS = 56
-#: upper bound of the work-group size (see _work_group)
-WORK_GROUP = 64
 #: ``check_from`` of a pressure iteration that must run whatever the errors so far
 ALWAYS = 2**30
-#: cells per work-item of the cell scan on a GPU (see :func:`scan_block`)
-GPU_SCAN_BLOCK = 64
 
 _I32, _F32 = np.int32, np.float32
 
@@ -66,28 +62,6 @@ def compaction_table() -> np.ndarray:
         lanes = [lane for lane in range(8) if mask >> lane & 1]
         table[mask, : len(lanes)] = lanes
     return table
-
-
-@functools.cache
-def _work_group(size: int) -> tuple[int] | None:
-    """Local size: the largest divisor of ``size`` up to 64 (None, PoCL's choice, if < 8).
-
-    PoCL picks about size / 2 for two cores, and one late thread then holds up the whole
-    launch; groups of 32-128 work-items let the two threads balance (measured on small:
-    median substep 7.6-8.7 ms against 9.1-9.3 ms).
-    """
-    for d in range(min(size, WORK_GROUP), 7, -1):
-        if size % d == 0:
-            return (d,)
-    return None
-
-
-def scan_block(device: cl.Device, n_cells: int) -> int:
-    """Cells each work-item of the cell scan walks: all of them on a CPU, where one walk
-    costs microseconds and each launch more; :data:`GPU_SCAN_BLOCK` elsewhere, where one
-    work-item walking 18k cells (`paper`) takes milliseconds of a 3 ms substep and blocks
-    of cells are scanned in parallel in three launches. Both give the same integers."""
-    return n_cells if device.type & cl.device_type.CPU else GPU_SCAN_BLOCK
 
 
 class SphKernels:
@@ -192,7 +166,7 @@ class SphKernels:
             if bound[index] is not arg:
                 kernel.set_arg(index, arg)
                 bound[index] = arg
-        event = cl.enqueue_nd_range_kernel(self.queue, kernel, (size,), _work_group(size))
+        event = cl.enqueue_nd_range_kernel(self.queue, kernel, (size,), work_group(size))
         if self.launches is not None:
             self.launches.append((name, event))
 

@@ -9,13 +9,9 @@ import pytest
 from app.core import sph as twin
 from app.core.scene import initial_particles, kinetic_energy, tilt_tank
 from app.kernels.context import runtime
+from app.kernels.launch_shapes import GPU_SCAN_BLOCK
 from app.kernels.sph import SphSimulator
-from app.kernels.sph_kernels import (
-    GPU_SCAN_BLOCK,
-    MAX_NEIGHBOURS,
-    MAX_WALL_NEIGHBOURS,
-    SphKernels,
-)
+from app.kernels.sph_kernels import MAX_NEIGHBOURS, MAX_WALL_NEIGHBOURS, SphKernels
 from app.liquid import validation as v
 
 
