@@ -105,6 +105,14 @@ def cli_grow(settings: Settings) -> Iterator[subprocess.Popen[str]]:
         grow.communicate(timeout=WAIT_S)
 
 
+def _grown_since_first_publication(settings: Settings) -> bool:
+    with transaction(settings) as session:
+        first = session.scalar(
+            select(PublicationRow.size_frames).order_by(PublicationRow.number).limit(1)
+        )
+        return open_graph(session, settings, "g").graph.size_frames > (first or 0)
+
+
 def test_twenty_publishes_beside_a_running_grow_all_succeed_with_versions_it_had(
     settings: Settings, tmp_path: Path
 ) -> None:
@@ -115,6 +123,11 @@ def test_twenty_publishes_beside_a_running_grow_all_succeed_with_versions_it_had
         cli_grow(settings) as grow,
     ):
         for attempt in range(20):
+            if attempt == 10:  # the second half beside a graph grown since the first
+                deadline = time.monotonic() + WAIT_S
+                while not _grown_since_first_publication(settings):
+                    assert time.monotonic() < deadline, "the grow never saved an expansion"
+                    time.sleep(0.2)
             if attempt % 2:
                 reply = http.post("/api/graphs/g/publish", headers=ADMIN)
                 assert reply.status_code == 200, reply.text
