@@ -5,7 +5,8 @@ validated against that publication before anything is written, and are idempoten
 the client's ``(player, idempotency_key)``: a retried upload returns the trace already
 stored and writes nothing, even when two retries race (the unique constraint decides).
 A stored trace is added to the crowd's sums (:mod:`app.store.play_counts`) in the same
-transaction as its steps.
+transaction as its steps, and keeps its error on its publication's frozen edges, so that
+analytics never reads the steps again (docs/analytics.md).
 """
 
 from __future__ import annotations
