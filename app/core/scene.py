@@ -58,6 +58,10 @@ class Scene:
         Particle spacing dx; the kernel support radius is ``2 * spacing``.
     substeps : int
         Fixed time steps per frame, chosen from the CFL condition by the preset.
+    viscosity_steps : int
+        Explicit viscosity steps per substep, at the substep's positions; the last is
+        folded into the substep's non-pressure acceleration (docs/sph.md, "Viscosity in
+        steps of its own").
     frames_per_clip, fps : int
         A clip is ``frames_per_clip`` frames at ``fps``.
     rest_density, viscosity : float
@@ -80,6 +84,7 @@ class Scene:
     target: Box
     spacing: float
     substeps: int
+    viscosity_steps: int = 1
     frames_per_clip: int = 10
     fps: int = 30
     rest_density: float = 1000.0
@@ -206,8 +211,9 @@ def tilt_tank(preset: str, fluid: str = DEFAULT_FLUID) -> Scene:
     """The game's scene: a 0.6 x 0.4 x 0.16 m tank filled to 0.175 m, tilted by +/- 30 degrees.
 
     The fastest plausible flow is a free fall over the tank height, ``sqrt(2 g H)``,
-    which fixes the substeps through the CFL condition, unless the fluid's viscosity
-    needs more (:func:`viscous_substeps`; only ``high`` on ``small`` and ``paper``).
+    which fixes the substeps through the CFL condition for both fluids; where the
+    explicit viscosity needs shorter steps (:func:`viscous_substeps`; only ``high``),
+    it takes them inside each substep (``viscosity_steps``).
     ``fluid`` picks a row of :data:`FLUIDS` (viscosities and target); the scene of
     ``low`` is named ``tilt-tank/<preset>``, any other ``tilt-tank/<preset>-<fluid>``.
     """
@@ -221,6 +227,7 @@ def tilt_tank(preset: str, fluid: str = DEFAULT_FLUID) -> Scene:
     counts = [math.floor(x / dx + 1e-6) for x in (size[0], FILL_HEIGHT, size[2])]
     fluid_hi = (counts[0] * dx, counts[1] * dx, counts[2] * dx)
     fps = 30
+    substeps = cfl_substeps(dx, math.sqrt(2 * GRAVITY * size[1]), fps)
     return Scene(
         name=f"tilt-tank/{preset}" if fluid == DEFAULT_FLUID else f"tilt-tank/{preset}-{fluid}",
         tank=Box((0.0, 0.0, 0.0), size),
@@ -228,10 +235,8 @@ def tilt_tank(preset: str, fluid: str = DEFAULT_FLUID) -> Scene:
         gravity=tuple(tilted_gravity(a) for a in TILT_DEGREES),
         target=liquid.target,
         spacing=dx,
-        substeps=max(
-            cfl_substeps(dx, math.sqrt(2 * GRAVITY * size[1]), fps),
-            viscous_substeps(dx, liquid.viscosity, fps),
-        ),
+        substeps=substeps,
+        viscosity_steps=math.ceil(viscous_substeps(dx, liquid.viscosity, fps) / substeps),
         fps=fps,
         viscosity=liquid.viscosity,
         wall_viscosity=liquid.wall_viscosity,

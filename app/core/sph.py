@@ -4,7 +4,10 @@ Pure and slow on purpose: pair lists from a k-d tree, float64 sums. Tests hold e
 OpenCL kernel to its twin here. The method (Solenthaler and Pajarola 2009, PCISPH; walls
 after Akinci et al. 2012), one substep of length dt:
 
-1. non-pressure acceleration a_np = g + viscosity at x(t);
+1. non-pressure acceleration a_np = g + viscosity at x(t); where the viscosity needs
+   shorter steps than the substep (``scene.viscosity_steps`` > 1), the velocities first
+   take all but the last of them explicitly at x(t) (:func:`diffuse_velocity`), and a_np
+   carries the last one's share;
 2. from the pressures p (warm-started from the previous substep, zero at a clip's start)
    the pressure acceleration a_p and the predicted v* = v + dt (a_np + a_p),
    x* = x + dt v*;
@@ -97,16 +100,15 @@ def density(
     return rho + _sum_rows(psi[nb.wall[:, 1]] * cubic_kernel(rb, h), nb.wall[:, 0], n)
 
 
-def nonpressure_accel(
+def viscous_accel(
     pos: np.ndarray,
     vel: np.ndarray,
     nb: Neighbours,
     walls: np.ndarray,
     psi: np.ndarray,
-    gravity: np.ndarray,
     scene: Scene,
 ) -> np.ndarray:
-    """a_np = g + 10 nu sum_j (m / rho0) (v_ij . x_ij) / (r^2 + 0.01 h^2) grad W_ij + walls.
+    """10 nu sum_j (m / rho0) (v_ij . x_ij) / (r^2 + 0.01 h^2) grad W_ij + walls.
 
     The walls are at rest, weighted by psi_b / rho0 in place of m / rho0 and use
     ``scene.wall_viscosity``: friction
@@ -124,8 +126,34 @@ def nonpressure_accel(
     visc = 10.0 * scene.viscosity
     lap_b = _sum_rows(coef_b[:, None] * cubic_kernel_gradient(db, rb, h), nb.wall[:, 0], n)
     wall = 10.0 * scene.wall_viscosity * lap_b
+    return (visc * lap + wall) / scene.rest_density
+
+
+def nonpressure_accel(
+    pos: np.ndarray,
+    vel: np.ndarray,
+    nb: Neighbours,
+    walls: np.ndarray,
+    psi: np.ndarray,
+    gravity: np.ndarray,
+    scene: Scene,
+) -> np.ndarray:
+    """a_np = g + the last viscous step's share of :func:`viscous_accel`."""
     g = np.asarray(gravity, dtype=np.float64)[None, :3]
-    return g + (visc * lap + wall) / scene.rest_density
+    return g + viscous_accel(pos, vel, nb, walls, psi, scene) / scene.viscosity_steps
+
+
+def diffuse_velocity(
+    pos: np.ndarray,
+    vel: np.ndarray,
+    nb: Neighbours,
+    walls: np.ndarray,
+    psi: np.ndarray,
+    scene: Scene,
+) -> np.ndarray:
+    """One explicit viscous step, dt / viscosity_steps long, at frozen positions."""
+    step = scene.dt / scene.viscosity_steps
+    return vel[:, :3] + step * viscous_accel(pos, vel, nb, walls, psi, scene)
 
 
 def pressure_accel(

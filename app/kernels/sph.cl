@@ -308,24 +308,22 @@ __kernel void find_neighbours(__global const float4 *pos, __global const int *st
     wall_nb_count[i] = nw;
 }
 
-// g + viscosity: fluid pairs and walls (at rest, weighted by psi as a mass: friction).
-// Also stores what the pressure loop needs of x(t), which stays fixed through the loop:
-// per fluid pair slot the scale s of grad W_ij = (x_i - x_j) s (zero in the padding up
-// to a multiple of eight) and per particle the wall sum sum_b psi_b grad W_ib, so that
-// pressure_predict evaluates no kernel gradient (storing the whole gradient instead
-// streamed three times the bytes per pass and was slower).
-__kernel void nonpressure_accel(__global const float4 *pos, __global const float4 *vel,
-                                NEIGHBOUR_ARGS, GRID_ARGS, float4 gravity, float visc,
-                                float wall_visc,
-                                __global float4 *a_np, __global float *pair_scale,
-                                __global float4 *wall_grad) {
-    int i = get_global_id(0);
+// The viscosity of particle i at x(t): the SPH Laplacian over its fluid pairs into *lap
+// and over its wall neighbours (at rest, weighted by psi as a mass: friction) into
+// *wall_lap. Where `scale` is not null it also keeps what the pressure loop needs of
+// x(t), which stays fixed through the loop: per fluid pair slot the scale s of
+// grad W_ij = (x_i - x_j) s (zero in the padding up to a multiple of eight) and the wall
+// sum sum_b psi_b grad W_ib into *wall_sum, so that pressure_predict evaluates no kernel
+// gradient (storing the whole gradient instead streamed three times the bytes per pass
+// and was slower).
+inline void viscosity_sums(int i, __global const float4 *pos, __global const float4 *vel,
+                           NEIGHBOUR_ARGS, float h, float sigma, __global float *scale,
+                           float3 *lap, float3 *wall_lap, float3 *wall_sum) {
     float3 xi = pos[i].xyz;
     float3 vi = vel[i].xyz;
     float eps = 0.01f * h * h;
     int n = nb_count[i];
     __global const int *list = nb + i * max_nb;
-    __global float *scale = pair_scale + i * max_nb;
     float8 lx = ZERO8;
     float8 ly = ZERO8;
     float8 lz = ZERO8;
@@ -351,11 +349,13 @@ __kernel void nonpressure_accel(__global const float4 *pos, __global const float
         lx = grad_x * coef + lx;
         ly = grad_y * coef + ly;
         lz = grad_z * coef + lz;
-        STORE8(scale + k, s);
+        if (scale) {
+            STORE8(scale + k, s);
+        }
     }
-    float3 lap = (float3)(sum8(lx), sum8(ly), sum8(lz));
-    float3 wall_lap = (float3)(0.0f);
-    float3 wall_sum = (float3)(0.0f);
+    *lap = (float3)(sum8(lx), sum8(ly), sum8(lz));
+    float3 wl = (float3)(0.0f);
+    float3 ws = (float3)(0.0f);
     int nw = wall_nb_count[i];
     __global const int *wlist = wall_nb + i * max_wall_nb;
     for (int k = 0; k < nw; ++k) {
@@ -363,11 +363,40 @@ __kernel void nonpressure_accel(__global const float4 *pos, __global const float
         float3 d = xi - walls[b].xyz;
         float r2 = dot3(d, d);
         float3 grad = d * (psi[b] * kernel_grad_scale(SQRT1(r2), h, sigma));
-        wall_lap += grad * (dot3(vi, d) / (r2 + eps));
-        wall_sum += grad;
+        wl += grad * (dot3(vi, d) / (r2 + eps));
+        ws += grad;
     }
+    *wall_lap = wl;
+    *wall_sum = ws;
+}
+
+// a_np = g + visc lap + wall_visc wall_lap, and the pressure loop's x(t)-geometry (see
+// viscosity_sums). With viscous substeps (docs/sph.md, "Viscosity in substeps") visc and
+// wall_visc are the last substep's share.
+__kernel void nonpressure_accel(__global const float4 *pos, __global const float4 *vel,
+                                NEIGHBOUR_ARGS, GRID_ARGS, float4 gravity, float visc,
+                                float wall_visc,
+                                __global float4 *a_np, __global float *pair_scale,
+                                __global float4 *wall_grad) {
+    int i = get_global_id(0);
+    float3 lap, wall_lap, wall_sum;
+    viscosity_sums(i, pos, vel, nb, nb_count, max_nb, walls, psi, wall_nb, wall_nb_count,
+                   max_wall_nb, h, sigma, pair_scale + i * max_nb, &lap, &wall_lap,
+                   &wall_sum);
     a_np[i] = (float4)(gravity.xyz + visc * lap + wall_visc * wall_lap, 0.0f);
     wall_grad[i] = (float4)(wall_sum, 0.0f);
+}
+
+// One explicit viscosity step at frozen positions: v_out = v + visc_dt lap +
+// wall_visc_dt wall_lap, where visc_dt and wall_visc_dt carry the viscous substep's length.
+__kernel void diffuse_velocity(__global const float4 *pos, __global const float4 *vel,
+                               NEIGHBOUR_ARGS, GRID_ARGS, float visc_dt, float wall_visc_dt,
+                               __global float4 *vel_out) {
+    int i = get_global_id(0);
+    float3 lap, wall_lap, wall_sum;
+    viscosity_sums(i, pos, vel, nb, nb_count, max_nb, walls, psi, wall_nb, wall_nb_count,
+                   max_wall_nb, h, sigma, 0, &lap, &wall_lap, &wall_sum);
+    vel_out[i] = (float4)(vel[i].xyz + visc_dt * lap + wall_visc_dt * wall_lap, 0.0f);
 }
 
 // a_p from the pressures at x(t) (gradient scales stored by nonpressure_accel), then

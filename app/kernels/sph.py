@@ -19,6 +19,7 @@ import numpy as np
 import pyopencl as cl
 
 from app.core.scene import Scene, initial_particles
+from app.kernels.launch_shapes import queues_frames
 from app.kernels.sph_kernels import SphKernels
 
 
@@ -41,6 +42,24 @@ class SolverStats:
         return self.iterations / max(self.substeps, 1)
 
 
+#: iterations a queued substep gets beyond the most the last frame's substeps needed
+BUDGET_SLACK = 4
+
+
+def iterations_used(errors: np.ndarray, lo: int, eta: float) -> list[int] | None:
+    """Pressure iterations of each substep of a frame queued at once, or None when one
+    did not converge within its budget.
+
+    ``errors`` holds per substep (row) each queued iteration's max compression. The
+    loop stops after the first iteration from the ``lo``-th on whose error is below
+    ``eta``; the iterations after it were no-ops and left a zero.
+    """
+    below = errors[:, lo - 1 :] < eta
+    if not np.all(below.any(axis=1)):
+        return None
+    return [lo + int(i) for i in np.argmax(below, axis=1)]
+
+
 class SphSimulator:
     """PCISPH of one scene (tank, fluid block, gravity controls) on one device.
 
@@ -56,6 +75,9 @@ class SphSimulator:
         (:func:`app.kernels.context.select_device`).
     profile : bool
         Timestamp every kernel launch (``SphKernels.launches``; ``srg bench sph --profile``).
+    queue_frames : bool or None
+        Queue each frame's substeps at once (:meth:`frame`); None: as the device suits
+        (:func:`app.kernels.launch_shapes.queues_frames`). The frames are the same.
     """
 
     def __init__(
@@ -64,23 +86,28 @@ class SphSimulator:
         fixed_iterations: int | None = None,
         device: str = "",
         profile: bool = False,
+        queue_frames: bool | None = None,
     ) -> None:
         self.scene = scene
         self.n = len(initial_particles(scene))
         self.kernels = SphKernels(scene, self.n, device=device, profile=profile)
         self.fixed_iterations = fixed_iterations
+        device_suits = queues_frames(self.kernels.queue.device)
+        self.queue_frames = device_suits if queue_frames is None else queue_frames
         self.stats = SolverStats()
         self._errors = np.zeros(max(scene.max_iterations, 1), dtype=np.float32)
+        #: pressure iterations queued per substep of a frame queued at once (:meth:`frame`)
+        self.budget = max(scene.min_iterations, 1) + BUDGET_SLACK
         self._pending_reads: list[cl.Event] = []
 
     def substep(self, gravity: tuple[float, float, float], damping: float = 0.0) -> int:
-        """Advance the loaded state by dt; returns the pressure iterations used."""
-        k, s = self.kernels, self.scene
-        k.sort()
-        k.find_neighbours()
-        k.nonpressure_accel(gravity)
-        k.pressure_predict(damping)
-        k.reset_errors()
+        """Advance the loaded state by dt; returns the pressure iterations used.
+
+        The careful way: the host reads each iteration's error before it queues more.
+        """
+        k = self.kernels
+        self._forces(gravity, damping)
+        k.reset_errors(self.scene.max_iterations)
         if self.fixed_iterations:
             it = self.fixed_iterations
             for m in range(it):
@@ -90,13 +117,62 @@ class SphSimulator:
         else:
             it, err = self._converge(damping)
         k.advance()
+        self._count(it, err)
+        return it
+
+    def frame(self, gravity: tuple[float, float, float], damping: float = 0.0) -> None:
+        """Advance the loaded state by one frame (``scene.substeps`` substeps).
+
+        With ``queue_frames`` every substep is queued at once with ``budget`` pressure
+        iterations, those past convergence being no-ops on the device, and the host
+        reads the errors once, at the end (docs/sph.md, "A frame queued at once").
+        Where a substep did not converge within its budget, the frame is put back and
+        run the careful way (:meth:`substep`), so the frames are the careful way's
+        either way.
+        """
+        k, s = self.kernels, self.scene
+        lo, hi = max(s.min_iterations, 1), s.max_iterations
+        budget = min(max(self.budget, lo), hi)
+        if self.fixed_iterations or not self.queue_frames or lo > hi:
+            for _ in range(s.substeps):
+                self.substep(gravity, damping)
+            return
+        k.keep_state()
+        k.reset_errors(s.substeps * budget)
+        for j in range(s.substeps):
+            self._forces(gravity, damping)
+            first = j * budget
+            for m in range(first, first + budget):
+                k.density_pressure(m, check_from=first + lo)
+                k.pressure_predict(damping, m, check_from=first + lo)
+            k.advance()
+        errors = k.density_errors(s.substeps * budget).reshape(s.substeps, budget)
+        counts = iterations_used(errors, lo, s.eta)
+        if counts is None:
+            k.restore_state()
+            counts = [self.substep(gravity, damping) for _ in range(s.substeps)]
+        else:
+            for row, it in zip(errors, counts, strict=True):
+                self._count(it, float(row[it - 1]))
+        self.budget = max(counts) + BUDGET_SLACK
+
+    def _forces(self, gravity: tuple[float, float, float], damping: float) -> None:
+        """A substep up to its pressure loop: sort, neighbours, viscosity, first x*, v*."""
+        k, s = self.kernels, self.scene
+        k.sort()
+        k.find_neighbours()
+        for _ in range(s.viscosity_steps - 1):
+            k.diffuse_velocity()
+        k.nonpressure_accel(gravity)
+        k.pressure_predict(damping)
+
+    def _count(self, iterations: int, err: float) -> None:
         st = self.stats
         st.substeps += 1
-        st.iterations += it
-        st.iteration_counts.append(it)
+        st.iterations += iterations
+        st.iteration_counts.append(iterations)
         st.max_error = max(st.max_error, err)
-        st.unconverged_substeps += int(err >= s.eta)
-        return it
+        st.unconverged_substeps += int(err >= self.scene.eta)
 
     def _converge(self, damping: float) -> tuple[int, float]:
         """Pressure iterations until the max compression is below eta: (count, error).
@@ -144,8 +220,7 @@ class SphSimulator:
         out = np.empty((frames, self.n, 4), dtype=np.float32)
         events = []
         for f in range(frames):
-            for _ in range(self.scene.substeps):
-                self.substep(gravity, damping)
+            self.frame(gravity, damping)
             events.append(k.enqueue_unsorted(k.pos, out[f]))
         end_pos = np.empty((self.n, 4), dtype=np.float32)
         end_vel = np.empty((self.n, 4), dtype=np.float32)

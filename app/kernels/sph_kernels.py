@@ -9,7 +9,6 @@ twin in ``app/core``. :class:`app.kernels.sph.SphSimulator` strings the stages t
 from __future__ import annotations
 
 import math
-from typing import Any
 
 import numpy as np
 import pyopencl as cl
@@ -25,7 +24,8 @@ from app.core.sph_grid import (
     wall_volumes,
 )
 from app.kernels.context import runtime
-from app.kernels.launch_shapes import scan_block, work_group
+from app.kernels.launch_shapes import scan_block
+from app.kernels.launcher import Launcher, float4
 
 #: neighbour list rows (multiples of 8: the kernels load eight slots at a time, aligned);
 #: a row holds 8 neighbours less (room for a whole block of eight candidates), 56 fluid
@@ -33,18 +33,15 @@ from app.kernels.launch_shapes import scan_block, work_group
 #: corner about 40 wall particles); overflows are counted, never written out of bounds
 MAX_NEIGHBOURS = 64
 MAX_WALL_NEIGHBOURS = 56
+#: the buffers that make a substep's starting state
+KEPT = ("pos", "vel", "p", "ids")
 #: ``check_from`` of a pressure iteration that must run whatever the errors so far
 ALWAYS = 2**30
 
 _I32, _F32 = np.int32, np.float32
 
 
-def _float4(v: np.ndarray | tuple[float, ...]) -> np.ndarray:
-    x = [float(a) for a in v][:3]
-    return np.array((x[0], x[1], x[2], 0.0), dtype=cltypes.float4)
-
-
-def to_float4(xyz: np.ndarray) -> np.ndarray:
+def tofloat4(xyz: np.ndarray) -> np.ndarray:
     """(n, 3) -> (n, 4) float32 with a zero w, the device layout."""
     out = np.zeros((len(xyz), 4), dtype=np.float32)
     out[:, :3] = xyz
@@ -64,7 +61,7 @@ def compaction_table() -> np.ndarray:
     return table
 
 
-class SphKernels:
+class SphKernels(Launcher):
     """Particle buffers and kernel launches for one scene on the OpenCL ``device``.
 
     ``device`` is as in :func:`app.kernels.context.select_device`.
@@ -80,19 +77,8 @@ class SphKernels:
         cells_per_scan: int | None = None,
     ) -> None:
         rt = runtime(device)
+        super().__init__(rt, rt.program("sph.cl", build_options), profile)
         self.scene, self.n = scene, n_particles
-        #: with ``profile``, a queue of its own that timestamps commands, and every
-        #: kernel launch kept with its name (``app.bench.sph_profile`` reads them)
-        self.launches: list[tuple[str, cl.Event]] | None = None
-        self.queue = rt.queue
-        if profile:
-            props = cl.command_queue_properties.PROFILING_ENABLE
-            self.queue = cl.CommandQueue(rt.context, properties=props)
-            self.launches = []
-        self.program = rt.program("sph.cl", build_options)
-        self.kernels = {k.function_name: k for k in self.program.all_kernels()}
-        self._bound: dict[str, list[Any]] = {}
-        self._scalars: dict[tuple[Any, ...], Any] = {}
         self.grid = make_grid(scene)
         self.delta = pcisph_delta(scene)
 
@@ -101,11 +87,11 @@ class SphKernels:
         self.walls = walls[order]
         self.psi = wall_volumes(self.walls, scene)
         margin = WALL_MARGIN * scene.spacing
-        self.lo = _float4(np.asarray(scene.tank.lo) + margin)
-        self.hi = _float4(np.asarray(scene.tank.hi) - margin)
+        self.lo = float4(np.asarray(scene.tank.lo) + margin)
+        self.hi = float4(np.asarray(scene.tank.hi) - margin)
         h = scene.support
         self.grid_args = (
-            _float4(self.grid.origin),
+            float4(self.grid.origin),
             np.array((*self.grid.dims, 0), dtype=cltypes.int4),
             _F32(1.0 / self.grid.cell_size),
             _F32(h),
@@ -125,7 +111,7 @@ class SphKernels:
 
         # the neighbour scan reads particle rows in blocks of eight, up to seven past the
         # end: every buffer of positions it scans has eight rows of slack
-        self.walls_buf = const(np.concatenate([to_float4(self.walls), np.zeros((8, 4), _F32)]))
+        self.walls_buf = const(np.concatenate([tofloat4(self.walls), np.zeros((8, 4), _F32)]))
         self.psi_buf = const(self.psi)
         self.wall_start = const(wall_start.astype(_I32))
         self.compaction = const(compaction_table())
@@ -146,54 +132,18 @@ class SphKernels:
         # x(t)-geometry of the pressure loop, written by nonpressure_accel (see sph.cl)
         self.pair_scale, self.wall_grad = buf(4 * n * MAX_NEIGHBOURS), buf(16 * n)
         self.wall_nb, self.wall_nb_count = buf(4 * n * MAX_WALL_NEIGHBOURS), buf(4 * n)
-        self.err = buf(4 * max(scene.max_iterations, 1))
+        # room for a frame's substeps queued at once, each with every iteration allowed
+        self.err = buf(4 * scene.substeps * max(scene.max_iterations, 1))
+        #: the state a frame starts from (:meth:`keep_state`)
+        self.kept = {name: buf(16 * rows if name in ("pos", "vel") else 4 * n) for name in KEPT}
         self.overflow = const(np.zeros(1, dtype=_I32))
         self.frame = buf(16 * n)
-
-    def _run(self, name: str, size: int, *args: Any) -> None:
-        """Enqueue kernel ``name`` on ``size`` work-items, setting only changed arguments.
-
-        pyopencl's ``kernel(queue, ...)`` converts and sets every argument on every call,
-        about 170 us of Python for these 20-30 argument kernels, which competes with the
-        device's two threads for the two cores; an argument that is the same object as
-        last time (a buffer, a cached constant) is not set again.
-        """
-        kernel = self.kernels[name]
-        bound = self._bound.get(name)
-        if bound is None:
-            bound = self._bound[name] = [None] * len(args)
-        for index, arg in enumerate(args):
-            if bound[index] is not arg:
-                kernel.set_arg(index, arg)
-                bound[index] = arg
-        event = cl.enqueue_nd_range_kernel(self.queue, kernel, (size,), work_group(size))
-        if self.launches is not None:
-            self.launches.append((name, event))
-
-    def _i32(self, v: int) -> np.int32:
-        """The same argument object for the same value (see :meth:`_run`)."""
-        x = self._scalars.get(("i", v))
-        if x is None:
-            x = self._scalars[("i", v)] = _I32(v)
-        return x
-
-    def _f32(self, v: float) -> np.float32:
-        x = self._scalars.get(("f", v))
-        if x is None:
-            x = self._scalars[("f", v)] = _F32(v)
-        return x
-
-    def _f4(self, v: tuple[float, float, float]) -> np.ndarray:
-        x = self._scalars.get(("f4", *v))
-        if x is None:
-            x = self._scalars[("f4", *v)] = _float4(v)
-        return x
 
     # -- state in and out ----------------------------------------------------------------
     def load(self, state: np.ndarray) -> None:
         """Positions and velocities of a state (n, 6); pressures to zero; ids = row."""
-        cl.enqueue_copy(self.queue, self.pos, to_float4(state[:, 0:3]))
-        cl.enqueue_copy(self.queue, self.vel, to_float4(state[:, 3:6]))
+        cl.enqueue_copy(self.queue, self.pos, tofloat4(state[:, 0:3]))
+        cl.enqueue_copy(self.queue, self.vel, tofloat4(state[:, 3:6]))
         cl.enqueue_copy(self.queue, self.p, np.zeros(self.n, dtype=_F32))
         cl.enqueue_copy(self.queue, self.ids, np.arange(self.n, dtype=_I32))
 
@@ -286,10 +236,17 @@ class SphKernels:
             self._i32(MAX_WALL_NEIGHBOURS),
         )
 
-    def nonpressure_accel(self, gravity: tuple[float, float, float]) -> None:
+    def _viscosities(self) -> tuple[float, float]:
+        """The fluid and wall factors of the viscous acceleration over one viscous step
+        (``scene.viscosity_steps`` of them make a substep)."""
         s = self.scene
+        steps = s.viscosity_steps
         visc = 10.0 * s.viscosity * s.particle_mass / s.rest_density
-        wall_visc = 10.0 * s.wall_viscosity / s.rest_density
+        return visc / steps, 10.0 * s.wall_viscosity / s.rest_density / steps
+
+    def nonpressure_accel(self, gravity: tuple[float, float, float]) -> None:
+        """a_np with the last viscous step's share, and the pressure loop's geometry."""
+        visc, wall_visc = self._viscosities()
         self._run(
             "nonpressure_accel",
             self.n,
@@ -304,6 +261,23 @@ class SphKernels:
             self.pair_scale,
             self.wall_grad,
         )
+
+    def diffuse_velocity(self) -> None:
+        """One viscous step of the velocities at x(t) (after :meth:`find_neighbours`)."""
+        visc, wall_visc = self._viscosities()
+        dt = self.scene.dt
+        self._run(
+            "diffuse_velocity",
+            self.n,
+            self.pos,
+            self.vel,
+            *self.neighbour_args,
+            *self.grid_args,
+            self._f32(visc * dt),
+            self._f32(wall_visc * dt),
+            self.vel_spare,
+        )
+        self.vel, self.vel_spare = self.vel_spare, self.vel
 
     def pressure_predict(
         self, damping: float = 0.0, iteration: int = -1, check_from: int = ALWAYS
@@ -361,9 +335,10 @@ class SphKernels:
             self._f32(self.scene.eta),
         )
 
-    def reset_errors(self) -> None:
+    def reset_errors(self, count: int) -> None:
+        """Zero the errors of the next ``count`` pressure iterations."""
         zero = np.zeros(1, dtype=np.uint32)
-        cl.enqueue_fill_buffer(self.queue, self.err, zero, 0, 4 * self.scene.max_iterations)
+        cl.enqueue_fill_buffer(self.queue, self.err, zero, 0, 4 * count)
 
     def density_error(self, iteration: int) -> float:
         """Max relative compression of ``iteration`` (waits for the queue)."""
@@ -380,6 +355,16 @@ class SphKernels:
         out = np.empty(count, dtype=np.float32)
         cl.enqueue_copy(self.queue, out, self.err)
         return out
+
+    def keep_state(self) -> None:
+        """Copy what a substep starts from (positions, velocities, pressures, ids)."""
+        for name in KEPT:
+            cl.enqueue_copy(self.queue, self.kept[name], getattr(self, name))
+
+    def restore_state(self) -> None:
+        """Put back what :meth:`keep_state` copied."""
+        for name in KEPT:
+            cl.enqueue_copy(self.queue, getattr(self, name), self.kept[name])
 
     def advance(self) -> None:
         """x(t + dt) = x*, v(t + dt) = v*: swap the predicted buffers in."""

@@ -317,10 +317,12 @@ def check_twins(scene: Scene, seed: int = 0, device: str = "") -> dict[str, Any]
     a_p = twin.pressure_accel(pos, p, nb, k.walls, k.psi, scene)
     x_ref, v_ref = twin.predict(pos, vel, a_np + a_p, scene)
     x_pred = k.read(k.pos_pred, np.float32, 4)[:, :3]
-    k.reset_errors()
+    k.reset_errors(scene.max_iterations)
     k.density_pressure(0)
     rho_ref = twin.density(x_pred, nb, k.walls, k.psi, scene)
     p_ref, err_ref = twin.update_pressure(rho_ref, p, k.delta, scene)
+    k.diffuse_velocity()
+    v_diffused = twin.diffuse_velocity(pos, vel, nb, k.walls, k.psi, scene)
     errors = {
         "sort_order": float(not np.array_equal(ids, sort_by_cell(state[:, :3], k.grid)[0])),
         "nonpressure_accel": _relative(k.read(k.a_np, np.float32, 4)[:, :3], a_np),
@@ -329,6 +331,8 @@ def check_twins(scene: Scene, seed: int = 0, device: str = "") -> dict[str, Any]
         "density": _relative(k.read(k.rho, np.float32), rho_ref),
         "pressure": _relative(k.read(k.p, np.float32), p_ref),
         "max_density_error": abs(k.density_error(0) - err_ref) / max(err_ref, 1e-30),
+        # the change a viscous step makes, not the velocity it adds to
+        "viscous_step": _relative(k.read(k.vel, np.float32, 4)[:, :3] - vel, v_diffused - vel),
     }
     return {"relative_errors": errors, "passed": bool(max(errors.values()) < 1e-4)}
 

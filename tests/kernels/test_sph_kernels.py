@@ -10,7 +10,7 @@ from app.core import sph as twin
 from app.core.scene import initial_particles, kinetic_energy, tilt_tank
 from app.kernels.context import runtime
 from app.kernels.launch_shapes import GPU_SCAN_BLOCK
-from app.kernels.sph import SphSimulator
+from app.kernels.sph import SphSimulator, iterations_used
 from app.kernels.sph_kernels import MAX_NEIGHBOURS, MAX_WALL_NEIGHBOURS, SphKernels
 from app.liquid import validation as v
 
@@ -27,8 +27,10 @@ def test_runtime_is_per_process_and_memoises_programs() -> None:
     assert rt.program("sph.cl") is rt.program("sph.cl")
 
 
-def test_kernels_match_numpy_twins() -> None:
-    result = v.check_twins(tilt_tank("tiny"))
+@pytest.mark.parametrize("fluid", ["low", "high"])
+def test_kernels_match_numpy_twins(fluid: str) -> None:
+    """Every kernel, the viscous step included (two of them a substep for ``high``)."""
+    result = v.check_twins(tilt_tank("tiny", fluid))
     errors = result["relative_errors"]
     assert errors["sort_order"] == 0.0
     assert all(e < 1e-4 for e in errors.values()), errors
@@ -159,7 +161,7 @@ def test_loop_enqueued_ahead_equals_testing_every_iteration(
         k.find_neighbours()
         k.nonpressure_accel(gravity)
         k.pressure_predict()
-        k.reset_errors()
+        k.reset_errors(scene.max_iterations)
         it = 0
         while it < scene.max_iterations:
             k.density_pressure(it)
@@ -187,6 +189,44 @@ def test_clips_are_bit_identical(tiny_rest: tuple[SphSimulator, np.ndarray]) -> 
     blocked.kernels = SphKernels(sim.scene, sim.n, cells_per_scan=GPU_SCAN_BLOCK)
     c_frames, c_end = blocked.simulate_clip(rest, 2)
     assert np.array_equal(a_frames, c_frames) and np.array_equal(a_end, c_end)
+
+
+@pytest.mark.parametrize("budget", [1, 3, 8])
+def test_a_frame_queued_at_once_is_the_careful_frame(
+    tiny_rest: tuple[SphSimulator, np.ndarray], budget: int
+) -> None:
+    """Substeps queued a frame at once, with budgets that the loop outgrows (the frame
+    is then run again the careful way) and budgets that leave no-op iterations, give the
+    careful way's frames and iteration counts."""
+    sim, rest = tiny_rest
+    careful = SphSimulator(sim.scene, queue_frames=False)
+    ahead = SphSimulator(sim.scene, queue_frames=True)
+    ahead.budget = budget
+    restored = []
+    kernels = ahead.kernels
+    kernels.restore_state = lambda: (restored.append(1), SphKernels.restore_state(kernels))
+    a_frames, a_end = careful.run(rest, 1, 3)
+    b_frames, b_end = ahead.run(rest, 1, 3)
+    assert np.array_equal(a_frames, b_frames) and np.array_equal(a_end, b_end)
+    assert ahead.stats.iteration_counts == careful.stats.iteration_counts
+    assert ahead.stats.max_error == careful.stats.max_error
+    assert min(careful.stats.iteration_counts) > 1
+    if budget == 1:  # too few for any substep: the first frame was put back, and the
+        assert restored == [1]  # budget then grew to fit the frames after it
+
+
+def test_iterations_used_reads_where_each_loop_stopped() -> None:
+    errors = np.array(
+        [
+            [0.05, 0.004, 0.002, 0.0, 0.0],  # below eta at the 2nd, but min 3: stops at 3
+            [0.05, 0.03, 0.02, 0.009, 0.0],  # stops at 4
+            [0.05, 0.03, 0.02, 0.012, 0.011],  # budget 5 reached: not converged
+        ],
+        dtype=np.float32,
+    )
+    assert iterations_used(errors[:2], 3, 0.01) == [3, 4]
+    assert iterations_used(errors, 3, 0.01) is None
+    assert iterations_used(errors[:2], 1, 0.01) == [2, 4]
 
 
 def test_tilted_clip_stays_in_tank_and_moves_the_liquid(
