@@ -143,17 +143,10 @@ def nonpressure_accel(
     return g + viscous_accel(pos, vel, nb, walls, psi, scene) / scene.viscosity_steps
 
 
-def diffuse_velocity(
-    pos: np.ndarray,
-    vel: np.ndarray,
-    nb: Neighbours,
-    walls: np.ndarray,
-    psi: np.ndarray,
-    scene: Scene,
-) -> np.ndarray:
-    """One explicit viscous step, dt / viscosity_steps long, at frozen positions."""
-    step = scene.dt / scene.viscosity_steps
-    return vel[:, :3] + step * viscous_accel(pos, vel, nb, walls, psi, scene)
+def diffuse_velocity(vel: np.ndarray, viscous: np.ndarray, scene: Scene) -> np.ndarray:
+    """One explicit viscous step, dt / viscosity_steps long, at frozen positions, from
+    the velocities' :func:`viscous_accel`."""
+    return vel[:, :3] + scene.dt / scene.viscosity_steps * viscous
 
 
 def pressure_accel(

@@ -322,7 +322,8 @@ def check_twins(scene: Scene, seed: int = 0, device: str = "") -> dict[str, Any]
     rho_ref = twin.density(x_pred, nb, k.walls, k.psi, scene)
     p_ref, err_ref = twin.update_pressure(rho_ref, p, k.delta, scene)
     k.diffuse_velocity()
-    v_diffused = twin.diffuse_velocity(pos, vel, nb, k.walls, k.psi, scene)
+    viscous = twin.viscous_accel(pos, vel, nb, k.walls, k.psi, scene)
+    v_diffused = twin.diffuse_velocity(vel, viscous, scene)
     errors = {
         "sort_order": float(not np.array_equal(ids, sort_by_cell(state[:, :3], k.grid)[0])),
         "nonpressure_accel": _relative(k.read(k.a_np, np.float32, 4)[:, :3], a_np),
