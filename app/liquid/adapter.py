@@ -90,24 +90,40 @@ class LiquidCalibration:
     high_error_threshold: float
 
 
+def stepping(scene: Scene) -> dict[str, int]:
+    """How a scene advances a frame: what a calibration's frames were simulated with."""
+    return {"substeps": scene.substeps, "viscosity_steps": scene.viscosity_steps}
+
+
 def load_calibration(
     preset: str, fluid: str = "low", directory: Path = CALIBRATION_DIR
 ) -> LiquidCalibration:
+    """The stored constants, if they were measured on frames stepped as the scene is now.
+
+    Constants measured on other frames (another stepping, docs/sph.md "Viscosity in
+    steps of its own") would blend and judge today's clips by yesterday's liquid, so such
+    a file is refused like a missing one, with the command that measures it again.
+    """
     path = calibration_path(preset, fluid, directory)
+    option = "" if fluid == "low" else f" --fluid {fluid}"
+    again = f"run srg calibrate --preset {preset}{option}"
     if not path.exists():
-        option = "" if fluid == "low" else f" --fluid {fluid}"
-        raise MissingCalibration(
-            f"no calibration for preset {preset!r}; run srg calibrate --preset {preset}{option}"
-        )
+        raise MissingCalibration(f"no calibration for preset {preset!r}; {again}")
     data = json.loads(path.read_text())
+    now = stepping(tilt_tank(preset, fluid))
+    if data.get("stepping") != now:
+        raise MissingCalibration(
+            f"the calibration of preset {preset!r} was measured on frames stepped "
+            f"{data.get('stepping')}, the scene now steps {now}; {again}"
+        )
     return LiquidCalibration(**{k: float(data[k]) for k in LiquidCalibration.__annotations__})
 
 
 def calibration_json(
     preset: str, calibration: LiquidCalibration, details: dict, fluid: str = "low"
 ) -> str:
-    """The stored form: the four constants plus how they were measured."""
-    head = {"preset": preset, "fluid": fluid}
+    """The stored form: the four constants, the stepping they were measured on, and how."""
+    head = {"preset": preset, "fluid": fluid, "stepping": stepping(tilt_tank(preset, fluid))}
     return json.dumps({**head, **asdict(calibration), **details}, indent=2) + "\n"
 
 

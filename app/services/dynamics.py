@@ -104,10 +104,6 @@ def make_dynamics(
 
         try:
             return LiquidDynamics(preset, fluid, devices=devices)
-        except MissingCalibration:
-            option = "" if fluid == DEFAULT_FLUID else f" --fluid {fluid}"
-            raise MissingCalibration(
-                f"no calibration for liquid preset {preset!r} ({fluid} viscosity); "
-                f"run `srg calibrate --preset {preset}{option}` first"
-            ) from None
+        except MissingCalibration as missing:
+            raise MissingCalibration(f"liquid, {fluid} viscosity: {missing}") from None
     raise UnknownDynamics.of(name)

@@ -107,12 +107,12 @@ def test_make_dynamics_knows_the_liquid_and_names_its_errors(
         make_dynamics("liquid", "huge", devices=DEVICES)
 
     def missing(preset: str, fluid: str = "low") -> liquid.LiquidCalibration:
-        raise liquid.MissingCalibration(f"no calibration for preset {preset!r}")
+        raise liquid.MissingCalibration(f"no calibration for preset {preset!r}; run this")
 
     monkeypatch.setattr(liquid, "load_calibration", missing)
-    with pytest.raises(LookupError, match=r"run `srg calibrate --preset tiny` first"):
+    with pytest.raises(LookupError, match=r"^liquid, low viscosity: no .* 'tiny'; run this$"):
         make_dynamics("liquid", "tiny", devices=DEVICES)
-    with pytest.raises(LookupError, match=r"run `srg calibrate --preset tiny --fluid high` first"):
+    with pytest.raises(LookupError, match=r"^liquid, high viscosity: no .* 'tiny'; run this$"):
         make_dynamics("liquid", "tiny", "high", devices=DEVICES)
 
 

@@ -11,12 +11,15 @@ import pytest
 
 from app.config import RenderSettings, RuntimeSettings, Settings
 from app.core.dynamics import Dynamics, SimClip
+from app.core.scene import tilt_tank
 from app.core.surface import dequantise_sdf, liquid_volumes, occupancy
 from app.liquid.adapter import (
     CALIBRATION_DIR,
     LiquidDynamics,
+    MissingCalibration,
     calibration_path,
     load_calibration,
+    stepping,
 )
 from app.liquid.devices import LiquidDevices
 
@@ -103,12 +106,30 @@ def test_the_devices_default_to_the_embedded_configuration() -> None:
 
 @pytest.mark.parametrize("path", sorted(CALIBRATION_DIR.glob("*.json")), ids=lambda p: p.stem)
 def test_every_shipped_calibration_loads_and_is_a_measurement(path: Path) -> None:
-    """Each file names its preset and fluid, loads, and holds four positive finite
-    constants; the threshold is the visible one, with the study's details beside it."""
+    """Each file names its preset, fluid and stepping; one measured on today's stepping
+    loads and holds four positive finite constants, the threshold the visible one with
+    the study's details beside it; one measured on another stepping is refused."""
     stored = json.loads(path.read_text())
     preset, fluid = stored["preset"], stored.get("fluid", "low")
     assert calibration_path(preset, fluid) == path
+    if stored["stepping"] != stepping(tilt_tank(preset, fluid)):
+        # measured on frames the solver no longer makes: refused, with the way out
+        with pytest.raises(MissingCalibration, match=f"srg calibrate --preset {preset}"):
+            load_calibration(preset, fluid)
+        return
     constants = load_calibration(preset, fluid)
     values = np.array(list(asdict(constants).values()))
     assert np.all(np.isfinite(values)) and np.all(values > 0), constants
     assert stored["visible_threshold"]["threshold"] == constants.high_error_threshold
+
+
+def test_a_calibration_of_other_frames_is_refused(tmp_path: Path) -> None:
+    """Constants measured with another stepping (the high fluid before its viscosity
+    steps: 24 whole substeps a frame) do not judge today's clips."""
+    stored = json.loads(calibration_path("tiny", "high").read_text())
+    target = calibration_path("tiny", "high", tmp_path)
+    target.write_text(json.dumps({**stored, "stepping": {"substeps": 24, "viscosity_steps": 1}}))
+    with pytest.raises(MissingCalibration, match="srg calibrate --preset tiny --fluid high"):
+        load_calibration("tiny", "high", tmp_path)
+    target.write_text(json.dumps(stored))
+    assert load_calibration("tiny", "high", tmp_path) == load_calibration("tiny", "high")
