@@ -146,15 +146,17 @@ VISCOUS_STEP = 0.036
 
 
 def viscous_substeps(spacing: float, viscosity: float, fps: int) -> int:
-    """Substeps per frame so that ``dt <= VISCOUS_STEP * dx^2 / nu``.
+    """Explicit viscosity steps per frame so that each is ``<= VISCOUS_STEP * dx^2 / nu``
+    long (a scene takes them inside its substeps: ``Scene.viscosity_steps``).
 
     The viscosity of ``app.core.sph`` is an explicit SPH Laplacian. Its largest
     eigenvalue on the settled lattice is about ``-14 nu / dx^2`` (power iteration on
     the NumPy twin, tiny and small presets alike), so an explicit step is stable for
     ``dt < 0.144 dx^2 / nu``; the pressure solve stayed converged up to half of that
-    (dt |lambda| <= 0.5) and lost convergence at 0.7, hence 0.036. In terms of the
-    support h = 2 dx this is ``dt <= 0.009 h^2 / nu``: the usual ``0.125 h^2 / nu`` is
-    stated for the smoothing length (about dx here), not the support.
+    (dt |lambda| <= 0.5) and lost convergence at 0.7 when the viscous step was the whole
+    substep, hence 0.036. In terms of the support h = 2 dx this is
+    ``dt <= 0.009 h^2 / nu``: the usual ``0.125 h^2 / nu`` is stated for the smoothing
+    length (about dx here), not the support.
     """
     return math.ceil(viscosity / (VISCOUS_STEP * spacing**2 * fps))
 

@@ -41,7 +41,7 @@ ALWAYS = 2**30
 _I32, _F32 = np.int32, np.float32
 
 
-def tofloat4(xyz: np.ndarray) -> np.ndarray:
+def to_float4(xyz: np.ndarray) -> np.ndarray:
     """(n, 3) -> (n, 4) float32 with a zero w, the device layout."""
     out = np.zeros((len(xyz), 4), dtype=np.float32)
     out[:, :3] = xyz
@@ -111,7 +111,7 @@ class SphKernels(Launcher):
 
         # the neighbour scan reads particle rows in blocks of eight, up to seven past the
         # end: every buffer of positions it scans has eight rows of slack
-        self.walls_buf = const(np.concatenate([tofloat4(self.walls), np.zeros((8, 4), _F32)]))
+        self.walls_buf = const(np.concatenate([to_float4(self.walls), np.zeros((8, 4), _F32)]))
         self.psi_buf = const(self.psi)
         self.wall_start = const(wall_start.astype(_I32))
         self.compaction = const(compaction_table())
@@ -142,8 +142,8 @@ class SphKernels(Launcher):
     # -- state in and out ----------------------------------------------------------------
     def load(self, state: np.ndarray) -> None:
         """Positions and velocities of a state (n, 6); pressures to zero; ids = row."""
-        cl.enqueue_copy(self.queue, self.pos, tofloat4(state[:, 0:3]))
-        cl.enqueue_copy(self.queue, self.vel, tofloat4(state[:, 3:6]))
+        cl.enqueue_copy(self.queue, self.pos, to_float4(state[:, 0:3]))
+        cl.enqueue_copy(self.queue, self.vel, to_float4(state[:, 3:6]))
         cl.enqueue_copy(self.queue, self.p, np.zeros(self.n, dtype=_F32))
         cl.enqueue_copy(self.queue, self.ids, np.arange(self.n, dtype=_I32))
 
@@ -357,7 +357,7 @@ class SphKernels(Launcher):
         return out
 
     def keep_state(self) -> None:
-        """Copy what a substep starts from (positions, velocities, pressures, ids)."""
+        """Copy the state a frame starts from (positions, velocities, pressures, ids)."""
         for name in KEPT:
             cl.enqueue_copy(self.queue, self.kept[name], getattr(self, name))
 

@@ -95,6 +95,12 @@ def stepping(scene: Scene) -> dict[str, int]:
     return {"substeps": scene.substeps, "viscosity_steps": scene.viscosity_steps}
 
 
+def _described(steps: dict[str, int] | None) -> str:
+    if not steps:
+        return "an unrecorded stepping"
+    return f"{steps['substeps']} substeps a frame, {steps['viscosity_steps']} viscosity steps each"
+
+
 def load_calibration(
     preset: str, fluid: str = "low", directory: Path = CALIBRATION_DIR
 ) -> LiquidCalibration:
@@ -113,8 +119,9 @@ def load_calibration(
     now = stepping(tilt_tank(preset, fluid))
     if data.get("stepping") != now:
         raise MissingCalibration(
-            f"the calibration of preset {preset!r} was measured on frames stepped "
-            f"{data.get('stepping')}, the scene now steps {now}; {again}"
+            f"the calibration of preset {preset!r} was measured on "
+            f"{_described(data.get('stepping'))}, the scene now takes {_described(now)}; "
+            f"{again}"
         )
     return LiquidCalibration(**{k: float(data[k]) for k in LiquidCalibration.__annotations__})
 
