@@ -74,9 +74,3 @@ class Launcher:
         if x is None:
             x = self._scalars[("f", v)] = np.float32(v)
         return x
-
-    def _f4(self, v: tuple[float, float, float]) -> np.ndarray:
-        x = self._scalars.get(("f4", *v))
-        if x is None:
-            x = self._scalars[("f4", *v)] = float4(v)
-        return x

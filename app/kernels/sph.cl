@@ -99,12 +99,13 @@ inline float sum8(float8 v) {
 }
 
 // The host enqueues pressure iterations ahead of reading their errors. Iteration m is a
-// no-op (every work-item returns at once) when m >= check_from and the previous
-// iteration's max compression err[m - 1] is below eta: exactly when the loop has
-// stopped (a skipped iteration leaves err[m] = 0, so the ones after it skip too).
+// no-op for a clip (its work-items return at once) when m >= check_from and the clip's
+// max compression of the previous iteration is below eta: exactly when its loop has
+// stopped (a skipped iteration leaves its error 0, so the ones after it skip too). The
+// errors of iteration m are err[m * batch + clip], one per clip of the batch.
 inline int loop_stopped(__global volatile const uint *err, int iteration, int check_from,
-                        float eta) {
-    return iteration >= check_from && as_float(err[iteration - 1]) < eta;
+                        float eta, int batch, int clip) {
+    return iteration >= check_from && as_float(err[(iteration - 1) * batch + clip]) < eta;
 }
 
 inline int imin(int a, int b) {
@@ -127,11 +128,15 @@ inline int cell_index(int3 c, int4 dims) {
     return (c.z * dims.y + c.y) * dims.x + c.x;
 }
 
+// A batch of clips lies in one set of buffers, clip-major: clip c's particles are rows
+// [c n_clip, (c + 1) n_clip) and its cells [c n_cells, (c + 1) n_cells), so each clip
+// sorts, finds neighbours and sums exactly as it does alone (docs/sph.md, "Clips in
+// batches").
 __kernel void count_cells(__global const float4 *pos, __global int *cell,
                           __global volatile int *counts, float4 origin, float inv_cell,
-                          int4 dims) {
+                          int4 dims, int n_clip, int n_cells) {
     int i = get_global_id(0);
-    int c = cell_index(cell_of(pos[i], origin, inv_cell, dims), dims);
+    int c = i / n_clip * n_cells + cell_index(cell_of(pos[i], origin, inv_cell, dims), dims);
     cell[i] = c;
     atomic_inc(&counts[c]);
 }
@@ -284,12 +289,12 @@ __kernel void find_neighbours(__global const float4 *pos, __global const int *st
                               GRID_ARGS, __global const int8 *compact, int max_nb,
                               int max_wall_nb, __global int *nb, __global int *nb_count,
                               __global int *wall_nb, __global int *wall_nb_count,
-                              __global volatile int *overflow) {
+                              __global volatile int *overflow, int n_clip, int n_cells) {
     int i = get_global_id(0);
     float4 xi = pos[i];
     __global int *list = nb + i * max_nb;
-    int n = gather_neighbours(i, xi, pos, start, origin, dims, inv_cell, h, compact, list,
-                              max_nb);
+    int n = gather_neighbours(i, xi, pos, start + i / n_clip * n_cells, origin, dims,
+                              inv_cell, h, compact, list, max_nb);
     int nw = gather_neighbours(-1, xi, walls, wall_start, origin, dims, inv_cell, h, compact,
                                wall_nb + i * max_wall_nb, max_wall_nb);
     // a list holds max_nb - 8 neighbours (the rest is room for whole blocks of eight);
@@ -374,16 +379,18 @@ inline void viscosity_sums(int i, __global const float4 *pos, __global const flo
 // viscosity_sums). With viscous substeps (docs/sph.md, "Viscosity in substeps") visc and
 // wall_visc are the last substep's share.
 __kernel void nonpressure_accel(__global const float4 *pos, __global const float4 *vel,
-                                NEIGHBOUR_ARGS, GRID_ARGS, float4 gravity, float visc,
+                                NEIGHBOUR_ARGS, GRID_ARGS,
+                                __global const float4 *gravity, int n_clip, float visc,
                                 float wall_visc,
                                 __global float4 *a_np, __global float *pair_scale,
                                 __global float4 *wall_grad) {
     int i = get_global_id(0);
+    float4 g = gravity[i / n_clip];
     float3 lap, wall_lap, wall_sum;
     viscosity_sums(i, pos, vel, nb, nb_count, max_nb, walls, psi, wall_nb, wall_nb_count,
                    max_wall_nb, h, sigma, pair_scale + i * max_nb, &lap, &wall_lap,
                    &wall_sum);
-    a_np[i] = (float4)(gravity.xyz + visc * lap + wall_visc * wall_lap, 0.0f);
+    a_np[i] = (float4)(g.xyz + visc * lap + wall_visc * wall_lap, 0.0f);
     wall_grad[i] = (float4)(wall_sum, 0.0f);
 }
 
@@ -410,11 +417,12 @@ __kernel void pressure_predict(__global const float4 *pos, __global const float4
                                float inv_rho0_sq, float dt, float damping, float4 lo,
                                float4 hi, __global float4 *pos_pred,
                                __global float4 *vel_pred, __global volatile const uint *err,
-                               int iteration, int check_from, float eta) {
-    if (loop_stopped(err, iteration, check_from, eta)) {
+                               int iteration, int check_from, float eta, int n_clip,
+                               int batch) {
+    int i = get_global_id(0);
+    if (loop_stopped(err, iteration, check_from, eta, batch, i / n_clip)) {
         return;
     }
-    int i = get_global_id(0);
     float3 xi = pos[i].xyz;
     float pi = p[i];
     int n = nb_count[i];
@@ -448,17 +456,18 @@ __kernel void pressure_predict(__global const float4 *pos, __global const float4
 }
 
 // rho* at the predicted positions (fluid pairs eight at a time, padding masked out),
-// p <- max(0, p + delta (rho* - rho0)), and the max relative compression into
-// err[iteration] (atomic max of non-negative float bits).
+// p <- max(0, p + delta (rho* - rho0)), and the max relative compression of the clip into
+// err[iteration * batch + clip] (atomic max of non-negative float bits).
 __kernel void density_pressure(__global const float4 *pos_pred, NEIGHBOUR_ARGS, GRID_ARGS,
                                float rho0, float delta,
                                __global float *p, __global float *rho,
                                __global volatile uint *err, int iteration, int check_from,
-                               float eta) {
-    if (loop_stopped(err, iteration, check_from, eta)) {
+                               float eta, int n_clip, int batch) {
+    int i = get_global_id(0);
+    int clip = i / n_clip;
+    if (loop_stopped(err, iteration, check_from, eta, batch, clip)) {
         return;
     }
-    int i = get_global_id(0);
     float3 xi = pos_pred[i].xyz;
     int n = nb_count[i];
     __global const int *list = nb + i * max_nb;
@@ -492,7 +501,8 @@ __kernel void density_pressure(__global const float4 *pos_pred, NEIGHBOUR_ARGS, 
     p[i] = pn > 0.0f ? pn : 0.0f;
     // the atomic only where it can raise the max (err starts at 0): one atomic per
     // particle on one cache line from both cores cost a third of this kernel
-    if (c > as_float(err[iteration])) {
-        atomic_max(&err[iteration], as_uint(c));
+    __global volatile uint *e_clip = err + iteration * batch + clip;
+    if (c > as_float(*e_clip)) {
+        atomic_max(e_clip, as_uint(c));
     }
 }

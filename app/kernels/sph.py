@@ -2,17 +2,19 @@
 
 The API other layers use::
 
-    sim = SphSimulator(tilt_tank("small"))
+    sim = SphSimulator(tilt_tank("small"), batch=3)
     rest = sim.settle()                                # (n, 6) float32 state at rest
     frames, end = sim.simulate_clip(rest, control=1)   # (k, n, 3) positions, (n, 6)
+    frames, ends = sim.run_batch([rest] * 3, [0, 1, 2], 10)  # (3, 10, n, 3), (3, n, 6)
 
 A state is ``app.core.scene``'s (n, 6) float32 array (positions, velocities) in a fixed
 particle order. Each clip starts from the state alone (pressures from zero), so the same
-state, control and device always give bit-identical frames.
+state, control and device always give bit-identical frames, alone or in a batch.
 """
 
 from __future__ import annotations
 
+from collections.abc import Sequence
 from dataclasses import dataclass, field
 
 import numpy as np
@@ -44,6 +46,8 @@ class SolverStats:
 
 #: iterations a queued substep gets beyond the most the last frame's substeps needed
 BUDGET_SLACK = 4
+
+Gravity = tuple[float, float, float]
 
 
 def iterations_used(errors: np.ndarray, lo: int, eta: float) -> list[int] | None:
@@ -78,6 +82,9 @@ class SphSimulator:
     queue_frames : bool or None
         Queue each frame's substeps at once (:meth:`frame`); None: as the device suits
         (:func:`app.kernels.launch_shapes.queues_frames`). The frames are the same.
+    batch : int
+        Most clips simulated together (:meth:`run_batch`): one launch sequence runs them
+        all, each as it runs alone (docs/sph.md, "Clips in batches").
     """
 
     def __init__(
@@ -87,83 +94,90 @@ class SphSimulator:
         device: str = "",
         profile: bool = False,
         queue_frames: bool | None = None,
+        batch: int = 1,
     ) -> None:
         self.scene = scene
         self.n = len(initial_particles(scene))
-        self.kernels = SphKernels(scene, self.n, device=device, profile=profile)
+        self.kernels = SphKernels(scene, self.n, device=device, profile=profile, batch=batch)
         self.fixed_iterations = fixed_iterations
         device_suits = queues_frames(self.kernels.queue.device)
         self.queue_frames = device_suits if queue_frames is None else queue_frames
         self.stats = SolverStats()
-        self._errors = np.zeros(max(scene.max_iterations, 1), dtype=np.float32)
+        self._errors = np.zeros((max(scene.max_iterations, 1), batch), dtype=np.float32)
         #: pressure iterations queued per substep of a frame queued at once (:meth:`frame`)
         self.budget = max(scene.min_iterations, 1) + BUDGET_SLACK
         self._pending_reads: list[cl.Event] = []
 
-    def substep(self, gravity: tuple[float, float, float], damping: float = 0.0) -> int:
-        """Advance the loaded state by dt; returns the pressure iterations used.
+    def substep(self, gravities: Sequence[Gravity], damping: float = 0.0) -> list[int]:
+        """Advance the loaded clips by dt, each under its gravity; returns each clip's
+        pressure iterations.
 
-        The careful way: the host reads each iteration's error before it queues more.
+        The careful way: the host reads each iteration's errors before it queues more.
         """
         k = self.kernels
-        self._forces(gravity, damping)
+        self._forces(gravities, damping)
         k.reset_errors(self.scene.max_iterations)
         if self.fixed_iterations:
             it = self.fixed_iterations
             for m in range(it):
                 k.density_pressure(m)
                 k.pressure_predict(damping, m)
-            err = float(k.density_errors(it)[-1])
+            counts, errors = [it] * k.batch, k.density_errors(it)[-1].tolist()
         else:
-            it, err = self._converge(damping)
+            counts, errors = self._converge(damping)
         k.advance()
-        self._count(it, err)
-        return it
+        for it, err in zip(counts, errors, strict=True):
+            self._count(it, err)
+        return counts
 
-    def frame(self, gravity: tuple[float, float, float], damping: float = 0.0) -> None:
+    def frame(self, gravities: Sequence[Gravity], damping: float = 0.0) -> None:
         """Advance the loaded state by one frame (``scene.substeps`` substeps).
 
         With ``queue_frames`` every substep is queued at once with ``budget`` pressure
         iterations, those past convergence being no-ops on the device, and the host
         reads the errors once, at the end (docs/sph.md, "A frame queued at once").
-        Where a substep did not converge within its budget, the frame is put back and
-        run the careful way (:meth:`substep`), so the frames are the careful way's
-        either way.
+        Where a substep of a clip did not converge within its budget, the frame is put
+        back and run the careful way (:meth:`substep`), so the frames are the careful
+        way's either way.
         """
         k, s = self.kernels, self.scene
         lo, hi = max(s.min_iterations, 1), s.max_iterations
         budget = min(max(self.budget, lo), hi)
         if self.fixed_iterations or not self.queue_frames or lo > hi:
             for _ in range(s.substeps):
-                self.substep(gravity, damping)
+                self.substep(gravities, damping)
             return
         k.keep_state()
         k.reset_errors(s.substeps * budget)
         for j in range(s.substeps):
-            self._forces(gravity, damping)
+            self._forces(gravities, damping)
             first = j * budget
             for m in range(first, first + budget):
                 k.density_pressure(m, check_from=first + lo)
                 k.pressure_predict(damping, m, check_from=first + lo)
             k.advance()
-        errors = k.density_errors(s.substeps * budget).reshape(s.substeps, budget)
-        counts = iterations_used(errors, lo, s.eta)
-        if counts is None:
+        # (substep, iteration, clip) -> per clip, (substep, iteration)
+        errors = k.density_errors(s.substeps * budget).reshape(s.substeps, budget, k.batch)
+        per_clip = [iterations_used(errors[:, :, c], lo, s.eta) for c in range(k.batch)]
+        if any(counts is None for counts in per_clip):
             k.restore_state()
-            counts = [self.substep(gravity, damping) for _ in range(s.substeps)]
-        else:
-            for row, it in zip(errors, counts, strict=True):
-                self._count(it, float(row[it - 1]))
-        self.budget = max(counts) + BUDGET_SLACK
+            runs = [self.substep(gravities, damping) for _ in range(s.substeps)]
+            self.budget = max(max(counts) for counts in runs) + BUDGET_SLACK
+            return
+        for j in range(s.substeps):
+            for c, counts in enumerate(per_clip):
+                it = counts[j]  # type: ignore[index]
+                self._count(it, float(errors[j, it - 1, c]))
+        self.budget = max(max(counts) for counts in per_clip) + BUDGET_SLACK  # type: ignore[type-var]
 
-    def _forces(self, gravity: tuple[float, float, float], damping: float) -> None:
+    def _forces(self, gravities: Sequence[Gravity], damping: float) -> None:
         """A substep up to its pressure loop: sort, neighbours, viscosity, first x*, v*."""
         k, s = self.kernels, self.scene
         k.sort()
         k.find_neighbours()
         for _ in range(s.viscosity_steps - 1):
             k.diffuse_velocity()
-        k.nonpressure_accel(gravity)
+        k.nonpressure_accel(gravities)
         k.pressure_predict(damping)
 
     def _count(self, iterations: int, err: float) -> None:
@@ -174,37 +188,42 @@ class SphSimulator:
         st.max_error = max(st.max_error, err)
         st.unconverged_substeps += int(err >= self.scene.eta)
 
-    def _converge(self, damping: float) -> tuple[int, float]:
-        """Pressure iterations until the max compression is below eta: (count, error).
+    def _converge(self, damping: float) -> tuple[list[int], list[float]]:
+        """Pressure iterations until each clip's max compression is below eta: per clip,
+        (count, error).
 
-        The host tests each iteration's error while the next one is already queued (so
-        the device never waits for the host); an iteration queued after convergence is
-        a no-op on the device, so the result is that of testing after every iteration.
+        The host tests each iteration's errors while the next one is already queued (so
+        the device never waits for the host); an iteration queued after a clip's
+        convergence is a no-op for it on the device, so each clip's result is that of
+        testing after every iteration, alone.
         """
         k, s = self.kernels, self.scene
         # the first test follows the first iteration at the earliest, as in a plain loop
         lo, hi = max(s.min_iterations, 1), s.max_iterations
-        errors = self._errors
+        errors = self._errors[:, : k.batch]
         reads: dict[int, cl.Event] = {}
         for m in range(hi):
             k.density_pressure(m, check_from=lo)
             k.pressure_predict(damping, m, check_from=lo)
             if m + 1 >= lo:
-                reads[m] = k.enqueue_density_error(m, errors[m : m + 1])
+                reads[m] = k.enqueue_density_error(m, errors[m])
             if m >= lo:  # iteration m is queued: test m - 1
                 reads.pop(m - 1).wait()
-                if errors[m - 1] < s.eta:
+                if np.all(errors[m - 1] < s.eta):
                     break
         else:
             m = hi
             last = reads.pop(hi - 1, None)
             if last is None:  # max_iterations < min_iterations: never tested, as before
-                return hi, 0.0
+                return [hi] * k.batch, [0.0] * k.batch
             last.wait()
         # the read of a no-op iteration may still be pending: keep its host array and
         # event alive without waiting (pyopencl waits when such an event is freed)
         self._pending_reads = list(reads.values())
-        return m, float(errors[m - 1])
+        # each clip stopped at its first iteration from the lo-th on below eta
+        below = errors[lo - 1 : m] < s.eta
+        counts = [lo + int(np.argmax(b)) if b.any() else m for b in below.T]
+        return counts, [float(errors[it - 1, c]) for c, it in enumerate(counts)]
 
     def run(
         self,
@@ -214,16 +233,31 @@ class SphSimulator:
         damping: float = 0.0,
     ) -> tuple[np.ndarray, np.ndarray]:
         """Simulate ``frames`` frames from ``state``; positions per frame and end state."""
-        k = self.kernels
-        k.load(np.ascontiguousarray(state, dtype=np.float32))
-        gravity = self.scene.gravity[control]
-        out = np.empty((frames, self.n, 4), dtype=np.float32)
+        positions, ends = self.run_batch([state], [control], frames, damping)
+        return positions[0], ends[0]
+
+    def run_batch(
+        self,
+        states: Sequence[np.ndarray],
+        controls: Sequence[int],
+        frames: int,
+        damping: float = 0.0,
+    ) -> tuple[np.ndarray, np.ndarray]:
+        """Simulate ``frames`` frames of each clip (a start state and a control) in one
+        launch sequence: positions (clips, frames, n, 3) and end states (clips, n, 6),
+        each clip's bit-identical to its :meth:`run`."""
+        if len(states) != len(controls):
+            raise ValueError(f"{len(states)} states for {len(controls)} controls")
+        k, b = self.kernels, len(states)
+        k.load(np.ascontiguousarray(np.stack(states), dtype=np.float32))
+        gravities = [self.scene.gravity[c] for c in controls]
+        out = np.empty((frames, b * self.n, 4), dtype=np.float32)
         events = []
         for f in range(frames):
-            self.frame(gravity, damping)
+            self.frame(gravities, damping)
             events.append(k.enqueue_unsorted(k.pos, out[f]))
-        end_pos = np.empty((self.n, 4), dtype=np.float32)
-        end_vel = np.empty((self.n, 4), dtype=np.float32)
+        end_pos = np.empty((b * self.n, 4), dtype=np.float32)
+        end_vel = np.empty((b * self.n, 4), dtype=np.float32)
         k.enqueue_unsorted(k.pos, end_pos).wait()
         k.enqueue_unsorted(k.vel, end_vel).wait()
         for e in events:
@@ -231,8 +265,9 @@ class SphSimulator:
         overflow = k.overflowed()
         if overflow:
             raise PressureSolveError(f"a neighbour list overflowed ({overflow} neighbours)")
-        end = np.concatenate([end_pos[:, :3], end_vel[:, :3]], axis=1)
-        return out[:, :, :3].copy(), end
+        end = np.concatenate([end_pos[:, :3], end_vel[:, :3]], axis=1).reshape(b, self.n, 6)
+        positions = out[:, :, :3].reshape(frames, b, self.n, 3).transpose(1, 0, 2, 3)
+        return np.ascontiguousarray(positions), end
 
     def particle_fields(self) -> dict[str, np.ndarray]:
         """Positions (n, 3), pressures and densities (n,) of the last substep.

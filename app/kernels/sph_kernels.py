@@ -9,6 +9,7 @@ twin in ``app/core``. :class:`app.kernels.sph.SphSimulator` strings the stages t
 from __future__ import annotations
 
 import math
+from collections.abc import Sequence
 
 import numpy as np
 import pyopencl as cl
@@ -64,7 +65,9 @@ def compaction_table() -> np.ndarray:
 class SphKernels(Launcher):
     """Particle buffers and kernel launches for one scene on the OpenCL ``device``.
 
-    ``device`` is as in :func:`app.kernels.context.select_device`.
+    ``device`` is as in :func:`app.kernels.context.select_device`. The buffers hold up
+    to ``batch`` clips of ``n_particles`` each, clip-major (docs/sph.md, "Clips in
+    batches"); :meth:`load` says how many the next launches run.
     """
 
     def __init__(
@@ -75,10 +78,13 @@ class SphKernels(Launcher):
         device: str = "",
         profile: bool = False,
         cells_per_scan: int | None = None,
+        batch: int = 1,
     ) -> None:
         rt = runtime(device)
         super().__init__(rt, rt.program("sph.cl", build_options), profile)
-        self.scene, self.n = scene, n_particles
+        self.scene, self.n_clip, self.capacity = scene, n_particles, batch
+        #: clips loaded (:meth:`load`) and their rows in all
+        self.batch, self.n = 1, n_particles
         self.grid = make_grid(scene)
         self.delta = pcisph_delta(scene)
 
@@ -99,7 +105,7 @@ class SphKernels(Launcher):
             _F32(scene.particle_mass),
         )
 
-        ctx, n, nc = rt.context, n_particles, self.grid.n_cells
+        ctx, n, nc = rt.context, batch * n_particles, batch * self.grid.n_cells
         mf = cl.mem_flags
 
         def buf(nbytes: int) -> cl.Buffer:
@@ -124,16 +130,18 @@ class SphKernels(Launcher):
         self.counts = const(np.zeros(nc, dtype=_I32))
         self.start, self.cursor = buf(4 * (nc + 1)), buf(4 * nc)
         #: cells per work-item of the scan (``cells_per_scan``, else the device's
-        #: :func:`scan_block`), and each block's first slot
-        self.scan_block = cells_per_scan or scan_block(rt.device, nc)
-        self.scan_blocks = -(-nc // self.scan_block)
-        self.block_first = const(np.zeros(self.scan_blocks, dtype=_I32))
+        #: :func:`scan_block` for the cells of the clips loaded), and each block's first slot
+        self.cells_per_scan = cells_per_scan
+        self.block_first = const(np.zeros(nc, dtype=_I32))  # at most a block per cell
         self.nb, self.nb_count = buf(4 * n * MAX_NEIGHBOURS), buf(4 * n)
         # x(t)-geometry of the pressure loop, written by nonpressure_accel (see sph.cl)
         self.pair_scale, self.wall_grad = buf(4 * n * MAX_NEIGHBOURS), buf(16 * n)
         self.wall_nb, self.wall_nb_count = buf(4 * n * MAX_WALL_NEIGHBOURS), buf(4 * n)
-        # room for a frame's substeps queued at once, each with every iteration allowed
-        self.err = buf(4 * scene.substeps * max(scene.max_iterations, 1))
+        # room for a frame's substeps queued at once, each with every iteration allowed,
+        # per clip; and each clip's gravity
+        self.err = buf(4 * batch * scene.substeps * max(scene.max_iterations, 1))
+        self.gravity = buf(16 * batch)
+        self._gravities: tuple[tuple[float, float, float], ...] = ()
         #: the state a frame starts from (:meth:`keep_state`)
         self.kept = {name: buf(16 * rows if name in ("pos", "vel") else 4 * n) for name in KEPT}
         self.overflow = const(np.zeros(1, dtype=_I32))
@@ -141,9 +149,17 @@ class SphKernels(Launcher):
 
     # -- state in and out ----------------------------------------------------------------
     def load(self, state: np.ndarray) -> None:
-        """Positions and velocities of a state (n, 6); pressures to zero; ids = row."""
-        cl.enqueue_copy(self.queue, self.pos, to_float4(state[:, 0:3]))
-        cl.enqueue_copy(self.queue, self.vel, to_float4(state[:, 3:6]))
+        """Positions and velocities of a state (n, 6), or of a batch of them (b, n, 6),
+        one per clip; pressures to zero; ids = row."""
+        rows = state.reshape(-1, 6)
+        batch = len(rows) // self.n_clip
+        if batch * self.n_clip != len(rows) or not 1 <= batch <= self.capacity:
+            raise ValueError(
+                f"{len(rows)} particle rows are not 1 to {self.capacity} clips of {self.n_clip}"
+            )
+        self.batch, self.n = batch, len(rows)
+        cl.enqueue_copy(self.queue, self.pos, to_float4(rows[:, 0:3]))
+        cl.enqueue_copy(self.queue, self.vel, to_float4(rows[:, 3:6]))
         cl.enqueue_copy(self.queue, self.p, np.zeros(self.n, dtype=_F32))
         cl.enqueue_copy(self.queue, self.ids, np.arange(self.n, dtype=_I32))
 
@@ -164,12 +180,21 @@ class SphKernels(Launcher):
         return cl.enqueue_copy(self.queue, out, self.frame, is_blocking=False)
 
     # -- stages of a substep -------------------------------------------------------------
+    @property
+    def clip_args(self) -> tuple[np.int32, np.int32]:
+        """Rows and cells of one clip: where a work-item's clip begins (``sph.cl``)."""
+        return self._i32(self.n_clip), self._i32(self.grid.n_cells)
+
     def sort(self) -> None:
         """Counting sort by cell, ties by previous index; permutes pos, vel, p, ids."""
         g = self.grid_args
-        nc = self.grid.n_cells
-        self._run("count_cells", self.n, self.pos, self.cell, self.counts, g[0], g[2], g[1])
-        blocks, block = self.scan_blocks, self._i32(self.scan_block)
+        nc = self.batch * self.grid.n_cells
+        self._run(
+            "count_cells", self.n, self.pos, self.cell, self.counts, g[0], g[2], g[1],
+            *self.clip_args,
+        )
+        cells_per_block = self.cells_per_scan or scan_block(self.queue.device, nc)
+        blocks, block = -(-nc // cells_per_block), self._i32(cells_per_block)
         if blocks > 1:
             self._run("block_totals", blocks, self.counts, self.block_first, self._i32(nc), block)
             self._run("scan_block_totals", 1, self.block_first, self._i32(blocks))
@@ -220,6 +245,7 @@ class SphKernels(Launcher):
             self.wall_nb,
             self.wall_nb_count,
             self.overflow,
+            *self.clip_args,
         )
 
     @property
@@ -244,8 +270,15 @@ class SphKernels(Launcher):
         visc = 10.0 * s.viscosity * s.particle_mass / s.rest_density
         return visc / steps, 10.0 * s.wall_viscosity / s.rest_density / steps
 
-    def nonpressure_accel(self, gravity: tuple[float, float, float]) -> None:
-        """a_np with the last viscous step's share, and the pressure loop's geometry."""
+    def nonpressure_accel(self, gravities: Sequence[tuple[float, float, float]]) -> None:
+        """a_np under each loaded clip's gravity, with the last viscous step's share, and
+        the pressure loop's geometry."""
+        gravities = tuple(tuple(g) for g in gravities)  # type: ignore[misc]
+        if len(gravities) != self.batch:
+            raise ValueError(f"{len(gravities)} gravities for {self.batch} clips")
+        if gravities != self._gravities:
+            cl.enqueue_copy(self.queue, self.gravity, np.stack([float4(g) for g in gravities]))
+            self._gravities = gravities
         visc, wall_visc = self._viscosities()
         self._run(
             "nonpressure_accel",
@@ -254,7 +287,8 @@ class SphKernels(Launcher):
             self.vel,
             *self.neighbour_args,
             *self.grid_args,
-            self._f4(gravity),
+            self.gravity,
+            self._i32(self.n_clip),
             self._f32(visc),
             self._f32(wall_visc),
             self.a_np,
@@ -312,6 +346,8 @@ class SphKernels(Launcher):
             self._i32(iteration),
             self._i32(check_from),
             self._f32(s.eta),
+            self._i32(self.n_clip),
+            self._i32(self.batch),
         )
 
     def density_pressure(self, iteration: int, check_from: int = ALWAYS) -> None:
@@ -333,26 +369,29 @@ class SphKernels(Launcher):
             self._i32(iteration),
             self._i32(check_from),
             self._f32(self.scene.eta),
+            self._i32(self.n_clip),
+            self._i32(self.batch),
         )
 
     def reset_errors(self, count: int) -> None:
         """Zero the errors of the next ``count`` pressure iterations."""
         zero = np.zeros(1, dtype=np.uint32)
-        cl.enqueue_fill_buffer(self.queue, self.err, zero, 0, 4 * count)
+        cl.enqueue_fill_buffer(self.queue, self.err, zero, 0, 4 * count * self.batch)
 
     def density_error(self, iteration: int) -> float:
-        """Max relative compression of ``iteration`` (waits for the queue)."""
-        return float(self.density_errors(iteration + 1)[iteration])
+        """Max relative compression of ``iteration`` over the clips (waits for the queue)."""
+        return float(self.density_errors(iteration + 1)[iteration].max())
 
     def enqueue_density_error(self, iteration: int, out: np.ndarray) -> cl.Event:
-        """Start copying the max compression of ``iteration`` into ``out`` (one float32)."""
-        return cl.enqueue_copy(
-            self.queue, out, self.err, src_offset=4 * iteration, is_blocking=False
-        )
+        """Start copying each clip's max compression of ``iteration`` into ``out`` (one
+        float32 per clip)."""
+        offset = 4 * iteration * self.batch
+        return cl.enqueue_copy(self.queue, out, self.err, src_offset=offset, is_blocking=False)
 
     def density_errors(self, count: int) -> np.ndarray:
-        """Max relative compressions of iterations 0 .. count - 1 (0 where skipped; waits)."""
-        out = np.empty(count, dtype=np.float32)
+        """(count, batch) max relative compressions of iterations 0 .. count - 1 per clip
+        (0 where skipped; waits)."""
+        out = np.empty((count, self.batch), dtype=np.float32)
         cl.enqueue_copy(self.queue, out, self.err)
         return out
 

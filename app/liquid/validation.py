@@ -104,7 +104,7 @@ def floor_gauge(sim: SphSimulator, seconds: float = GAUGE_SECONDS) -> dict[str, 
     gravity = scene.gravity[0]
     wall_loads, clamp_loads = [], []
     for _ in range(round(seconds * scene.fps * scene.substeps)):
-        sim.substep(gravity)
+        sim.substep([gravity])
         # after advance, pos_pred/vel_pred hold x(t), v(t), at which the forces acted
         x0 = k.read(k.pos_pred, np.float32, 4)[:, :3].astype(np.float64)
         v0 = k.read(k.vel_pred, np.float32, 4)[:, :3].astype(np.float64)
@@ -309,7 +309,7 @@ def check_twins(scene: Scene, seed: int = 0, device: str = "") -> dict[str, Any]
     ids = k.read(k.ids, np.int32)
     nb = twin.find_neighbours(pos, k.walls, scene.support)
     gravity = np.asarray(scene.gravity[-1])
-    k.nonpressure_accel(scene.gravity[-1])
+    k.nonpressure_accel([scene.gravity[-1]])
     a_np = twin.nonpressure_accel(pos, vel, nb, k.walls, k.psi, gravity, scene)
     p = rng.uniform(0, 2000, len(state)).astype(np.float32)
     k.load_pressure(p)

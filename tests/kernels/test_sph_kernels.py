@@ -122,7 +122,7 @@ def test_pressure_loop_geometry_matches_twin() -> None:
     k.load(state)
     k.sort()
     k.find_neighbours()
-    k.nonpressure_accel(scene.gravity[0])
+    k.nonpressure_accel([scene.gravity[0]])
     pos = k.read(k.pos, np.float32, 4)[:, :3].astype(np.float64)
     count = k.read(k.nb_count, np.int32)[:, None]
     lists = k.read(k.nb, np.int32, MAX_NEIGHBOURS)
@@ -156,10 +156,10 @@ def test_loop_enqueued_ahead_equals_testing_every_iteration(
     gravity = scene.gravity[1]
     k = plain.kernels
     for _ in range(2 * scene.substeps):
-        used = ahead.substep(gravity)
+        (used,) = ahead.substep([gravity])
         k.sort()
         k.find_neighbours()
-        k.nonpressure_accel(gravity)
+        k.nonpressure_accel([gravity])
         k.pressure_predict()
         k.reset_errors(scene.max_iterations)
         it = 0
@@ -213,6 +213,45 @@ def test_a_frame_queued_at_once_is_the_careful_frame(
     assert min(careful.stats.iteration_counts) > 1
     if budget == 1:  # too few for any substep: the first frame was put back, and the
         assert restored == [1]  # budget then grew to fit the frames after it
+
+
+@pytest.mark.parametrize("queue_frames", [False, True])
+def test_a_batch_of_clips_is_each_clip_alone(
+    tiny_rest: tuple[SphSimulator, np.ndarray], queue_frames: bool
+) -> None:
+    """Clips from two start states under three controls, in one launch sequence, give
+    each clip's solo frames, end state and iteration counts bit for bit, the careful
+    way and queued a frame at once (with a budget that one frame outgrows)."""
+    sim, rest = tiny_rest
+    solo = SphSimulator(sim.scene, queue_frames=False)
+    _, moving = solo.run(rest, 1, 2)
+    states, controls = [rest, moving, rest], [2, 0, 1]
+    alone = []
+    for state, control in zip(states, controls, strict=True):
+        solo.stats.iteration_counts.clear()
+        frames, end = solo.run(state, control, 3)
+        alone.append((frames, end, list(solo.stats.iteration_counts)))
+    batch = SphSimulator(sim.scene, queue_frames=queue_frames, batch=4)
+    batch.budget = 2
+    frames, ends = batch.run_batch(states, controls, 3)
+    assert frames.shape == (3, 3, sim.n, 3) and ends.shape == (3, sim.n, 6)
+    counts = np.array(batch.stats.iteration_counts).reshape(-1, 3)  # substep-major
+    for c, (solo_frames, solo_end, solo_counts) in enumerate(alone):
+        assert np.array_equal(frames[c], solo_frames) and np.array_equal(ends[c], solo_end)
+        assert counts[:, c].tolist() == solo_counts
+    # the clips' loops stop at different iterations: the batch holds the early ones still
+    assert any(len(set(row)) > 1 for row in counts.tolist())
+
+
+def test_a_batch_larger_than_the_buffers_is_refused(
+    tiny_rest: tuple[SphSimulator, np.ndarray],
+) -> None:
+    sim, rest = tiny_rest
+    two = SphSimulator(sim.scene, batch=2)
+    with pytest.raises(ValueError, match="not 1 to 2 clips"):
+        two.run_batch([rest] * 3, [0, 1, 2], 1)
+    with pytest.raises(ValueError, match="2 states for 1 controls"):
+        two.run_batch([rest] * 2, [0], 1)
 
 
 def test_iterations_used_reads_where_each_loop_stopped() -> None:
