@@ -170,11 +170,25 @@ def sph(
         help="instead: device time per kernel and the host's gaps, per substep, "
         "from a profiling queue (the tank tilted, after a 1 s settle)",
     ),
+    batch: str | None = typer.Option(
+        None,
+        "--batch",
+        help="instead: whole clips in batches of these sizes (e.g. 1,3,12), clip-frames "
+        "per second and identity with each clip run alone",
+    ),
 ) -> None:
     """Particle-substeps per second of the PCISPH kernels (converged and at 3 iterations)."""
     from app.config import get_settings
 
+    sizes = _positive_ints("--batch", batch) if batch is not None else None
+    if sizes is not None and profile:
+        raise InvalidInput("--batch and --profile are two benchmarks: give one")
     device = get_settings().runtime.opencl_device
+    if sizes is not None:
+        from app.bench.sph_batch import bench_batch
+
+        _emit(bench_batch(preset.value, fluid.value, sizes, device))
+        return
     if profile:
         from app.bench.sph_profile import profile_sph
 

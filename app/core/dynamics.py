@@ -8,6 +8,7 @@ frames; it only passes them back to the dynamics that made them.
 
 from __future__ import annotations
 
+from collections.abc import Sequence
 from dataclasses import dataclass
 from typing import Protocol, runtime_checkable
 
@@ -86,6 +87,12 @@ class Dynamics(Protocol):
         ...
 
     def simulate(self, state: np.ndarray, control: int) -> SimClip: ...
+
+    def simulate_many(self, states: Sequence[np.ndarray], controls: Sequence[int]) -> list[SimClip]:
+        """The clips of several (state, control) pairs, each exactly the one
+        :meth:`simulate` gives: a dynamics may run them together (the liquid runs an
+        expansion's clips in one batch, docs/sph.md "Clips in batches")."""
+        ...
 
     def features(self, clip: SimClip) -> ClipFeatures: ...
 

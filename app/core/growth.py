@@ -58,11 +58,12 @@ def best_target(
     return best
 
 
-def simulate_clip(
-    dynamics: Dynamics, state: np.ndarray, control: int
-) -> tuple[SimClip, ClipFeatures]:
-    sim = dynamics.simulate(state, control)
-    return sim, dynamics.features(sim)
+def simulate_clips(
+    dynamics: Dynamics, state: np.ndarray, controls: Sequence[int]
+) -> list[tuple[SimClip, ClipFeatures]]:
+    """The clips of ``controls`` from ``state``, simulated together, with their features."""
+    sims = dynamics.simulate_many([state] * len(controls), controls)
+    return [(sim, dynamics.features(sim)) for sim in sims]
 
 
 def initial_tree_clips(n_controls: int, depth: int) -> int:
@@ -96,8 +97,7 @@ def initial_tree(
     for level in range(depth):
         next_frontier = []
         for vertex, state in frontier:
-            for control in range(n):
-                sim, features = simulate_clip(dynamics, state, control)
+            for control, (sim, features) in enumerate(simulate_clips(dynamics, state, range(n))):
                 clip = graph.add_clip(vertex, features)
                 bank.put(clip, sim, features)
                 if progress is not None:
@@ -173,7 +173,7 @@ def expand_blend_edge(
 ) -> Expansion:
     """Simulate and integrate one expansion in-process (the eager path)."""
     state = expansion_start_state(graph, bank, edge)
-    clips = [simulate_clip(dynamics, state, c) for c in range(graph.n_controls)]
+    clips = simulate_clips(dynamics, state, range(graph.n_controls))
     return integrate_expansion(graph, bank, dynamics, edge, clips, prefilter_k=prefilter_k)
 
 

@@ -17,6 +17,7 @@ their union (``max`` of heights).
 
 from __future__ import annotations
 
+from collections.abc import Sequence
 from dataclasses import dataclass
 
 import numpy as np
@@ -77,6 +78,10 @@ class ToyDynamics:
             bumps = np.random.default_rng(world).uniform(-1.0, 1.0, self.cells)
             heights += self.world_perturbation * self.depth * (bumps - bumps.mean())
         return np.concatenate([heights, np.zeros(self.cells - 1)])
+
+    def simulate_many(self, states: Sequence[np.ndarray], controls: Sequence[int]) -> list[SimClip]:
+        """One clip after another: a toy clip costs microseconds."""
+        return [self.simulate(s, c) for s, c in zip(states, controls, strict=True)]
 
     def simulate(self, state: np.ndarray, control: int) -> SimClip:
         h = state[: self.cells].copy()

@@ -158,17 +158,16 @@ class SphSimulator:
             k.advance()
         # (substep, iteration, clip) -> per clip, (substep, iteration)
         errors = k.density_errors(s.substeps * budget).reshape(s.substeps, budget, k.batch)
-        per_clip = [iterations_used(errors[:, :, c], lo, s.eta) for c in range(k.batch)]
-        if any(counts is None for counts in per_clip):
+        used = [iterations_used(errors[:, :, c], lo, s.eta) for c in range(k.batch)]
+        per_clip = [counts for counts in used if counts is not None]
+        if len(per_clip) < k.batch:
             k.restore_state()
-            runs = [self.substep(gravities, damping) for _ in range(s.substeps)]
-            self.budget = max(max(counts) for counts in runs) + BUDGET_SLACK
-            return
-        for j in range(s.substeps):
-            for c, counts in enumerate(per_clip):
-                it = counts[j]  # type: ignore[index]
-                self._count(it, float(errors[j, it - 1, c]))
-        self.budget = max(max(counts) for counts in per_clip) + BUDGET_SLACK  # type: ignore[type-var]
+            per_clip = [self.substep(gravities, damping) for _ in range(s.substeps)]
+        else:
+            for j in range(s.substeps):
+                for c, counts in enumerate(per_clip):
+                    self._count(counts[j], float(errors[j, counts[j] - 1, c]))
+        self.budget = max(max(counts) for counts in per_clip) + BUDGET_SLACK
 
     def _forces(self, gravities: Sequence[Gravity], damping: float) -> None:
         """A substep up to its pressure loop: sort, neighbours, viscosity, first x*, v*."""

@@ -190,7 +190,14 @@ class SphKernels(Launcher):
         g = self.grid_args
         nc = self.batch * self.grid.n_cells
         self._run(
-            "count_cells", self.n, self.pos, self.cell, self.counts, g[0], g[2], g[1],
+            "count_cells",
+            self.n,
+            self.pos,
+            self.cell,
+            self.counts,
+            g[0],
+            g[2],
+            g[1],
             *self.clip_args,
         )
         cells_per_block = self.cells_per_scan or scan_block(self.queue.device, nc)

@@ -19,6 +19,7 @@ from __future__ import annotations
 import functools
 import hashlib
 import json
+from collections.abc import Sequence
 from dataclasses import asdict, dataclass
 from pathlib import Path
 
@@ -218,8 +219,12 @@ class LiquidDynamics:
     # ---- engines, built on first use -------------------------------------------------
     @property
     def simulator(self) -> SphSimulator:
+        """The scene's simulator, with room for an expansion's clips (one per control) in
+        one batch."""
         if self._simulator is None:
-            self._simulator = SphSimulator(self.scene, device=self.devices.opencl_device)
+            self._simulator = SphSimulator(
+                self.scene, device=self.devices.opencl_device, batch=self.n_controls
+            )
         return self._simulator
 
     @property
@@ -249,18 +254,35 @@ class LiquidDynamics:
         """int8 SDF frames (k, X, Y, Z) of (k, n, 3) particle positions."""
         return quantise_sdf(self.grid, self.sdf_kernel.frames(positions))
 
-    def simulate_particles(self, state: np.ndarray, control: int) -> tuple[np.ndarray, np.ndarray]:
-        """PCISPH only: the (k, n, 3) particle positions of a clip's frames, its end state.
+    def simulate_particles(
+        self, states: Sequence[np.ndarray], controls: Sequence[int]
+    ) -> list[tuple[np.ndarray, np.ndarray]]:
+        """PCISPH only: per clip (a start state and a control), the (k, n, 3) particle
+        positions of its frames and its end state.
 
-        The end state is on the lattice, its particles in Morton order: the frames keep
-        the particle order of ``state``, clips simulated from the end state its own.
+        The clips run in batches of up to one per control, each bit-identical to its
+        run alone (docs/sph.md, "Clips in batches"). An end state is on the lattice, its
+        particles in Morton order: the frames keep the particle order of their start
+        state, clips simulated from the end state its own.
         """
-        positions, end_state = self.simulator.simulate_clip(state, control)
-        return positions, snap_state(end_state, self.lattice)
+        sim, k = self.simulator, self.scene.frames_per_clip
+        out = []
+        for first in range(0, len(states), self.n_controls):
+            chunk = slice(first, first + self.n_controls)
+            positions, ends = sim.run_batch(states[chunk], controls[chunk], k)
+            out += [(p, snap_state(e, self.lattice)) for p, e in zip(positions, ends, strict=True)]
+        return out
 
     def simulate(self, state: np.ndarray, control: int) -> SimClip:
-        positions, end_state = self.simulate_particles(state, control)
-        return SimClip(control=control, frames=self.surface_frames(positions), end_state=end_state)
+        (clip,) = self.simulate_many([state], [control])
+        return clip
+
+    def simulate_many(self, states: Sequence[np.ndarray], controls: Sequence[int]) -> list[SimClip]:
+        simulated = self.simulate_particles(states, controls)
+        return [
+            SimClip(control=c, frames=self.surface_frames(positions), end_state=end_state)
+            for (positions, end_state), c in zip(simulated, controls, strict=True)
+        ]
 
     def features(self, clip: SimClip) -> ClipFeatures:
         occ = self._occupancy(clip.frames)

@@ -10,6 +10,7 @@ done. Simulating needs no database at all
 from __future__ import annotations
 
 import hashlib
+from collections.abc import Sequence
 from dataclasses import dataclass
 from typing import Protocol, runtime_checkable
 
@@ -39,8 +40,8 @@ class SurfacedDynamics(Protocol):
     """
 
     def simulate_particles(
-        self, state: np.ndarray, control: int
-    ) -> tuple[np.ndarray, np.ndarray]: ...
+        self, states: Sequence[np.ndarray], controls: Sequence[int]
+    ) -> list[tuple[np.ndarray, np.ndarray]]: ...
 
     def surface_frames(self, positions: np.ndarray) -> np.ndarray: ...
 
@@ -125,21 +126,35 @@ def remember_clip(session: Session, settings: Settings, job: ClipJob, clip: str)
 
 
 def simulate_job(job: ClipJob) -> dict[str, np.ndarray]:
-    """The simulated stage of a clip, no database needed.
+    """The simulated stage of a clip, no database needed (see :func:`simulate_jobs`)."""
+    return simulate_jobs([job])[0]
 
-    A :class:`SurfacedDynamics` (the liquid): the particle positions of the k frames and
-    the end state, the surface is :func:`finish_clip`'s. Any other: the whole clip.
+
+def simulate_jobs(jobs: Sequence[ClipJob]) -> list[dict[str, np.ndarray]]:
+    """The simulated stages of clips of one dynamics (an expansion's), no database needed.
+
+    A :class:`SurfacedDynamics` (the liquid) simulates them together, in batches: the
+    particle positions of the k frames and the end state, the surface is
+    :func:`finish_clip`'s. Any other: each whole clip.
     """
-    dynamics = job.dynamics
+    if not jobs:
+        return []
+    dynamics = jobs[0].dynamics
+    if any(job.dynamics is not dynamics for job in jobs):
+        raise ValueError("clips simulated together share one dynamics")
     if isinstance(dynamics, SurfacedDynamics):
-        positions, end_state = dynamics.simulate_particles(job.state, job.control)
-        return {
-            "positions": positions,
-            "end_state": end_state,
-            "control": np.asarray(job.control, dtype=np.int64),
-        }
-    sim = dynamics.simulate(job.state, job.control)
-    return clip_arrays(sim, dynamics.features(sim))
+        controls = [job.control for job in jobs]
+        simulated = dynamics.simulate_particles([job.state for job in jobs], controls)
+        return [
+            {
+                "positions": positions,
+                "end_state": end_state,
+                "control": np.asarray(control, dtype=np.int64),
+            }
+            for (positions, end_state), control in zip(simulated, controls, strict=True)
+        ]
+    sims = dynamics.simulate_many([job.state for job in jobs], [job.control for job in jobs])
+    return [clip_arrays(sim, dynamics.features(sim)) for sim in sims]
 
 
 def finish_clip(dynamics: Dynamics, stage: dict[str, np.ndarray]) -> dict[str, np.ndarray] | None:

@@ -36,13 +36,14 @@ from app.core.strategies import Strategy
 from app.db.sessions import Scope
 from app.services.animations import blend_strip
 from app.services.clips import (
+    ClipJob,
     clip_from_arrays,
     clip_job,
     finish_clip,
     remember_clip,
     remembered_clip,
     render_step,
-    simulate_job,
+    simulate_jobs,
 )
 from app.services.loading import LoadedGraph, artifact_store, keep_graph, loaded_graph
 from app.services.refining import rank_stored, refiner_for
@@ -344,12 +345,11 @@ def run_epoch(
     missing = set(work.missing_clips)
     done = []
     for position in work.pending:
-        for control in controls:
-            if (position, control) in missing:
-                clip = _simulate_in_process(scope, settings, epoch_id, position, control)
-                if renders:
-                    with scope() as session:
-                        render_step(session, settings, clip, epoch_id, position, control)
+        todo = [control for control in controls if (position, control) in missing]
+        for control, clip in _simulate_in_process(scope, settings, epoch_id, position, todo):
+            if renders:
+                with scope() as session:
+                    render_step(session, settings, clip, epoch_id, position, control)
         with scope() as session:
             integration = integrate_step(session, settings, epoch_id, position)
         done.append(integration)
@@ -362,21 +362,30 @@ def run_epoch(
 
 
 def _simulate_in_process(
-    scope: Scope, settings: Settings, epoch_id: int, position: int, control: int
-) -> str:
-    """One clip: read, then compute outside any transaction, then record (SQLite's
-    single writer is held only for the short record, so processes grow side by side)."""
+    scope: Scope, settings: Settings, epoch_id: int, position: int, controls: list[int]
+) -> list[tuple[int, str]]:
+    """The clips of ``controls`` of one expansion, (control, digest) in that order: read,
+    then compute together outside any transaction (one batch, docs/sph.md "Clips in
+    batches"), then record each (SQLite's single writer is held only for the short
+    records, so processes grow side by side)."""
+    digests: dict[int, str] = {}
+    jobs: dict[int, ClipJob] = {}
     with scope() as session:
-        job = clip_job(session, settings, epoch_id, position, control)
-        if isinstance(job, str):
-            return job
-        if (remembered := remembered_clip(session, settings, job)) is not None:
-            record_clip(session, epoch_id, position, control, remembered)
-            return remembered
-    stage = simulate_job(job)
-    clip = finish_clip(job.dynamics, stage) or stage
-    with scope() as session:
-        digest = artifact_store(settings).put_arrays(clip, session=session)
-        record_clip(session, epoch_id, position, control, digest)
-        remember_clip(session, settings, job, digest)
-    return digest
+        for control in controls:
+            job = clip_job(session, settings, epoch_id, position, control)
+            if isinstance(job, str):
+                digests[control] = job
+            elif (remembered := remembered_clip(session, settings, job)) is not None:
+                record_clip(session, epoch_id, position, control, remembered)
+                digests[control] = remembered
+            else:
+                jobs[control] = job
+    stages = simulate_jobs(list(jobs.values()))
+    for (control, job), stage in zip(jobs.items(), stages, strict=True):
+        clip = finish_clip(job.dynamics, stage) or stage
+        with scope() as session:
+            digest = artifact_store(settings).put_arrays(clip, session=session)
+            record_clip(session, epoch_id, position, control, digest)
+            remember_clip(session, settings, job, digest)
+        digests[control] = digest
+    return [(control, digests[control]) for control in controls]

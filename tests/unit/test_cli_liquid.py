@@ -232,6 +232,47 @@ def test_bench_sph_profile_accounts_for_every_kernel_of_a_substep(cli: typer.Typ
     assert 0.0 <= report["gap_share"] < 1.0
 
 
+def test_bench_sph_batch_reports_each_size_and_identity(cli: typer.Typer) -> None:
+    args = ["bench", "sph", "--preset", "tiny", "--batch", "1,2,4"]
+    result = CliRunner().invoke(cli, args)
+    assert result.exit_code == 0, result.output
+    report = json.loads(result.output)
+    rows = report["batches"]
+    assert [row["batch"] for row in rows] == [1, 2, 4]
+    # a batch of one times every clip of the largest batch, alone
+    assert [row["clips_timed"] for row in rows] == [4, 2, 4]
+    assert all(row["identical"] for row in rows) and report["identical"] is True
+    assert rows[0]["speedup"] == 1.0
+    for row in rows:
+        assert row["clip_frames_per_s"] == pytest.approx(
+            row["clips_timed"] * report["frames_per_clip"] / row["wall_s"]
+        )
+
+
+@pytest.mark.parametrize(
+    ("extra", "message"),
+    [
+        (["--batch", "0,3"], "--batch takes comma-separated positive integers, got '0,3'"),
+        (["--batch", "3,x"], "--batch takes comma-separated positive integers, got '3,x'"),
+        (["--batch", "3", "--profile"], "--batch and --profile are two benchmarks: give one"),
+    ],
+)
+def test_bench_sph_batch_bad_values_are_one_line(
+    monkeypatch: pytest.MonkeyPatch,
+    capsys: pytest.CaptureFixture[str],
+    extra: list[str],
+    message: str,
+) -> None:
+    import app.cli.main
+
+    monkeypatch.setattr(sys, "argv", ["srg", "bench", "sph", "--preset", "tiny", *extra])
+    with pytest.raises(SystemExit) as exit_info:
+        app.cli.main.main()
+    assert exit_info.value.code == 2
+    captured = capsys.readouterr()
+    assert captured.err == f"srg: error: {message}\n" and captured.out == ""
+
+
 def test_bench_clip_tiny_reports_the_rendered_clips_dark_pixels(cli: typer.Typer) -> None:
     args = ["bench", "clip", "--preset", "tiny", "--settle", "0.2", "--frames", "3"]
     result = CliRunner().invoke(cli, args)

@@ -16,7 +16,7 @@ from app.core.growth import (
     integrate_expansion,
     relink_all,
     select_for_expansion,
-    simulate_clip,
+    simulate_clips,
 )
 from app.core.toy import ToyDynamics
 
@@ -78,7 +78,7 @@ def test_integration_with_wrong_clips_changes_nothing() -> None:
     edge = int(graph.blend_edges()[0])
     before = (graph.n_vertices, list(graph.edge_kind), list(graph.edge_dst))
     state = bank.end_state(graph.edge_clip[edge])
-    clips = [simulate_clip(DYN, state, c) for c in (0, 2, 1)]
+    clips = simulate_clips(DYN, state, (0, 2, 1))
     with pytest.raises(ValueError, match="control order"):
         integrate_expansion(graph, bank, DYN, edge, clips)
     assert (graph.n_vertices, list(graph.edge_kind), list(graph.edge_dst)) == before

@@ -70,6 +70,23 @@ def test_clip_frames_are_quantised_sdfs_and_features_are_consistent(
     np.testing.assert_array_equal(descriptor, f.descriptor)
 
 
+def test_an_expansions_clips_together_are_each_clip_alone(
+    dyn: LiquidDynamics, rest: np.ndarray, tilted: SimClip
+) -> None:
+    """More clips than one batch holds (two batches), from two states: each is
+    :meth:`simulate`'s clip, surface and snapped end state included."""
+    states = [rest, tilted.end_state, rest, tilted.end_state]
+    controls = [1, 0, 2, 2]
+    together = dyn.simulate_many(states, controls)
+    assert [clip.control for clip in together] == controls
+    assert together[0].end_state.shape == rest.shape
+    for clip, state, control in zip(together, states, controls, strict=True):
+        alone = dyn.simulate(state, control)
+        assert np.array_equal(clip.frames, alone.frames)
+        assert np.array_equal(clip.end_state, alone.end_state)
+    assert np.array_equal(together[0].frames, tilted.frames)
+
+
 def test_settled_clips_of_one_control_are_at_distance_zero(
     dyn: LiquidDynamics, rest: np.ndarray
 ) -> None:

@@ -40,6 +40,16 @@ def test_simulation_is_deterministic() -> None:
     assert np.array_equal(a.frames, b.frames) and np.array_equal(a.end_state, b.end_state)
 
 
+def test_clips_simulated_together_are_each_clip_alone() -> None:
+    state = DYN.initial_state()
+    clips = DYN.simulate_many([state, state], [2, 1])
+    for clip, control in zip(clips, (2, 1), strict=True):
+        alone = DYN.simulate(state, control)
+        assert clip.control == control
+        assert np.array_equal(clip.frames, alone.frames)
+        assert np.array_equal(clip.end_state, alone.end_state)
+
+
 def test_tank_at_rest_stays_at_rest_under_the_level_control() -> None:
     clip = DYN.simulate(DYN.initial_state(), 0)
     assert DYN.features(clip).kinetic < DYN.rest_kinetic
