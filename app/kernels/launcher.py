@@ -42,8 +42,10 @@ class Launcher:
         self._bound: dict[str, list[Any]] = {}
         self._scalars: dict[tuple[Any, ...], Any] = {}
 
-    def _run(self, name: str, size: int, *args: Any) -> None:
+    def _run(self, name: str, size: int | tuple[int, int], *args: Any) -> None:
         """Enqueue kernel ``name`` on ``size`` work-items, setting only changed arguments.
+
+        A pair (n, m) launches n x m work-items in groups along the first index only.
 
         pyopencl's ``kernel(queue, ...)`` converts and sets every argument on every call,
         about 170 us of Python for these 20-30 argument kernels, which competes with the
@@ -58,7 +60,10 @@ class Launcher:
             if bound[index] is not arg:
                 kernel.set_arg(index, arg)
                 bound[index] = arg
-        event = cl.enqueue_nd_range_kernel(self.queue, kernel, (size,), work_group(size))
+        shape = size if isinstance(size, tuple) else (size,)
+        group = work_group(shape[0])
+        local = None if group is None else group + (1,) * (len(shape) - 1)
+        event = cl.enqueue_nd_range_kernel(self.queue, kernel, shape, local)
         if self.launches is not None:
             self.launches.append((name, event))
 

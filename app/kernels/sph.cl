@@ -53,6 +53,12 @@ typedef int8 int8_slots __attribute__((aligned(4)));
 #define LOAD8(type, p) (*(__global const type *)(p))
 #define STORE8(p, v) (*(__global float8 *)(p) = (v))
 
+// a work-item's clip, the clips in its launch and its particle's row, in a launch on
+// (n_clip, batch) work-items (see count_cells)
+#define CLIP ((int)get_global_id(1))
+#define BATCH ((int)get_global_size(1))
+#define PARTICLE (CLIP * (int)get_global_size(0) + (int)get_global_id(0))
+
 inline float dot3(float3 a, float3 b) {
     return a.x * b.x + a.y * b.y + a.z * b.z;
 }
@@ -102,10 +108,10 @@ inline float sum8(float8 v) {
 // no-op for a clip (its work-items return at once) when m >= check_from and the clip's
 // max compression of the previous iteration is below eta: exactly when its loop has
 // stopped (a skipped iteration leaves its error 0, so the ones after it skip too). The
-// errors of iteration m are err[m * batch + clip], one per clip of the batch.
+// errors of iteration m are err[m * BATCH + CLIP], one per clip of the batch.
 inline int loop_stopped(__global volatile const uint *err, int iteration, int check_from,
-                        float eta, int batch, int clip) {
-    return iteration >= check_from && as_float(err[(iteration - 1) * batch + clip]) < eta;
+                        float eta) {
+    return iteration >= check_from && as_float(err[(iteration - 1) * BATCH + CLIP]) < eta;
 }
 
 inline int imin(int a, int b) {
@@ -131,12 +137,13 @@ inline int cell_index(int3 c, int4 dims) {
 // A batch of clips lies in one set of buffers, clip-major: clip c's particles are rows
 // [c n_clip, (c + 1) n_clip) and its cells [c n_cells, (c + 1) n_cells), so each clip
 // sorts, finds neighbours and sums exactly as it does alone (docs/sph.md, "Clips in
-// batches").
+// batches"). The kernels that need to know a particle's clip are launched on
+// (n_clip, batch) work-items: the clip is the second index, the same in a work-group.
 __kernel void count_cells(__global const float4 *pos, __global int *cell,
                           __global volatile int *counts, float4 origin, float inv_cell,
-                          int4 dims, int n_clip, int n_cells) {
-    int i = get_global_id(0);
-    int c = i / n_clip * n_cells + cell_index(cell_of(pos[i], origin, inv_cell, dims), dims);
+                          int4 dims, int n_cells) {
+    int i = PARTICLE;
+    int c = CLIP * n_cells + cell_index(cell_of(pos[i], origin, inv_cell, dims), dims);
     cell[i] = c;
     atomic_inc(&counts[c]);
 }
@@ -289,12 +296,12 @@ __kernel void find_neighbours(__global const float4 *pos, __global const int *st
                               GRID_ARGS, __global const int8 *compact, int max_nb,
                               int max_wall_nb, __global int *nb, __global int *nb_count,
                               __global int *wall_nb, __global int *wall_nb_count,
-                              __global volatile int *overflow, int n_clip, int n_cells) {
-    int i = get_global_id(0);
+                              __global volatile int *overflow, int n_cells) {
+    int i = PARTICLE;
     float4 xi = pos[i];
     __global int *list = nb + i * max_nb;
-    int n = gather_neighbours(i, xi, pos, start + i / n_clip * n_cells, origin, dims,
-                              inv_cell, h, compact, list, max_nb);
+    int n = gather_neighbours(i, xi, pos, start + CLIP * n_cells, origin, dims, inv_cell, h,
+                              compact, list, max_nb);
     int nw = gather_neighbours(-1, xi, walls, wall_start, origin, dims, inv_cell, h, compact,
                                wall_nb + i * max_wall_nb, max_wall_nb);
     // a list holds max_nb - 8 neighbours (the rest is room for whole blocks of eight);
@@ -380,12 +387,11 @@ inline void viscosity_sums(int i, __global const float4 *pos, __global const flo
 // wall_visc are the last substep's share.
 __kernel void nonpressure_accel(__global const float4 *pos, __global const float4 *vel,
                                 NEIGHBOUR_ARGS, GRID_ARGS,
-                                __global const float4 *gravity, int n_clip, float visc,
-                                float wall_visc,
+                                __global const float4 *gravity, float visc, float wall_visc,
                                 __global float4 *a_np, __global float *pair_scale,
                                 __global float4 *wall_grad) {
-    int i = get_global_id(0);
-    float4 g = gravity[i / n_clip];
+    int i = PARTICLE;
+    float4 g = gravity[CLIP];
     float3 lap, wall_lap, wall_sum;
     viscosity_sums(i, pos, vel, nb, nb_count, max_nb, walls, psi, wall_nb, wall_nb_count,
                    max_wall_nb, h, sigma, pair_scale + i * max_nb, &lap, &wall_lap,
@@ -417,12 +423,11 @@ __kernel void pressure_predict(__global const float4 *pos, __global const float4
                                float inv_rho0_sq, float dt, float damping, float4 lo,
                                float4 hi, __global float4 *pos_pred,
                                __global float4 *vel_pred, __global volatile const uint *err,
-                               int iteration, int check_from, float eta, int n_clip,
-                               int batch) {
-    int i = get_global_id(0);
-    if (loop_stopped(err, iteration, check_from, eta, batch, i / n_clip)) {
+                               int iteration, int check_from, float eta) {
+    if (loop_stopped(err, iteration, check_from, eta)) {
         return;
     }
+    int i = PARTICLE;
     float3 xi = pos[i].xyz;
     float pi = p[i];
     int n = nb_count[i];
@@ -457,17 +462,16 @@ __kernel void pressure_predict(__global const float4 *pos, __global const float4
 
 // rho* at the predicted positions (fluid pairs eight at a time, padding masked out),
 // p <- max(0, p + delta (rho* - rho0)), and the max relative compression of the clip into
-// err[iteration * batch + clip] (atomic max of non-negative float bits).
+// err[iteration * BATCH + CLIP] (atomic max of non-negative float bits).
 __kernel void density_pressure(__global const float4 *pos_pred, NEIGHBOUR_ARGS, GRID_ARGS,
                                float rho0, float delta,
                                __global float *p, __global float *rho,
                                __global volatile uint *err, int iteration, int check_from,
-                               float eta, int n_clip, int batch) {
-    int i = get_global_id(0);
-    int clip = i / n_clip;
-    if (loop_stopped(err, iteration, check_from, eta, batch, clip)) {
+                               float eta) {
+    if (loop_stopped(err, iteration, check_from, eta)) {
         return;
     }
+    int i = PARTICLE;
     float3 xi = pos_pred[i].xyz;
     int n = nb_count[i];
     __global const int *list = nb + i * max_nb;
@@ -501,7 +505,7 @@ __kernel void density_pressure(__global const float4 *pos_pred, NEIGHBOUR_ARGS, 
     p[i] = pn > 0.0f ? pn : 0.0f;
     // the atomic only where it can raise the max (err starts at 0): one atomic per
     // particle on one cache line from both cores cost a third of this kernel
-    __global volatile uint *e_clip = err + iteration * batch + clip;
+    __global volatile uint *e_clip = err + iteration * BATCH + CLIP;
     if (c > as_float(*e_clip)) {
         atomic_max(e_clip, as_uint(c));
     }

@@ -181,9 +181,9 @@ class SphKernels(Launcher):
 
     # -- stages of a substep -------------------------------------------------------------
     @property
-    def clip_args(self) -> tuple[np.int32, np.int32]:
-        """Rows and cells of one clip: where a work-item's clip begins (``sph.cl``)."""
-        return self._i32(self.n_clip), self._i32(self.grid.n_cells)
+    def per_clip(self) -> tuple[int, int]:
+        """The work-items of a kernel that knows each particle's clip: (n_clip, batch)."""
+        return self.n_clip, self.batch
 
     def sort(self) -> None:
         """Counting sort by cell, ties by previous index; permutes pos, vel, p, ids."""
@@ -191,14 +191,14 @@ class SphKernels(Launcher):
         nc = self.batch * self.grid.n_cells
         self._run(
             "count_cells",
-            self.n,
+            self.per_clip,
             self.pos,
             self.cell,
             self.counts,
             g[0],
             g[2],
             g[1],
-            *self.clip_args,
+            self._i32(self.grid.n_cells),
         )
         cells_per_block = self.cells_per_scan or scan_block(self.queue.device, nc)
         blocks, block = -(-nc // cells_per_block), self._i32(cells_per_block)
@@ -238,7 +238,7 @@ class SphKernels(Launcher):
     def find_neighbours(self) -> None:
         self._run(
             "find_neighbours",
-            self.n,
+            self.per_clip,
             self.pos,
             self.start,
             self.walls_buf,
@@ -252,7 +252,7 @@ class SphKernels(Launcher):
             self.wall_nb,
             self.wall_nb_count,
             self.overflow,
-            *self.clip_args,
+            self._i32(self.grid.n_cells),
         )
 
     @property
@@ -289,13 +289,12 @@ class SphKernels(Launcher):
         visc, wall_visc = self._viscosities()
         self._run(
             "nonpressure_accel",
-            self.n,
+            self.per_clip,
             self.pos,
             self.vel,
             *self.neighbour_args,
             *self.grid_args,
             self.gravity,
-            self._i32(self.n_clip),
             self._f32(visc),
             self._f32(wall_visc),
             self.a_np,
@@ -331,7 +330,7 @@ class SphKernels(Launcher):
         s = self.scene
         self._run(
             "pressure_predict",
-            self.n,
+            self.per_clip,
             self.pos,
             self.vel,
             self.p,
@@ -353,8 +352,6 @@ class SphKernels(Launcher):
             self._i32(iteration),
             self._i32(check_from),
             self._f32(s.eta),
-            self._i32(self.n_clip),
-            self._i32(self.batch),
         )
 
     def density_pressure(self, iteration: int, check_from: int = ALWAYS) -> None:
@@ -364,7 +361,7 @@ class SphKernels(Launcher):
         """
         self._run(
             "density_pressure",
-            self.n,
+            self.per_clip,
             self.pos_pred,
             *self.neighbour_args,
             *self.grid_args,
@@ -376,8 +373,6 @@ class SphKernels(Launcher):
             self._i32(iteration),
             self._i32(check_from),
             self._f32(self.scene.eta),
-            self._i32(self.n_clip),
-            self._i32(self.batch),
         )
 
     def reset_errors(self, count: int) -> None:
