@@ -202,6 +202,25 @@ def sph(
     _emit(result)
 
 
+@app.command("gpu")
+def gpu(
+    frame_preset: LiquidPreset = typer.Option(
+        LiquidPreset("paper"), help="preset of the high fluid's frame time"
+    ),
+    batch_preset: LiquidPreset = typer.Option(
+        LiquidPreset("small"), help="preset of the low fluid's clips in batches"
+    ),
+    batch: str = typer.Option("1,12", help="batch sizes; the last one's speed-up is judged"),
+) -> None:
+    """The GPU check (infra/gpu-bench.sh): a frame's seconds, batches, identity, profile."""
+    from app.bench.gpu import bench_gpu
+    from app.config import get_settings
+
+    sizes = _positive_ints("--batch", batch)
+    device = get_settings().runtime.opencl_device
+    _emit(bench_gpu(device, frame_preset.value, batch_preset.value, tuple(sizes)))
+
+
 @app.command("clip")
 def clip(
     preset: LiquidPreset = typer.Option(LiquidPreset(DEFAULT_LIQUID_PRESET), help=PRESET_HELP),
