@@ -196,19 +196,28 @@ def test_validate_reports_a_check_that_does_not_apply_as_skipped(
 
 
 def test_importing_the_dynamics_registry_does_not_load_opencl_or_mitsuba() -> None:
-    code = (
-        "import sys, app.services.dynamics, app.cli.liquid; "
-        "print(sorted(m for m in ('pyopencl', 'mitsuba') if m in sys.modules))"
-    )
+    imports = "app.services.dynamics, app.cli.liquid"
+    assert loaded_modules(imports, ("pyopencl", "mitsuba")) == []
+
+
+def bench_report(cli: typer.Typer, args: list[str]) -> dict[str, Any]:
+    """The JSON a ``srg bench`` command printed, after it exited 0."""
+    result = CliRunner().invoke(cli, ["bench", *args])
+    assert result.exit_code == 0, result.output
+    report: dict[str, Any] = json.loads(result.output)
+    return report
+
+
+def loaded_modules(imports: str, names: tuple[str, ...]) -> list[str]:
+    """Which of ``names`` a fresh interpreter has loaded after ``import imports``."""
+    loaded = f"sorted(m for m in {names!r} if m in sys.modules)"
+    code = f"import json, sys, {imports}; print(json.dumps({loaded}))"
     out = subprocess.run([sys.executable, "-c", code], capture_output=True, text=True, check=True)
-    assert out.stdout.strip() == "[]"
+    return list(json.loads(out.stdout))
 
 
 def test_bench_sph_tiny_reports_positive_throughput(cli: typer.Typer) -> None:
-    args = ["bench", "sph", "--preset", "tiny", "--steps", "5", "--no-splishsplash"]
-    result = CliRunner().invoke(cli, args)
-    assert result.exit_code == 0, result.output
-    report = json.loads(result.output)
+    report = bench_report(cli, ["sph", "--preset", "tiny", "--steps", "5", "--no-splishsplash"])
     assert report["preset"] == "tiny" and report["particles"] == 1920
     assert "splishsplash_pcisph" not in report
     for key in ("converged", "fixed_3_iterations"):
@@ -217,10 +226,7 @@ def test_bench_sph_tiny_reports_positive_throughput(cli: typer.Typer) -> None:
 
 
 def test_bench_sph_profile_accounts_for_every_kernel_of_a_substep(cli: typer.Typer) -> None:
-    args = ["bench", "sph", "--preset", "tiny", "--steps", "24", "--profile"]
-    result = CliRunner().invoke(cli, args)
-    assert result.exit_code == 0, result.output
-    report = json.loads(result.output)
+    report = bench_report(cli, ["sph", "--preset", "tiny", "--steps", "24", "--profile"])
     assert report["substeps"] == 24 and report["particles"] == 1920
     kernels = report["kernels"]
     # the once-a-substep stages run once, the pressure loop once per iteration at least
@@ -233,10 +239,7 @@ def test_bench_sph_profile_accounts_for_every_kernel_of_a_substep(cli: typer.Typ
 
 
 def test_bench_sph_batch_reports_each_size_and_identity(cli: typer.Typer) -> None:
-    args = ["bench", "sph", "--preset", "tiny", "--batch", "1,2,4"]
-    result = CliRunner().invoke(cli, args)
-    assert result.exit_code == 0, result.output
-    report = json.loads(result.output)
+    report = bench_report(cli, ["sph", "--preset", "tiny", "--batch", "1,2,4"])
     rows = report["batches"]
     assert [row["batch"] for row in rows] == [1, 2, 4]
     # a batch of one times every clip of the largest batch, alone
@@ -250,10 +253,8 @@ def test_bench_sph_batch_reports_each_size_and_identity(cli: typer.Typer) -> Non
 
 
 def test_bench_gpu_runs_on_any_device_and_judges_its_bars(cli: typer.Typer) -> None:
-    args = ["bench", "gpu", "--frame-preset", "tiny", "--batch-preset", "tiny", "--batch", "1,2"]
-    result = CliRunner().invoke(cli, args)
-    assert result.exit_code == 0, result.output
-    report = json.loads(result.output)
+    args = ["gpu", "--frame-preset", "tiny", "--batch-preset", "tiny", "--batch", "1,2"]
+    report = bench_report(cli, args)
     frame = report["frame"]
     assert frame["preset"] == "tiny" and frame["fluid"] == "high"
     assert frame["seconds_per_frame"] > 0 and frame["queued_equals_careful"] is True
@@ -266,13 +267,9 @@ def test_bench_gpu_runs_on_any_device_and_judges_its_bars(cli: typer.Typer) -> N
 
 def test_the_gpu_check_needs_only_numpy_scipy_and_pyopencl() -> None:
     """infra/gpu-bench.sh runs it where the project's environment is not installed."""
-    code = (
-        "import sys, app.bench.gpu; "
-        "print(sorted(m for m in ('pydantic', 'sqlalchemy', 'typer', 'celery', 'mitsuba') "
-        "if m in sys.modules))"
-    )
-    out = subprocess.run([sys.executable, "-c", code], capture_output=True, text=True, check=True)
-    assert out.stdout.strip() == "[]"
+    frameworks = ("pydantic", "sqlalchemy", "typer", "celery", "mitsuba")
+    assert loaded_modules("app.bench.gpu", frameworks) == []
+    assert loaded_modules("app.bench.gpu", ("pyopencl",)) == ["pyopencl"]
 
 
 @pytest.mark.parametrize(
@@ -300,10 +297,7 @@ def test_bench_sph_batch_bad_values_are_one_line(
 
 
 def test_bench_clip_tiny_reports_the_rendered_clips_dark_pixels(cli: typer.Typer) -> None:
-    args = ["bench", "clip", "--preset", "tiny", "--settle", "0.2", "--frames", "3"]
-    result = CliRunner().invoke(cli, args)
-    assert result.exit_code == 0, result.output
-    report = json.loads(result.output)
+    report = bench_report(cli, ["clip", "--preset", "tiny", "--settle", "0.2", "--frames", "3"])
     dark = report["dark_fraction"]
     assert set(dark) == {"median", "p90", "p99", "max"}
     assert 0.0 <= dark["median"] <= dark["p90"] <= dark["p99"] <= dark["max"] <= 0.003
