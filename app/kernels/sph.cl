@@ -194,8 +194,14 @@ __kernel void scatter_cells(__global const int *cell, __global volatile int *cur
     order[atomic_inc(&cursor[cell[i]])] = i;
 }
 
-// insertion sort of each cell's slots by previous index: removes the atomics' order
-__kernel void sort_cells(__global const int *start, __global int *order) {
+// Each cell's slots sorted by previous index (an insertion sort: removes the atomics'
+// order), then the cell's particles moved to their slots. One launch for both: a cell's
+// sort and moves touch only its own slots.
+__kernel void sort_reorder(__global const int *start, __global int *order,
+                           __global const float4 *pos, __global const float4 *vel,
+                           __global const float *p, __global const int *ids,
+                           __global float4 *pos_out, __global float4 *vel_out,
+                           __global float *p_out, __global int *ids_out) {
     int c = get_global_id(0);
     int b = start[c];
     int e = start[c + 1];
@@ -208,18 +214,13 @@ __kernel void sort_cells(__global const int *start, __global int *order) {
         }
         order[m + 1] = v;
     }
-}
-
-__kernel void reorder(__global const int *order, __global const float4 *pos,
-                      __global const float4 *vel, __global const float *p,
-                      __global const int *ids, __global float4 *pos_out,
-                      __global float4 *vel_out, __global float *p_out, __global int *ids_out) {
-    int s = get_global_id(0);
-    int i = order[s];
-    pos_out[s] = pos[i];
-    vel_out[s] = vel[i];
-    p_out[s] = p[i];
-    ids_out[s] = ids[i];
+    for (int s = b; s < e; ++s) {
+        int i = order[s];
+        pos_out[s] = pos[i];
+        vel_out[s] = vel[i];
+        p_out[s] = p[i];
+        ids_out[s] = ids[i];
+    }
 }
 
 // frame[ids[s]] = x[s]: back to the caller's particle order

@@ -216,10 +216,10 @@ class SphKernels(Launcher):
             block,
         )
         self._run("scatter_cells", self.n, self.cell, self.cursor, self.order)
-        self._run("sort_cells", nc, self.start, self.order)
         self._run(
-            "reorder",
-            self.n,
+            "sort_reorder",
+            nc,
+            self.start,
             self.order,
             self.pos,
             self.vel,
