@@ -39,6 +39,13 @@ def scan_block(device: cl.Device, n_cells: int) -> int:
     return n_cells if device.type & cl.device_type.CPU else GPU_SCAN_BLOCK
 
 
+def build_options(device: cl.Device) -> tuple[str, ...]:
+    """How ``sph.cl`` is built for the device: a GPU's neighbour lists are built one
+    candidate a work-item (``-DLANE_BUILD``), its lanes being the work-items, where a
+    CPU's take eight candidates a vector; the same lists either way."""
+    return () if device.type & cl.device_type.CPU else ("-DLANE_BUILD",)
+
+
 def queues_frames(device: cl.Device) -> bool:
     """Whether a frame's substeps are queued at once, the host reading the errors once a
     frame (``SphSimulator.frame``): not on a CPU, where each no-op iteration queued past

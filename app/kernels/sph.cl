@@ -41,8 +41,11 @@ typedef float16 float16_rows __attribute__((aligned(16)));
 // Neighbour lists are appended eight candidates at a time. With AVX2 the hits are moved
 // to the front of one vector by a permutation looked up by their lane mask, then stored
 // whole; elsewhere (or with -DPORTABLE_COMPACTION) each lane is stored at its prefix-sum
-// slot. The same lists either way (held together by a test).
-#if defined(__clang__) && defined(__AVX2__) && !defined(PORTABLE_COMPACTION)
+// slot. A GPU's build (-DLANE_BUILD, app/kernels/launch_shapes.py) walks the candidates
+// one at a time instead: its lanes are the work-items, and eight candidates a work-item
+// only multiply each lane's registers. The same lists every way (held together by tests).
+#if defined(__clang__) && defined(__AVX2__) && !defined(PORTABLE_COMPACTION) && \
+    !defined(LANE_BUILD)
 #define AVX2_COMPACTION
 typedef int8 int8_slots __attribute__((aligned(4)));
 #endif
@@ -234,7 +237,7 @@ __kernel void unsort(__global const int *ids, __global const float4 *x, __global
 // Candidates go eight at a time, read in blocks of eight (the last block may read
 // up to seven rows past the range: the buffers have eight rows of slack), and are
 // appended branch-free in candidate order (most candidates miss, unpredictably; misses
-// may be written to the slots after the hits). Returns the count, which may exceed
+// may be written to the slots after the hits); in a GPU's build one at a time. Returns the count, which may exceed
 // max_nb - 8 (an overflow: then only the first max_nb - 8 slots are hits).
 inline int gather_neighbours(int self, float4 xi, __global const float4 *others,
                              __global const int *start, float4 origin, int4 dims,
@@ -252,6 +255,18 @@ inline int gather_neighbours(int self, float4 xi, __global const float4 *others,
         for (int y = imax(c.y - 1, 0); y <= y1; ++y) {
             int row = (z * dims.y + y) * dims.x;
             int end = start[row + x1 + 1];
+#ifdef LANE_BUILD
+            for (int j = start[row + x0]; j < end; ++j) {
+                float4 xj = others[j];
+                float dx = xi.x - xj.x;
+                float dy = xi.y - xj.y;
+                float dz = xi.z - xj.z;
+                if (dx * dx + dy * dy + dz * dz < h2 && j != self) {
+                    out[n < last ? n : last] = j;
+                    ++n;
+                }
+            }
+#else
             for (int j = start[row + x0]; j < end; j += 8) {
                 float16 a = *(__global const float16_rows *)(others + j);
                 float16 b = *(__global const float16_rows *)(others + j + 4);
@@ -287,6 +302,7 @@ inline int gather_neighbours(int self, float4 xi, __global const float4 *others,
                 n += count;
 #endif
             }
+#endif
         }
     }
     return n;

@@ -25,7 +25,7 @@ from app.core.sph_grid import (
     wall_volumes,
 )
 from app.kernels.context import runtime
-from app.kernels.launch_shapes import scan_block
+from app.kernels import launch_shapes
 from app.kernels.launcher import Launcher, float4
 
 #: neighbour list rows (multiples of 8: the kernels load eight slots at a time, aligned);
@@ -81,7 +81,8 @@ class SphKernels(Launcher):
         batch: int = 1,
     ) -> None:
         rt = runtime(device)
-        super().__init__(rt, rt.program("sph.cl", build_options), profile)
+        options = (*launch_shapes.build_options(rt.device), *build_options)
+        super().__init__(rt, rt.program("sph.cl", options), profile)
         self.scene, self.n_clip, self.capacity = scene, n_particles, batch
         #: clips loaded (:meth:`load`) and their rows in all
         self.batch, self.n = 1, n_particles
@@ -200,7 +201,7 @@ class SphKernels(Launcher):
             g[1],
             self._i32(self.grid.n_cells),
         )
-        cells_per_block = self.cells_per_scan or scan_block(self.queue.device, nc)
+        cells_per_block = self.cells_per_scan or launch_shapes.scan_block(self.queue.device, nc)
         blocks, block = -(-nc // cells_per_block), self._i32(cells_per_block)
         if blocks > 1:
             self._run("block_totals", blocks, self.counts, self.block_first, self._i32(nc), block)

@@ -81,13 +81,15 @@ def test_the_cell_scan_in_blocks_is_the_scan_in_one_walk() -> None:
             assert np.array_equal(a, b), block
 
 
-def test_portable_list_compaction_gives_the_same_lists() -> None:
-    """The AVX2 lane-permutation append and the portable prefix-sum one agree."""
+@pytest.mark.parametrize("variant", ["-DPORTABLE_COMPACTION", "-DLANE_BUILD"])
+def test_every_list_build_gives_the_same_lists(variant: str) -> None:
+    """The AVX2 lane-permutation append, the portable prefix-sum one and a GPU's build
+    of one candidate at a time agree."""
     scene = tilt_tank("tiny")
     state = initial_particles(scene)
     state[:, :3] += np.random.default_rng(4).normal(0, 0.1 * scene.spacing, (len(state), 3))
     found = []
-    for options in ((), ("-DPORTABLE_COMPACTION",)):
+    for options in ((), (variant,)):
         k = SphKernels(scene, len(state), build_options=options)
         k.load(state)
         k.sort()
@@ -185,10 +187,15 @@ def test_clips_are_bit_identical(tiny_rest: tuple[SphSimulator, np.ndarray]) -> 
     assert a_end.shape == (sim.n, 6)
     assert np.array_equal(a_frames, b_frames) and np.array_equal(a_end, b_end)
     assert not np.array_equal(a_frames[0], a_frames[-1])
-    blocked = SphSimulator(sim.scene)
-    blocked.kernels = SphKernels(sim.scene, sim.n, cells_per_scan=GPU_SCAN_BLOCK)
-    c_frames, c_end = blocked.simulate_clip(rest, 2)
-    assert np.array_equal(a_frames, c_frames) and np.array_equal(a_end, c_end)
+    # a GPU's shapes on the CPU: the cell scan in blocks, lists built a candidate at a time
+    for gpu_shaped in (
+        SphKernels(sim.scene, sim.n, cells_per_scan=GPU_SCAN_BLOCK),
+        SphKernels(sim.scene, sim.n, build_options=("-DLANE_BUILD",)),
+    ):
+        other = SphSimulator(sim.scene)
+        other.kernels = gpu_shaped
+        c_frames, c_end = other.simulate_clip(rest, 2)
+        assert np.array_equal(a_frames, c_frames) and np.array_equal(a_end, c_end)
 
 
 @pytest.mark.parametrize("budget", [1, 3, 8])
