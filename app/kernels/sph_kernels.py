@@ -24,8 +24,8 @@ from app.core.sph_grid import (
     wall_particles,
     wall_volumes,
 )
-from app.kernels.context import runtime
 from app.kernels import launch_shapes
+from app.kernels.context import runtime
 from app.kernels.launcher import Launcher, float4
 
 #: neighbour list rows (multiples of 8: the kernels load eight slots at a time, aligned);
