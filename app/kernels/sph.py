@@ -131,7 +131,7 @@ class SphSimulator:
         return counts
 
     def frame(self, gravities: Sequence[Gravity], damping: float = 0.0) -> None:
-        """Advance the loaded state by one frame (``scene.substeps`` substeps).
+        """Advance the loaded clips by one frame (``scene.substeps`` substeps).
 
         With ``queue_frames`` every substep is queued at once with ``budget`` pressure
         iterations, those past convergence being no-ops on the device, and the host
@@ -162,12 +162,14 @@ class SphSimulator:
         per_clip = [counts for counts in used if counts is not None]
         if len(per_clip) < k.batch:
             k.restore_state()
-            per_clip = [self.substep(gravities, damping) for _ in range(s.substeps)]
+            per_substep = [self.substep(gravities, damping) for _ in range(s.substeps)]
+            most = max(max(counts) for counts in per_substep)
         else:
             for j in range(s.substeps):
                 for c, counts in enumerate(per_clip):
                     self._count(counts[j], float(errors[j, counts[j] - 1, c]))
-        self.budget = max(max(counts) for counts in per_clip) + BUDGET_SLACK
+            most = max(max(counts) for counts in per_clip)
+        self.budget = most + BUDGET_SLACK
 
     def _forces(self, gravities: Sequence[Gravity], damping: float) -> None:
         """A substep up to its pressure loop: sort, neighbours, viscosity, first x*, v*."""
