@@ -10,39 +10,22 @@ from __future__ import annotations
 
 from dataclasses import asdict
 from pathlib import Path
-from typing import Any
 
 import typer
 
-from app.cli.choices import DynamicsName, Fluid, LiquidPreset, positive_finite, value_of
-from app.cli.liquid import FLUID_HELP, PRESET_HELP
-from app.cli.output import emit, progress_bar
+from app.cli import bench_liquid
+from app.cli.choices import (
+    DynamicsName,
+    LiquidPreset,
+    positive_finite,
+    positive_ints,
+    value_of,
+)
+from app.cli.output import emit_measured, progress_bar
 from app.cli.serve import MAX_WORKERS
 from app.core.errors import InvalidInput
-from app.core.scene import DEFAULT_FLUID
-from app.services.dynamics import DEFAULT_LIQUID_PRESET
 
 app = typer.Typer(help="Benchmarks; each prints JSON.", no_args_is_help=True)
-
-
-def _emit(result: Any) -> None:
-    """A benchmark's JSON on stdout, led by where and how it was measured."""
-    from app.config import get_settings
-    from app.reports.provenance import with_provenance
-
-    emit(with_provenance(result, get_settings()), as_json=True)
-
-
-def _positive_ints(option: str, value: str) -> list[int]:
-    """A comma-separated list of positive integers, or a one-line error."""
-    message = f"{option} takes comma-separated positive integers, got {value!r}"
-    try:
-        numbers = [int(part) for part in value.split(",")]
-    except ValueError:
-        raise InvalidInput(message) from None
-    if any(n <= 0 for n in numbers):
-        raise InvalidInput(message)
-    return numbers
 
 
 @app.command("rank")
@@ -56,7 +39,7 @@ def rank(
 
     if edges < controls * 10:
         raise InvalidInput(f"--edges must be at least {controls * 10}")
-    _emit(bench_rank(n_edges=edges, n_controls=controls, seed=seed))
+    emit_measured(bench_rank(n_edges=edges, n_controls=controls, seed=seed))
 
 
 @app.command(
@@ -73,7 +56,7 @@ def experiment(ctx: typer.Context) -> None:
     refused = ("--json", "--result", "--resume", "--name", "--out")
     if any(arg in refused for arg in ctx.args):
         raise InvalidInput("the benchmark runs a fresh experiment: leave out " + ", ".join(refused))
-    _emit(bench_experiment(list(ctx.args)))
+    emit_measured(bench_experiment(list(ctx.args)))
 
 
 @app.command("grow")
@@ -113,21 +96,21 @@ def grow(
     model = make_dynamics(
         dynamics.value, scene_preset, devices=LiquidDevices.from_settings(settings)
     )
-    edge_sizes = _positive_ints("--sizes", sizes or "1000,10000,100000")
-    frame_sizes = None if frames is None else _positive_ints("--frames", frames)
+    edge_sizes = positive_ints("--sizes", sizes or "1000,10000,100000")
+    frame_sizes = None if frames is None else positive_ints("--frames", frames)
     smallest = model.n_controls * (model.n_controls + 1) * model.frames_per_clip
     if frame_sizes is not None and min(frame_sizes) < smallest:
         raise InvalidInput(
             f"--frames must be at least {smallest} (the initial tree), got {min(frame_sizes)}"
         )
-    _emit(
+    emit_measured(
         bench_grow(
             settings=settings,
             dynamics=dynamics.value,
             preset=scene_preset,
             epochs=epochs,
             batch=batch,
-            worker_counts=_positive_ints("--workers", workers),
+            worker_counts=positive_ints("--workers", workers),
             sizes=edge_sizes,
             frames=frame_sizes,
             integration_only=integration_only,
@@ -151,94 +134,14 @@ def ingest(
     result = bench_ingest(
         clients=clients, uploads=uploads, mean_steps=mean_steps, database_url=database_url
     )
-    _emit(result)
+    emit_measured(result)
     if not result["ok"]:
         raise typer.Exit(1)
 
 
-@app.command("sph")
-def sph(
-    preset: LiquidPreset = typer.Option(LiquidPreset(DEFAULT_LIQUID_PRESET), help=PRESET_HELP),
-    fluid: Fluid = typer.Option(Fluid(DEFAULT_FLUID), help=FLUID_HELP),
-    steps: int = typer.Option(300, min=1, help="substeps timed (rounded down to whole frames)"),
-    splishsplash: bool = typer.Option(
-        True, "--splishsplash/--no-splishsplash", help="also time SPlisHSPlasH's PCISPH"
-    ),
-    profile: bool = typer.Option(
-        False,
-        "--profile",
-        help="instead: device time per kernel and the host's gaps, per substep, "
-        "from a profiling queue (the tank tilted, after a 1 s settle)",
-    ),
-    batch: str | None = typer.Option(
-        None,
-        "--batch",
-        help="instead: whole clips in batches of these sizes (e.g. 1,3,12), clip-frames "
-        "per second and identity with each clip run alone",
-    ),
-) -> None:
-    """Particle-substeps per second of the PCISPH kernels (converged and at 3 iterations)."""
-    from app.config import get_settings
-
-    sizes = _positive_ints("--batch", batch) if batch is not None else None
-    if sizes is not None and profile:
-        raise InvalidInput("--batch and --profile are two benchmarks: give one")
-    device = get_settings().runtime.opencl_device
-    if sizes is not None:
-        from app.bench.sph_batch import bench_batch
-
-        _emit(bench_batch(preset.value, fluid.value, sizes, device))
-        return
-    if profile:
-        from app.bench.sph_profile import profile_sph
-
-        _emit(profile_sph(preset.value, fluid.value, steps, device))
-        return
-    from app.bench.sph import bench_sph
-
-    result = bench_sph(
-        preset.value, steps, fluid=fluid.value, device=device, compare_splishsplash=splishsplash
-    )
-    _emit(result)
-
-
-@app.command("gpu")
-def gpu(
-    frame_preset: LiquidPreset = typer.Option(
-        LiquidPreset("paper"), help="preset of the high fluid's frame time"
-    ),
-    batch_preset: LiquidPreset = typer.Option(
-        LiquidPreset("small"), help="preset of the low fluid's clips in batches"
-    ),
-    batch: str = typer.Option("1,12", help="batch sizes; the last one's speed-up is judged"),
-) -> None:
-    """The GPU check (infra/gpu-bench.sh): a frame's seconds, batches, identity, profile."""
-    from app.bench.gpu import bench_gpu
-    from app.config import get_settings
-
-    sizes = _positive_ints("--batch", batch)
-    device = get_settings().runtime.opencl_device
-    _emit(bench_gpu(device, frame_preset.value, batch_preset.value, tuple(sizes)))
-
-
-@app.command("clip")
-def clip(
-    preset: LiquidPreset = typer.Option(LiquidPreset(DEFAULT_LIQUID_PRESET), help=PRESET_HELP),
-    fluid: Fluid = typer.Option(Fluid(DEFAULT_FLUID), help=FLUID_HELP),
-    settle: float = typer.Option(
-        1.0, callback=positive_finite, help="seconds of settling first (half damped)"
-    ),
-    frames: int | None = typer.Option(
-        None, min=1, help="simulate this many frames of each clip and scale (default: all)"
-    ),
-) -> None:
-    """Seconds per clip of each stage of a liquid edge (SPH to the VP9 clip) and its bytes."""
-    from app.bench.clip import bench_clip
-    from app.config import get_settings
-    from app.liquid.devices import LiquidDevices
-
-    devices = LiquidDevices.from_settings(get_settings())
-    _emit(bench_clip(preset.value, fluid.value, devices=devices, settle=settle, frames=frames))
+app.command("sph")(bench_liquid.sph)
+app.command("gpu")(bench_liquid.gpu)
+app.command("clip")(bench_liquid.clip)
 
 
 @app.command("store")
@@ -259,7 +162,7 @@ def store(
     )
     result["save_edges_per_s"] = result["n_edges"] / max(result["save_seconds"], 1e-12)
     result["load_edges_per_s"] = result["n_edges"] / max(result["load_seconds"], 1e-12)
-    _emit(result)
+    emit_measured(result)
 
 
 @app.command("bytes")
@@ -268,7 +171,7 @@ def stored_bytes(name: str = typer.Argument(..., help="a stored graph")) -> None
     from app.bench.footprint import bench_bytes
     from app.config import get_settings
 
-    _emit(bench_bytes(get_settings(), name))
+    emit_measured(bench_bytes(get_settings(), name))
 
 
 @app.command("look")
@@ -277,7 +180,7 @@ def look(name: str = typer.Argument(..., help="a stored graph with rendered clip
     from app.bench.look import bench_look
     from app.config import get_settings
 
-    _emit(bench_look(get_settings(), name))
+    emit_measured(bench_look(get_settings(), name))
 
 
 @app.command("dedup")
@@ -301,7 +204,7 @@ def dedup(
         raise InvalidInput(message) from None
     if not all(0.0 < v <= 1.0 for v in values):
         raise InvalidInput(message)
-    _emit(bench_dedup(get_settings(), name, values, sheet))
+    emit_measured(bench_dedup(get_settings(), name, values, sheet))
 
 
 @app.command("writer")
@@ -326,7 +229,7 @@ def writer(
     from app.bench.writer import bench_writer
     from app.config import get_settings
 
-    counts = _positive_ints("--workers", workers)
+    counts = positive_ints("--workers", workers)
     with progress_bar(frames, "frames grown by the writer") as advance:
         result = bench_writer(
             settings=get_settings(),
@@ -337,7 +240,7 @@ def writer(
             liquid_seconds=liquid_seconds,
             progress=advance,
         )
-    _emit(result)
+    emit_measured(result)
 
 
 @app.command("epoch-traces")
@@ -353,7 +256,7 @@ def epoch_traces(
     from app.bench.epoch_traces import bench_epoch_traces
     from app.config import get_settings
 
-    _emit(
+    emit_measured(
         bench_epoch_traces(
             steps=steps,
             session_steps=session_steps,
@@ -373,7 +276,7 @@ def client(
     headless Chromium (the browser test bounds the client's gaps, not these)."""
     from app.bench.client import bench_client
 
-    _emit(bench_client(seconds))
+    emit_measured(bench_client(seconds))
 
 
 @app.command("serve")
@@ -401,11 +304,11 @@ def serve(
 
     result = bench_serve(
         get_settings(),
-        players=_positive_ints("--players", players),
+        players=positive_ints("--players", players),
         workers=workers,
         mean_steps=mean_steps,
         database_url=database_url,
     )
-    _emit(result)
+    emit_measured(result)
     if not result["ok"]:
         raise typer.Exit(1)

@@ -17,6 +17,7 @@ from typing import Any, TypeVar
 import typer
 
 from app.core.choices import unknown_choice
+from app.core.errors import InvalidInput
 
 E = TypeVar("E", bound=StrEnum)
 
@@ -59,6 +60,18 @@ def positive_finite(value: float | None) -> float | None:
     if value is not None and not 0 < value < math.inf:
         raise typer.BadParameter(f"must be a finite number above 0, got {value}")
     return value
+
+
+def positive_ints(option: str, value: str) -> list[int]:
+    """A comma-separated list of positive integers, or a one-line error."""
+    message = f"{option} takes comma-separated positive integers, got {value!r}"
+    try:
+        numbers = [int(part) for part in value.split(",")]
+    except ValueError:
+        raise InvalidInput(message) from None
+    if any(n <= 0 for n in numbers):
+        raise InvalidInput(message)
+    return numbers
 
 
 def value_of(choice: StrEnum | None) -> str | None:

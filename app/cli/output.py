@@ -87,6 +87,14 @@ def emit(result: Any, as_json: bool, title: str | None = None) -> None:
     Console().print(table)
 
 
+def emit_measured(result: Any) -> None:
+    """A benchmark's JSON on stdout, led by where and how it was measured."""
+    from app.config import get_settings
+    from app.reports.provenance import with_provenance
+
+    emit(with_provenance(result, get_settings()), as_json=True)
+
+
 def _cell(value: Any) -> str:
     """A value as a table shows it: measured figures rounded, long collections counted."""
     if value is None:

@@ -11,7 +11,8 @@ from app.core.scene import initial_particles, kinetic_energy, tilt_tank
 from app.kernels.context import runtime
 from app.kernels.launch_shapes import GPU_SCAN_BLOCK
 from app.kernels.sph import SphSimulator, iterations_used
-from app.kernels.sph_kernels import MAX_NEIGHBOURS, MAX_WALL_NEIGHBOURS, SphKernels
+from app.kernels.sph_kernels import SphKernels
+from app.kernels.sph_layout import MAX_NEIGHBOURS, MAX_WALL_NEIGHBOURS
 from app.liquid import validation as v
 
 
