@@ -61,6 +61,7 @@ def test_benchmarks_take_no_json_option() -> None:
         "dedup",
         "epoch-traces",
         "experiment",
+        "gpu",
         "grow",
         "ingest",
         "look",
