@@ -110,8 +110,7 @@ class SphKernels(Launcher):
         self.ids, self.ids_spare, self.cell, self.order = (buf(4 * n) for _ in range(4))
         self.counts = const(np.zeros(nc, dtype=_I32))
         self.start, self.cursor = buf(4 * (nc + 1)), buf(4 * nc)
-        #: cells per work-item of the scan (``cells_per_scan``, else the device's
-        #: :func:`scan_block` for the cells of the clips loaded), and each block's first slot
+        #: cells a scan work-item walks (else set by :meth:`load`); each block's first slot
         self.cells_per_scan = cells_per_scan
         self.block_first = const(np.zeros(nc, dtype=_I32))  # at most a block per cell
         self.nb, self.nb_count = buf(4 * n * MAX_NEIGHBOURS), buf(4 * n)
@@ -122,7 +121,8 @@ class SphKernels(Launcher):
         # per clip; and each clip's gravity
         self.err = buf(4 * batch * scene.substeps * max(scene.max_iterations, 1))
         self.gravity = buf(16 * batch)
-        self._gravities: tuple[tuple[float, float, float], ...] = ()
+        #: the gravities in ``gravity`` as given (compared by identity each substep)
+        self._gravities: Sequence[tuple[float, float, float]] = ()
         #: the state a frame starts from (:meth:`keep_state`)
         self.kept = {name: buf(16 * rows if name in ("pos", "vel") else 4 * n) for name in KEPT}
         self.overflow = const(np.zeros(1, dtype=_I32))
@@ -138,7 +138,9 @@ class SphKernels(Launcher):
             raise ValueError(
                 f"{len(rows)} particle rows are not 1 to {self.capacity} clips of {self.n_clip}"
             )
-        self.batch, self.n = batch, len(rows)
+        self.batch, self.n, self._gravities = batch, len(rows), ()
+        cells = batch * self.grid.n_cells
+        self._scan = self.cells_per_scan or launch_shapes.scan_block(self.queue.device, cells)
         cl.enqueue_copy(self.queue, self.pos, to_float4(rows[:, 0:3]))
         cl.enqueue_copy(self.queue, self.vel, to_float4(rows[:, 3:6]))
         cl.enqueue_copy(self.queue, self.p, np.zeros(self.n, dtype=_F32))
@@ -181,8 +183,7 @@ class SphKernels(Launcher):
             g[1],
             self._i32(self.grid.n_cells),
         )
-        cells_per_block = self.cells_per_scan or launch_shapes.scan_block(self.queue.device, nc)
-        blocks, block = -(-nc // cells_per_block), self._i32(cells_per_block)
+        blocks, block = -(-nc // self._scan), self._i32(self._scan)
         if blocks > 1:
             self._run("block_totals", blocks, self.counts, self.block_first, self._i32(nc), block)
             self._run("scan_block_totals", 1, self.block_first, self._i32(blocks))
@@ -261,10 +262,9 @@ class SphKernels(Launcher):
     def nonpressure_accel(self, gravities: Sequence[tuple[float, float, float]]) -> None:
         """a_np under each loaded clip's gravity, with the last viscous step's share, and
         the pressure loop's geometry."""
-        gravities = tuple(tuple(g) for g in gravities)  # type: ignore[misc]
-        if len(gravities) != self.batch:
-            raise ValueError(f"{len(gravities)} gravities for {self.batch} clips")
-        if gravities != self._gravities:
+        if gravities is not self._gravities:
+            if len(gravities) != self.batch:
+                raise ValueError(f"{len(gravities)} gravities for {self.batch} clips")
             cl.enqueue_copy(self.queue, self.gravity, np.stack([float4(g) for g in gravities]))
             self._gravities = gravities
         visc, wall_visc = self._viscosities()
