@@ -224,9 +224,15 @@ class Target:
         }
 
 
-def targets(crowd: str, checkpoints: Sequence[CheckpointComparison]) -> list[Target]:
-    """Every target for ``crowd``'s players over the checkpoints (the last one is the
-    experiment's last), in checkpoint order.
+def targets(
+    crowd: str, checkpoints: Sequence[CheckpointComparison], final_frames: int | None = None
+) -> list[Target]:
+    """Every target for ``crowd``'s players over the checkpoints, in checkpoint order.
+
+    The last checkpoint's bars belong to the plan's last checkpoint, ``final_frames``
+    (default: the last one given). A report that stops before it (``--through``) does not
+    judge them on an earlier size: they are listed at ``final_frames`` unmeasured, so
+    not met.
 
     A crowd with an aim: at the last checkpoint sr-crowd / sr-heuristic mean <=
     :data:`ERROR_RATIO_TARGET` with the interval's upper end below 1, and sr-crowd /
@@ -240,41 +246,12 @@ def targets(crowd: str, checkpoints: Sequence[CheckpointComparison]) -> list[Tar
     """
     if not checkpoints:
         return []
-    last = checkpoints[-1]
+    final = checkpoints[-1].frames if final_frames is None else final_frames
     judged: list[Target] = []
     for point in checkpoints:
         versus_heuristic = point.crowd_vs_heuristic
-        if point is last:
-            if crowd not in AIMLESS_CROWDS:
-                judged.append(
-                    Target(
-                        "sr-crowd / sr-heuristic error, mean",
-                        point.frames,
-                        _end(versus_heuristic, "mean"),
-                        "<=",
-                        ERROR_RATIO_TARGET,
-                    )
-                )
-            judged.append(
-                Target(
-                    "sr-crowd / sr-heuristic error, interval's upper end",
-                    point.frames,
-                    _end(versus_heuristic, "high"),
-                    "<",
-                    1.0,
-                )
-            )
-            if crowd not in AIMLESS_CROWDS:
-                versus_baseline = point.crowd_vs_baseline
-                judged.append(
-                    Target(
-                        "sr-crowd / baseline error, mean",
-                        point.frames,
-                        _end(versus_baseline, "mean"),
-                        "<=",
-                        ERROR_RATIO_TARGET,
-                    )
-                )
+        if point.frames == final:
+            judged += _final_targets(crowd, final, point)
         if crowd not in AIMLESS_CROWDS and point.frames >= NO_DIP_FROM_FRAMES:
             judged.append(
                 Target(
@@ -296,7 +273,41 @@ def targets(crowd: str, checkpoints: Sequence[CheckpointComparison]) -> list[Tar
             )
         )
         judged += _share_against_baseline(point)
+    if checkpoints[-1].frames != final:
+        judged += _final_targets(crowd, final, None)
     return judged
+
+
+def _final_targets(crowd: str, frames: int, point: CheckpointComparison | None) -> list[Target]:
+    """The bars of the plan's last checkpoint, judged on ``point`` (None: not reached)."""
+    versus_heuristic = None if point is None else point.crowd_vs_heuristic
+    versus_baseline = None if point is None else point.crowd_vs_baseline
+    judged = [
+        Target(
+            "sr-crowd / sr-heuristic error, interval's upper end",
+            frames,
+            _end(versus_heuristic, "high"),
+            "<",
+            1.0,
+        )
+    ]
+    if crowd in AIMLESS_CROWDS:
+        return judged
+    mean = Target(
+        "sr-crowd / sr-heuristic error, mean",
+        frames,
+        _end(versus_heuristic, "mean"),
+        "<=",
+        ERROR_RATIO_TARGET,
+    )
+    against_baseline = Target(
+        "sr-crowd / baseline error, mean",
+        frames,
+        _end(versus_baseline, "mean"),
+        "<=",
+        ERROR_RATIO_TARGET,
+    )
+    return [mean, *judged, against_baseline]
 
 
 def _share_against_baseline(point: CheckpointComparison) -> list[Target]:

@@ -172,6 +172,23 @@ def test_each_bar_holds_exactly(last: SeedComparison, failed: str) -> None:
     assert [t.description for t in found if not t.met] == [failed]
 
 
+def test_a_report_that_stops_early_leaves_the_last_bars_unmeasured() -> None:
+    points = [
+        point(5_000, comparison(0.9), comparison(0.7), SHARES, 0.0),
+        point(10_000, comparison(0.3, 0.6), comparison(0.3), SHARES, 0.0),
+    ]
+    found = judged(targets("goal-directed", points, final_frames=20_000))
+    # 0.3 at 10,000 frames would meet the last checkpoint's bars: they are not judged there
+    assert ("sr-crowd / sr-heuristic error, mean", 10_000) not in found
+    assert found[("sr-crowd / sr-heuristic error, mean", 20_000)] == (None, False)
+    assert found[("sr-crowd / sr-heuristic error, interval's upper end", 20_000)] == (None, False)
+    assert found[("sr-crowd / baseline error, mean", 20_000)] == (None, False)
+    assert found[("sr-crowd / sr-heuristic error, mean (no dip)", 10_000)] == (0.3, True)
+    whole = judged(targets("goal-directed", points, final_frames=10_000))
+    assert whole == judged(targets("goal-directed", points))
+    assert whole[("sr-crowd / sr-heuristic error, mean", 10_000)] == (0.3, True)
+
+
 def test_an_absent_control_leaves_its_targets_unmet_and_a_high_share_fails() -> None:
     shares = {"baseline": 0.3, "sr-crowd": 0.1}
     found = judged(targets("goal-directed", [point(600, None, comparison(0.3), shares, None)]))

@@ -71,6 +71,7 @@ def collect(
     with intervals, and the targets (:func:`compare_strategies`).
     """
     plan = stored_plan(settings, name)
+    final_frames = plan.checkpoints[-1]
     if through is not None:
         plan = replace(plan, checkpoints=plan.checkpoints[: through + 1])
     with transaction(settings) as session:
@@ -112,7 +113,7 @@ def collect(
             bot: {"results": results, "summary": summarise(results) if complete else {}}
             for bot, results in crowds.items()
         },
-        "comparison": compare_strategies(plan, samples) if complete else {},
+        "comparison": compare_strategies(plan, samples, final_frames) if complete else {},
         "seconds": None if seconds is None else round(seconds, 2),
         "through_frames": None if through is None else plan.checkpoints[-1],
     }
@@ -124,7 +125,9 @@ def _step_errors(artifacts: ArtifactStore, digest: str) -> np.ndarray:
 
 
 def compare_strategies(
-    plan: ExperimentPlan, samples: dict[tuple[str, str, str, int], tuple[np.ndarray, float]]
+    plan: ExperimentPlan,
+    samples: dict[tuple[str, str, str, int], tuple[np.ndarray, float]],
+    final_frames: int | None = None,
 ) -> dict[str, list[dict[str, Any]]]:
     """Per crowd and checkpoint, sr-crowd / sr-heuristic (the headline: what the traces
     add), sr-crowd / baseline and sr-heuristic / baseline of the mean error per step,
@@ -133,8 +136,10 @@ def compare_strategies(
     at its checkpoint, and the last row whether all of them are met.
 
     ``samples``: one checkpoint's per-step errors and threshold per (crowd, strategy,
-    seed, checkpoint index). A comparison whose arms the plan lacks is left out; empty
-    without two of the three strategies.
+    seed, checkpoint index). ``final_frames``: the stored plan's last checkpoint, where
+    ``plan`` stops earlier (a report ``--through``); its bars, unmeasured, go on the last
+    row. A comparison whose arms the plan lacks is left out; empty without two of the
+    three strategies.
     """
     planned = {s.value for s in plan.strategies}
     compared = [s for s in (BASELINE, HEURISTIC, CROWD) if s in planned]
@@ -155,8 +160,10 @@ def compare_strategies(
                     {s: [float(np.mean(e > t)) for e, t in runs] for s, runs in played.items()},
                 )
             )
-        judged = targets(bot, points) if CROWD in compared else []
+        judged = targets(bot, points, final_frames) if CROWD in compared else []
         rows = [_comparison_row(point, judged) for point in points]
+        if unreached := [t.to_dict() for t in judged if t.frames > points[-1].frames]:
+            rows[-1]["targets"] += unreached
         if judged:
             rows[-1]["meets_targets"] = all(target.met for target in judged)
         comparison[bot] = rows
