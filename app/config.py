@@ -77,7 +77,8 @@ class GrowthSettings(BaseSettings):
     player_model: PlayerModelKind = Field(
         PlayerModelKind.SHRUNK,
         description="crowd model of new sr-crowd graphs: shrunk (default: docs/player-models.md), "
-        "knn, eq2 (the paper's) or logit",
+        "mixed (shrunk, ranked with half the mass for unseen players), knn, eq2 (the paper's) "
+        "or logit",
     )
     reuse_simulations: bool = Field(
         True,

@@ -28,6 +28,7 @@ from app.core.growth import (
 )
 from app.core.neighbour_model import NeighbourFit, choose_neighbours, neighbour_player_model
 from app.core.player_models import (
+    UNSEEN_SHARE,
     PlayerModelKind,
     crowd_player_model,
     heuristic_player_model,
@@ -36,7 +37,7 @@ from app.core.player_models import (
 from app.core.publication import Publication, freeze
 from app.core.shrunk_model import ShrunkFit, fit_shrunk_model, shrunk_player_model
 from app.core.staterank import STATERANK_MAX_ITER, edge_probabilities, staterank
-from app.core.strategies import EdgeWeights, Strategy, edge_weights
+from app.core.strategies import EdgeWeights, Strategy, edge_weights, mixed_weights
 
 Trace = np.ndarray
 
@@ -115,11 +116,17 @@ class Refiner:
     _choice: ChoiceModel | None = None
     _neighbours: NeighbourFit | None = None
     _shrunk: ShrunkFit | None = None
+    _heuristic_pi: np.ndarray | None = None
 
     @property
     def play(self) -> PlayCounts:
         """Every session learnt from, summed."""
         return PlayCounts.merged([play for _, play in self.played])
+
+    @property
+    def _learnt(self) -> bool:
+        """Whether the player model is learnt from traces (sr-crowd once it has some)."""
+        return self.strategy.learns_from_traces and self.play.sessions > 0
 
     # ---- player model and ranking -------------------------------------------------
     def heuristic_model(self) -> np.ndarray:
@@ -135,9 +142,9 @@ class Refiner:
         """
         vertices = self.graph.n_vertices if on is None else on.n_vertices
         heuristic = self.heuristic_model()[:vertices]
-        play = self.play
-        if not (self.strategy.learns_from_traces and play.sessions):
+        if not self._learnt:
             return heuristic
+        play = self.play
         counts = play.control_counts(self.graph.n_vertices, self.graph.n_controls)
         if self.config.player_model is PlayerModelKind.KNN:
             return neighbour_player_model(
@@ -148,7 +155,7 @@ class Refiner:
                 self.config.crowd_eps,
                 fallback=self.heuristic_model(),
             )[:vertices]
-        if self.config.player_model is PlayerModelKind.SHRUNK:
+        if self.config.player_model.shrinks:
             fit = self.shrunk_fit()
             return shrunk_player_model(
                 self.graph.vertex_descriptors(),
@@ -234,7 +241,8 @@ class Refiner:
 
     def weights(self, warm_start: np.ndarray | None = None) -> EdgeWeights:
         """The strategy's edge weights, STATERANK started from ``warm_start`` (a stored
-        pi), else from this refiner's last."""
+        pi), else from this refiner's last; for ``mixed`` with traces, the crowd's and
+        the heuristic model's mixed (:func:`mixed_weights`)."""
         result = edge_weights(
             self.strategy,
             self.graph,
@@ -245,7 +253,19 @@ class Refiner:
         )
         if result.rank is not None:
             self._pi = result.rank.pi
-        return result
+        if not (self.config.player_model is PlayerModelKind.MIXED and self._learnt):
+            return result
+        heuristic = edge_weights(
+            self.strategy,
+            self.graph,
+            self.heuristic_model(),
+            restart=self.restart,
+            warm_start=self._heuristic_pi,
+            max_iter=self.config.staterank_max_iter,
+        )
+        if heuristic.rank is not None:
+            self._heuristic_pi = heuristic.rank.pi
+        return mixed_weights(result, heuristic, UNSEEN_SHARE)
 
     def predicted_edge_probabilities(self, model: np.ndarray | None = None) -> np.ndarray:
         """P(e) = pi(v) P(c|v) under ``model`` (default: this refiner's player model)."""

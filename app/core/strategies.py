@@ -92,3 +92,20 @@ def edge_weights(
         reason = f"{exc} at restart rate {restart:.3g}; ranked by the baseline ordering P(c|v)"
         return EdgeWeights(local.copy(), None, fallback=reason)
     return EdgeWeights(rank.pi[src] * local, rank)
+
+
+def mixed_weights(crowd: EdgeWeights, heuristic: EdgeWeights, share: float) -> EdgeWeights:
+    """The edge weights of a population mixed from two: ``1 - share`` of players as the
+    crowd model predicts, ``share`` as the heuristic model does.
+
+    Each STATERANK weight pi(v) P(c|v) is a distribution over edges, the share of all
+    steps that one player kind takes on each edge, so the population's is their mix.
+    The result keeps the crowd's rank (its pi warm-starts the next ranking). Where either
+    STATERANK fell back, the two are not distributions to mix: the crowd's weights stand,
+    with the fallback's reason.
+    """
+    if not 0.0 <= share <= 1.0:
+        raise ValueError(f"a share is in [0, 1], not {share}")
+    if crowd.fallback or heuristic.fallback:
+        return EdgeWeights(crowd.weights, crowd.rank, crowd.fallback or heuristic.fallback)
+    return EdgeWeights((1.0 - share) * crowd.weights + share * heuristic.weights, crowd.rank)

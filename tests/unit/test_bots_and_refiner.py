@@ -11,7 +11,13 @@ from app.core.clipbank import MemoryClipBank
 from app.core.growth import initial_tree
 from app.core.publication import Publication
 from app.core.refinement import Refiner, RefinerConfig
-from app.core.strategies import Strategy, edge_weights, parse_strategy
+from app.core.strategies import (
+    EdgeWeights,
+    Strategy,
+    edge_weights,
+    mixed_weights,
+    parse_strategy,
+)
 from app.core.toy import ToyDynamics
 
 DYN = ToyDynamics()
@@ -110,6 +116,22 @@ def test_staterank_that_fails_to_converge_falls_back_to_the_local_ordering() -> 
     assert "baseline" in ranked.fallback
     converged = edge_weights(Strategy.SR_HEURISTIC, r.graph, model, restart=1 / 90)
     assert converged.fallback is None and converged.rank is not None
+
+
+def test_a_mix_of_rankings_is_a_mix_of_distributions_and_never_mixes_a_fallback() -> None:
+    r = refiner(Strategy.SR_HEURISTIC)
+    r.grow(expansions=10)
+    model = r.heuristic_model()
+    ranked = edge_weights(Strategy.SR_HEURISTIC, r.graph, model, restart=1 / 90)
+    uniform = EdgeWeights(np.full(r.graph.n_edges, 1.0 / r.graph.n_edges), None)
+    mixed = mixed_weights(ranked, uniform, 0.25)
+    np.testing.assert_allclose(mixed.weights, 0.75 * ranked.weights + 0.25 / r.graph.n_edges)
+    assert mixed.rank is ranked.rank and mixed.fallback is None
+    stuck = edge_weights(Strategy.SR_HEURISTIC, r.graph, model, restart=1 / 90, max_iter=1)
+    kept = mixed_weights(ranked, stuck, 0.5)
+    assert np.array_equal(kept.weights, ranked.weights) and kept.fallback == stuck.fallback
+    with pytest.raises(ValueError, match="in \\[0, 1\\]"):
+        mixed_weights(ranked, uniform, 1.5)
 
 
 def test_growth_proceeds_when_staterank_never_converges() -> None:

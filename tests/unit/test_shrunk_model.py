@@ -101,3 +101,25 @@ def test_the_refiner_learns_the_shrunk_model_and_keeps_the_heuristic_before_trac
     np.testing.assert_allclose(model.sum(axis=1), 1.0)
     assert model[0, 1] > refiner.heuristic_model()[0, 1]
     assert refiner.shrunk_fit().prior_weight > 0.0
+
+
+def test_mixed_ranks_half_the_mass_as_the_heuristic_model_once_traces_exist() -> None:
+    dyn = ToyDynamics()
+    bank = MemoryClipBank()
+    graph = initial_tree(dyn, bank, depth=3, prefilter_k=10)
+    configs = {
+        kind: RefinerConfig(crowd_radius=0.5, player_model=kind)
+        for kind in (PlayerModelKind.SHRUNK, PlayerModelKind.MIXED)
+    }
+    shrunk, mixed = (Refiner(graph, bank, dyn, Strategy.SR_CROWD, c) for c in configs.values())
+    heuristic = Refiner(graph, bank, dyn, Strategy.SR_HEURISTIC, configs[PlayerModelKind.SHRUNK])
+    # before any trace every sr-crowd ranking is sr-heuristic's
+    np.testing.assert_array_equal(mixed.weights().weights, heuristic.weights().weights)
+    traces = [np.array([[0, 1], [1, 1], [3, 1]]), np.array([[0, 1], [1, 1], [3, 0]])]
+    for refiner in (shrunk, mixed, heuristic):
+        refiner.learn(traces)
+    np.testing.assert_array_equal(mixed.player_model(), shrunk.player_model())
+    crowd, unseen = shrunk.weights().weights, heuristic.weights().weights
+    assert not np.allclose(crowd, unseen)
+    np.testing.assert_allclose(mixed.weights().weights, 0.5 * crowd + 0.5 * unseen, rtol=1e-9)
+    assert mixed.weights().weights.sum() == pytest.approx(1.0)
