@@ -35,21 +35,8 @@ class PlayerModelKind(StrEnum):
     #: eq. 2's kernel counts over the heuristic model as a prior, radius and prior weight
     #: chosen by cross-validation (app.core.shrunk_model)
     SHRUNK = "shrunk"
-    #: ``shrunk``'s P(c|v), ranked for a population of which :data:`UNSEEN_SHARE` plays
-    #: like the heuristic model: players the traces have not seen yet
-    #: (:func:`app.core.strategies.mixed_weights`)
+    #: ``shrunk``'s P(c|v) with heuristic players mixed in (app.core.strategies.mixed_weights)
     MIXED = "mixed"
-
-    @property
-    def shrinks(self) -> bool:
-        """Whether P(c|v) is eq. 2's evidence shrunk toward the heuristic model."""
-        return self in (PlayerModelKind.SHRUNK, PlayerModelKind.MIXED)
-
-
-#: the share of the population ``mixed`` ranks for as heuristic players: fixed beforehand
-#: as half (docs/player-models.md, "`mixed`"), not fitted, since no trace can tell how
-#: many future players are unlike the ones who left traces
-UNSEEN_SHARE = 0.5
 
 
 def parse_player_model(name: str) -> PlayerModelKind:

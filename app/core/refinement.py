@@ -28,7 +28,6 @@ from app.core.growth import (
 )
 from app.core.neighbour_model import NeighbourFit, choose_neighbours, neighbour_player_model
 from app.core.player_models import (
-    UNSEEN_SHARE,
     PlayerModelKind,
     crowd_player_model,
     heuristic_player_model,
@@ -37,7 +36,13 @@ from app.core.player_models import (
 from app.core.publication import Publication, freeze
 from app.core.shrunk_model import ShrunkFit, fit_shrunk_model, shrunk_player_model
 from app.core.staterank import STATERANK_MAX_ITER, edge_probabilities, staterank
-from app.core.strategies import EdgeWeights, Strategy, edge_weights, mixed_weights
+from app.core.strategies import (
+    UNSEEN_SHARE,
+    EdgeWeights,
+    Strategy,
+    edge_weights,
+    mixed_weights,
+)
 
 Trace = np.ndarray
 
@@ -155,7 +160,7 @@ class Refiner:
                 self.config.crowd_eps,
                 fallback=self.heuristic_model(),
             )[:vertices]
-        if self.config.player_model.shrinks:
+        if self.config.player_model in (PlayerModelKind.SHRUNK, PlayerModelKind.MIXED):
             fit = self.shrunk_fit()
             return shrunk_player_model(
                 self.graph.vertex_descriptors(),

@@ -94,6 +94,12 @@ def edge_weights(
     return EdgeWeights(rank.pi[src] * local, rank)
 
 
+#: the share of the population ``mixed`` ranks for as heuristic players: players the
+#: traces have not seen. Fixed beforehand as half (docs/player-models.md, "`mixed`"), not
+#: fitted: no trace can tell how many future players are unlike the ones who left traces
+UNSEEN_SHARE = 0.5
+
+
 def mixed_weights(crowd: EdgeWeights, heuristic: EdgeWeights, share: float) -> EdgeWeights:
     """The edge weights of a population mixed from two: ``1 - share`` of players as the
     crowd model predicts, ``share`` as the heuristic model does.

@@ -48,7 +48,7 @@ def model_fit(refiner: Refiner) -> dict[str, Any] | None:
             "cv_scores": {str(k): round(v, 6) for k, v in fit.cv_scores.items()},
             "eq2_cv_score": fit.reference_score,
         }
-    if kind.shrinks:
+    if kind in (PlayerModelKind.SHRUNK, PlayerModelKind.MIXED):
         shrunk = refiner.shrunk_fit()
         return {
             "radius": shrunk.radius,
