@@ -34,7 +34,7 @@ from app.core.player_models import (
     session_length_of_median,
 )
 from app.core.publication import Publication, freeze
-from app.core.shrunk_model import ShrunkFit, fit_shrunk_model, shrunk_player_model
+from app.core.shrunk_model import SHRUNK_KINDS, ShrunkFit, fit_shrunk_model, shrunk_player_model
 from app.core.staterank import STATERANK_MAX_ITER, edge_probabilities, staterank
 from app.core.strategies import (
     UNSEEN_SHARE,
@@ -131,7 +131,7 @@ class Refiner:
     @property
     def _learnt(self) -> bool:
         """Whether the player model is learnt from traces (sr-crowd once it has some)."""
-        return self.strategy.learns_from_traces and self.play.sessions > 0
+        return self.strategy.learns_from_traces and any(p.sessions for _, p in self.played)
 
     # ---- player model and ranking -------------------------------------------------
     def heuristic_model(self) -> np.ndarray:
@@ -160,7 +160,7 @@ class Refiner:
                 self.config.crowd_eps,
                 fallback=self.heuristic_model(),
             )[:vertices]
-        if self.config.player_model in (PlayerModelKind.SHRUNK, PlayerModelKind.MIXED):
+        if self.config.player_model in SHRUNK_KINDS:
             fit = self.shrunk_fit()
             return shrunk_player_model(
                 self.graph.vertex_descriptors(),
@@ -248,11 +248,12 @@ class Refiner:
         """The strategy's edge weights, STATERANK started from ``warm_start`` (a stored
         pi), else from this refiner's last; for ``mixed`` with traces, the crowd's and
         the heuristic model's mixed (:func:`mixed_weights`)."""
+        restart = self.restart
         result = edge_weights(
             self.strategy,
             self.graph,
             self.player_model(),
-            restart=self.restart,
+            restart=restart,
             warm_start=self._pi if warm_start is None else warm_start,
             max_iter=self.config.staterank_max_iter,
         )
@@ -264,7 +265,7 @@ class Refiner:
             self.strategy,
             self.graph,
             self.heuristic_model(),
-            restart=self.restart,
+            restart=restart,
             warm_start=self._heuristic_pi,
             max_iter=self.config.staterank_max_iter,
         )

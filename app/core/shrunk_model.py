@@ -27,8 +27,12 @@ import numpy as np
 
 from app.core.crowd_play import PlayCounts
 from app.core.model_checks import check_counts, check_distributions
-from app.core.player_models import kernel_counts
+from app.core.player_models import PlayerModelKind, kernel_counts
 from app.core.session_folds import FOLDS, LearnedModel, SessionFolds
+
+#: the crowd models whose P(c|v) is :func:`shrunk_player_model` (``mixed`` only ranks
+#: differently)
+SHRUNK_KINDS = frozenset({PlayerModelKind.SHRUNK, PlayerModelKind.MIXED})
 
 #: kernel radii tried, in multiples of the dynamics' eq. 2 radius
 RADIUS_SCALES = (0.5, 1.0, 2.0, 4.0)

@@ -20,6 +20,7 @@ from app.core.players import PlayerSelection
 from app.core.prediction import PlayedSessions, prediction_figures, split_half_correlation
 from app.core.publication import Publication
 from app.core.refinement import Refiner
+from app.core.shrunk_model import SHRUNK_KINDS
 from app.core.strategies import Strategy
 from app.services.loading import LoadedGraph, open_graph
 from app.services.refining import learn_play, refiner_config
@@ -48,7 +49,7 @@ def model_fit(refiner: Refiner) -> dict[str, Any] | None:
             "cv_scores": {str(k): round(v, 6) for k, v in fit.cv_scores.items()},
             "eq2_cv_score": fit.reference_score,
         }
-    if kind in (PlayerModelKind.SHRUNK, PlayerModelKind.MIXED):
+    if kind in SHRUNK_KINDS:
         shrunk = refiner.shrunk_fit()
         return {
             "radius": shrunk.radius,
