@@ -38,14 +38,24 @@ if ! "$python" -c "import pyopencl" 2>/dev/null; then
   export PYTHONPATH=/tmp/srg-gpu-site
 fi
 
-# NVIDIA's OpenCL driver, registered with the ICD loader where the image did not
-if ! ls /etc/OpenCL/vendors/*.icd >/dev/null 2>&1; then
+# NVIDIA's OpenCL driver, registered with the ICD loader beside the image's own where
+# the image did not: by its full path, since a driver mounted into a container is often
+# outside ld.so's cache
+if ! grep -qs nvidia /etc/OpenCL/vendors/*.icd; then
   lib=$(ldconfig -p | awk '/libnvidia-opencl\.so\.1/ {print $NF; exit}')
-  mkdir -p /tmp/srg-icd
-  echo "${lib:-libnvidia-opencl.so.1}" >/tmp/srg-icd/nvidia.icd
-  export OCL_ICD_VENDORS=/tmp/srg-icd
+  if [ -z "$lib" ]; then
+    lib=$(find /usr/local/nvidia /usr/lib /usr/lib64 -name 'libnvidia-opencl.so.1' \
+      2>/dev/null | head -n1 || true)
+  fi
+  if [ -n "$lib" ]; then
+    mkdir -p /tmp/srg-icd
+    cp /etc/OpenCL/vendors/*.icd /tmp/srg-icd/ 2>/dev/null || true
+    echo "$lib" >/tmp/srg-icd/nvidia.icd
+    export OCL_ICD_VENDORS=/tmp/srg-icd
+  fi
+  echo "gpu-bench: NVIDIA's OpenCL library: ${lib:-none found}" >&2
 fi
 
 export PYTHONPATH="$PWD${PYTHONPATH:+:$PYTHONPATH}"
-export SRG_OPENCL_DEVICE=${SRG_OPENCL_DEVICE:-NVIDIA}
+export SRG_OPENCL_DEVICE=${SRG_OPENCL_DEVICE-NVIDIA}
 exec "$python" -m app.bench.gpu "$@"

@@ -64,8 +64,11 @@ def bench_gpu(
     """The frame time, the batches' speed-up, the identities and the profile, with the
     bars and whether each is met."""
     frame = frame_seconds(frame_preset, "high", device)
+    _progress("frame", frame)
     batch = bench_batch(batch_preset, "low", list(batches), device)
+    _progress("batches", batch)
     profile = profile_sph(frame_preset, "high", tilt_tank(frame_preset, "high").substeps, device)
+    _progress("profile", profile)
     largest = batch["batches"][-1]
     return {
         "device": batch["device"],
@@ -84,6 +87,12 @@ def bench_gpu(
             "identical": frame["queued_equals_careful"] and batch["identical"],
         },
     }
+
+
+def _progress(part: str, result: dict[str, Any]) -> None:
+    """Each part on stderr as it ends: a device lent for minutes may be taken back before
+    the report, and what was measured by then should not be lost with it."""
+    print(f"gpu-bench: {part} done: {json.dumps(result)}", file=sys.stderr, flush=True)
 
 
 if __name__ == "__main__":
