@@ -44,12 +44,3 @@ def build_options(device: cl.Device) -> tuple[str, ...]:
     candidate a work-item (``-DLANE_BUILD``), its lanes being the work-items, where a
     CPU's take eight candidates a vector; the same lists either way."""
     return () if device.type & cl.device_type.CPU else ("-DLANE_BUILD",)
-
-
-def queues_frames(device: cl.Device) -> bool:
-    """Whether a frame's substeps are queued at once, the host reading the errors once a
-    frame (``SphSimulator.frame``): not on a CPU, where each no-op iteration queued past
-    convergence costs more than the host's wait for an error it replaces (tiny 0.76 s
-    against 0.63 s for 30 frames, docs/sph.md "A frame queued at once"); elsewhere, where
-    the host's wait per iteration leaves a GPU idle."""
-    return not device.type & cl.device_type.CPU

@@ -21,7 +21,6 @@ import numpy as np
 import pyopencl as cl
 
 from app.core.scene import Scene, initial_particles
-from app.kernels.launch_shapes import queues_frames
 from app.kernels.sph_kernels import SphKernels
 
 
@@ -79,9 +78,10 @@ class SphSimulator:
         (:func:`app.kernels.context.select_device`).
     profile : bool
         Timestamp every kernel launch (``SphKernels.launches``; ``srg bench sph --profile``).
-    queue_frames : bool or None
-        Queue each frame's substeps at once (:meth:`frame`); None: as the device suits
-        (:func:`app.kernels.launch_shapes.queues_frames`). The frames are the same.
+    queue_frames : bool
+        Queue each frame's substeps at once (:meth:`frame`). The frames are the same;
+        off by default, since it was slower on every device measured, a GPU's included
+        (docs/sph.md, "A frame queued at once").
     batch : int
         Most clips simulated together (:meth:`run_batch`): one launch sequence runs them
         all, each as it runs alone (docs/sph.md, "Clips in batches").
@@ -93,15 +93,14 @@ class SphSimulator:
         fixed_iterations: int | None = None,
         device: str = "",
         profile: bool = False,
-        queue_frames: bool | None = None,
+        queue_frames: bool = False,
         batch: int = 1,
     ) -> None:
         self.scene = scene
         self.n = len(initial_particles(scene))
         self.kernels = SphKernels(scene, self.n, device=device, profile=profile, batch=batch)
         self.fixed_iterations = fixed_iterations
-        device_suits = queues_frames(self.kernels.queue.device)
-        self.queue_frames = device_suits if queue_frames is None else queue_frames
+        self.queue_frames = queue_frames
         self.stats = SolverStats()
         self._errors = np.zeros((max(scene.max_iterations, 1), batch), dtype=np.float32)
         #: pressure iterations queued per substep of a frame queued at once (:meth:`frame`)
