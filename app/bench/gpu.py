@@ -10,6 +10,7 @@ once and the careful way and in a batch and alone, and where a substep's time go
 from __future__ import annotations
 
 import json
+import logging
 import os
 import sys
 import time
@@ -21,6 +22,8 @@ from app.bench.sph_batch import bench_batch
 from app.bench.sph_profile import profile_sph
 from app.core.scene import tilt_tank
 from app.kernels.sph import SphSimulator
+
+log = logging.getLogger(__name__)
 
 #: the bars of the issue that asked for this check
 FRAME_SECONDS_BAR = 0.05
@@ -34,13 +37,13 @@ def frame_seconds(preset: str, fluid: str, device: str) -> dict[str, Any]:
     default) and queued a frame at once; and whether the two agree bit for bit."""
     scene = tilt_tank(preset, fluid)
     rest = SphSimulator(scene, device=device).settle(seconds=0.3, damped_seconds=0.2)
-    runs = {}
-    for queued in (False, True):
-        sim = SphSimulator(scene, device=device, queue_frames=queued)
+    runs: dict[bool, tuple[float, np.ndarray, np.ndarray, SphSimulator]] = {}
+    for queue_frames in (False, True):
+        sim = SphSimulator(scene, device=device, queue_frames=queue_frames)
         sim.run(rest, 1, 1)
         start = time.perf_counter()
         frames, end = sim.run(rest, 1, TIMED_FRAMES)
-        runs[queued] = (time.perf_counter() - start) / TIMED_FRAMES, frames, end, sim
+        runs[queue_frames] = (time.perf_counter() - start) / TIMED_FRAMES, frames, end, sim
     careful, queued = runs[False], runs[True]
     return {
         "preset": preset,
@@ -91,15 +94,16 @@ def bench_gpu(
 
 
 def _progress(part: str, result: dict[str, Any]) -> None:
-    """Each part on stderr as it ends: a device lent for minutes may be taken back before
+    """Each part logged as it ends: a device lent for minutes may be taken back before
     the report, and what was measured by then should not be lost with it."""
-    print(f"gpu-bench: {part} done: {json.dumps(result)}", file=sys.stderr, flush=True)
+    log.info("gpu-bench: %s done: %s", part, json.dumps(result))
 
 
 if __name__ == "__main__":
     # the bare GPU machine has no settings library: the device comes from the same
     # variable the settings read (docs/runtime.md, "The OpenCL device"); the presets may
     # follow as arguments (frame, batch), e.g. `tiny tiny` for a quick trial of the script
+    logging.basicConfig(level=logging.INFO, stream=sys.stderr, format="%(message)s")
     device = os.environ.get("SRG_OPENCL_DEVICE", "")
     frame_preset = sys.argv[1] if len(sys.argv) > 1 else "paper"
     batch_preset = sys.argv[2] if len(sys.argv) > 2 else "small"

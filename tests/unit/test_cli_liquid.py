@@ -258,6 +258,7 @@ def test_bench_gpu_runs_on_any_device_and_judges_its_bars(cli: typer.Typer) -> N
     frame = report["frame"]
     assert frame["preset"] == "tiny" and frame["fluid"] == "high"
     assert frame["seconds_per_frame"] > 0 and frame["queued_equals_careful"] is True
+    assert frame["queued_seconds_per_frame"] > 0  # the option it is the default over
     assert [row["batch"] for row in report["batches"]["batches"]] == [1, 2]
     assert report["profile"]["substeps"] == frame["substeps_per_frame"]
     bars = report["bars"]
