@@ -37,24 +37,26 @@ def frame_seconds(preset: str, fluid: str, device: str) -> dict[str, Any]:
     default) and queued a frame at once; and whether the two agree bit for bit."""
     scene = tilt_tank(preset, fluid)
     rest = SphSimulator(scene, device=device).settle(seconds=0.3, damped_seconds=0.2)
-    runs: dict[bool, tuple[float, np.ndarray, np.ndarray, SphSimulator]] = {}
-    for queue_frames in (False, True):
+
+    def timed(queue_frames: bool) -> tuple[float, np.ndarray, np.ndarray, SphSimulator]:
         sim = SphSimulator(scene, device=device, queue_frames=queue_frames)
         sim.run(rest, 1, 1)
         start = time.perf_counter()
         frames, end = sim.run(rest, 1, TIMED_FRAMES)
-        runs[queue_frames] = (time.perf_counter() - start) / TIMED_FRAMES, frames, end, sim
-    careful, queued = runs[False], runs[True]
+        return (time.perf_counter() - start) / TIMED_FRAMES, frames, end, sim
+
+    seconds, frames, end, sim = timed(queue_frames=False)
+    queued_seconds, queued_frames, queued_end, _ = timed(queue_frames=True)
     return {
         "preset": preset,
         "fluid": fluid,
-        "particles": careful[3].n,
+        "particles": sim.n,
         "substeps_per_frame": scene.substeps,
-        "seconds_per_frame": careful[0],
-        "queued_seconds_per_frame": queued[0],
-        "mean_iterations": careful[3].stats.mean_iterations,
+        "seconds_per_frame": seconds,
+        "queued_seconds_per_frame": queued_seconds,
+        "mean_iterations": sim.stats.mean_iterations,
         "queued_equals_careful": bool(
-            np.array_equal(careful[1], queued[1]) and np.array_equal(careful[2], queued[2])
+            np.array_equal(frames, queued_frames) and np.array_equal(end, queued_end)
         ),
     }
 
