@@ -42,7 +42,7 @@ fi
 # the image did not: by its full path, since a driver mounted into a container is often
 # outside ld.so's cache
 if ! grep -qs nvidia /etc/OpenCL/vendors/*.icd; then
-  lib=$(ldconfig -p | awk '/libnvidia-opencl\.so\.1/ {print $NF; exit}')
+  lib=$(ldconfig -p 2>/dev/null | awk '/libnvidia-opencl\.so\.1/ {print $NF; exit}' || true)
   if [ -z "$lib" ]; then
     lib=$(find /usr/local/nvidia /usr/lib /usr/lib64 -name 'libnvidia-opencl.so.1' \
       2>/dev/null | head -n1 || true)

@@ -273,6 +273,25 @@ def test_the_gpu_check_needs_only_numpy_scipy_and_pyopencl() -> None:
     assert loaded_modules("app.bench.gpu", ("pyopencl",)) == ["pyopencl"]
 
 
+def test_the_prepared_gpu_script_runs_on_any_device_where_asked() -> None:
+    """`SRG_OPENCL_DEVICE=` (empty) means any device, not NVIDIA's; a machine without
+    NVIDIA's library still runs; each part is logged before the report."""
+    root = Path(__file__).resolve().parents[2]
+    done = subprocess.run(
+        ["bash", str(root / "infra/gpu-bench.sh"), "tiny", "tiny"],
+        env={"PATH": "/usr/bin:/bin", "PYTHON": sys.executable, "SRG_OPENCL_DEVICE": ""},
+        capture_output=True,
+        text=True,
+        timeout=600,
+    )
+    assert done.returncode == 0, done.stderr
+    report = json.loads(done.stdout)
+    assert report["bars"]["identical"] is True
+    assert report["frame"]["preset"] == "tiny"
+    for part in ("frame", "batches", "profile"):
+        assert f"gpu-bench: {part} done: " in done.stderr
+
+
 @pytest.mark.parametrize(
     ("extra", "message"),
     [
