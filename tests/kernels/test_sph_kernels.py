@@ -219,6 +219,7 @@ def test_a_frame_queued_at_once_is_the_careful_frame(
     assert ahead.stats.iteration_counts == careful.stats.iteration_counts
     assert ahead.stats.max_error == careful.stats.max_error
     assert min(careful.stats.iteration_counts) > 1
+    assert not sim.queue_frames  # the careful way is every device's default (docs/sph.md)
     if budget == 1:  # too few for any substep: the first frame was put back, and the
         assert restored == [1]  # budget then grew to fit the frames after it
 
