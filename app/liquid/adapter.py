@@ -218,12 +218,17 @@ class LiquidDynamics:
 
     # ---- engines, built on first use -------------------------------------------------
     @property
+    def batch(self) -> int:
+        """The most clips one launch sequence runs: an expansion's (one per control), or
+        the devices' ``simulate_batch`` where that is more."""
+        return max(self.n_controls, self.devices.simulate_batch)
+
+    @property
     def simulator(self) -> SphSimulator:
-        """The scene's simulator, with room for an expansion's clips (one per control) in
-        one batch."""
+        """The scene's simulator, with room for :attr:`batch` clips in one launch sequence."""
         if self._simulator is None:
             self._simulator = SphSimulator(
-                self.scene, device=self.devices.opencl_device, batch=self.n_controls
+                self.scene, device=self.devices.opencl_device, batch=self.batch
             )
         return self._simulator
 
@@ -260,15 +265,15 @@ class LiquidDynamics:
         """PCISPH only: per clip (a start state and a control), the (k, n, 3) particle
         positions of its frames and its end state.
 
-        The clips run in batches of up to one per control, each bit-identical to its
-        run alone (docs/sph.md, "Clips in batches"). An end state is on the lattice, its
+        The clips run in batches of up to :attr:`batch`, each bit-identical to its run
+        alone (docs/sph.md, "Clips in batches"). An end state is on the lattice, its
         particles in Morton order: the frames keep the particle order of their start
         state, clips simulated from the end state its own.
         """
         sim, k = self.simulator, self.scene.frames_per_clip
         out = []
-        for first in range(0, len(states), self.n_controls):
-            chunk = slice(first, first + self.n_controls)
+        for first in range(0, len(states), self.batch):
+            chunk = slice(first, first + self.batch)
             positions, ends = sim.run_batch(states[chunk], controls[chunk], k)
             out += [(p, snap_state(e, self.lattice)) for p, e in zip(positions, ends, strict=True)]
         return out

@@ -27,11 +27,16 @@ class LiquidDevices:
         Mitsuba variant, or ``auto`` (``app.render.mitsuba_scene.pick_variant``).
     llvm_path : str
         libLLVM for Mitsuba's LLVM variant; ``''``: look in the system's library folders.
+    simulate_batch : int
+        The most clips one launch sequence runs; an expansion's clips (one per control)
+        always fit. A GPU runs a dozen in about the time of a few (docs/sph.md, "Clips
+        in batches").
     """
 
     opencl_device: str = ""
     render_variant: str = "auto"
     llvm_path: str = ""
+    simulate_batch: int = 1
 
     @classmethod
     def from_settings(cls, settings: Settings) -> LiquidDevices:
@@ -39,4 +44,5 @@ class LiquidDevices:
             settings.runtime.opencl_device,
             settings.render.render_variant,
             settings.render.llvm_path,
+            settings.runtime.simulate_batch,
         )

@@ -10,6 +10,7 @@ done. Simulating needs no database at all
 from __future__ import annotations
 
 import hashlib
+import logging
 from collections.abc import Sequence
 from dataclasses import dataclass
 from typing import Protocol, runtime_checkable
@@ -26,9 +27,11 @@ from app.services.loading import artifact_store, graph_context, graph_dynamics
 from app.store.animations import clip_features, set_animations, stored_clip
 from app.store.array_codec import ARRAYS_MEDIA_TYPE
 from app.store.artifacts import ArtifactCorrupt, ArtifactNotFound
-from app.store.epochs import expansion_clip, get_epoch, record_clip
+from app.store.epochs import expansion_clip, get_epoch, record_clip, stored_clips
 from app.store.graph_catalogue import clip_bundle_digest, graph_entry
 from app.store.simulated_clips import record_simulated_clip, simulated_clip
+
+log = logging.getLogger(__name__)
 
 
 @runtime_checkable
@@ -198,17 +201,80 @@ def clip_from_arrays(arrays: dict[str, np.ndarray]) -> tuple[SimClip, ClipFeatur
     return sim, features
 
 
+def record_finished(
+    session: Session,
+    settings: Settings,
+    epoch_id: int,
+    position: int,
+    control: int,
+    job: ClipJob,
+    clip: dict[str, np.ndarray],
+) -> str:
+    """Store and record the finished clip of a planned one, remembered for the next
+    identical simulation; its artifact's digest."""
+    digest = artifact_store(settings).put_arrays(clip, session=session)
+    record_clip(session, epoch_id, position, control, digest)
+    remember_clip(session, settings, job, digest)
+    return digest
+
+
 def simulate_step(
     session: Session, settings: Settings, epoch_id: int, position: int, control: int
 ) -> str:
     """Simulate one clip of a planned expansion; return its stage artifact's digest
-    (the finished clip's when an identical simulation was done before)."""
+    (the finished clip's when an identical simulation was done before).
+
+    With ``SRG_SIMULATE_BATCH`` above 1 the clip runs in one launch sequence with the
+    epoch's other missing clips, which are finished and recorded here, so that their
+    own steps find them done (docs/runtime.md, "Clips together on a worker").
+    """
     job = clip_job(session, settings, epoch_id, position, control)
     if isinstance(job, str):
         return job
     if (remembered := remembered_clip(session, settings, job)) is not None:
         return remembered
-    return artifact_store(settings).put_arrays(simulate_job(job), session=session)
+    companions = _companions(session, settings, epoch_id, position, control, job)
+    stages = simulate_jobs([job, *companions.values()])
+    finished = [finish_clip(job.dynamics, stage) or stage for stage in stages[1:]]
+    for (p, c), companion, clip in zip(companions, companions.values(), finished, strict=True):
+        record_finished(session, settings, epoch_id, p, c, companion, clip)
+    if companions:
+        log.info(
+            "epoch %d: clip %d/%d simulated together with %d more of the epoch",
+            epoch_id, position, control, len(companions),
+        )  # fmt: skip
+    return artifact_store(settings).put_arrays(stages[0], session=session)
+
+
+def _companions(
+    session: Session, settings: Settings, epoch_id: int, position: int, control: int, job: ClipJob
+) -> dict[tuple[int, int], ClipJob]:
+    """Up to ``SRG_SIMULATE_BATCH - 1`` other clips of the epoch not yet recorded, to
+    simulate with (position, control)'s: its expansion's first, then the plan's next
+    expansions, wrapping round (the earlier ones' own steps were sent first). A clip
+    remembered from an earlier simulation is left to its own step, which reuses it.
+    Only a surfaced dynamics runs clips together."""
+    room = settings.runtime.simulate_batch - 1
+    if room <= 0 or not isinstance(job.dynamics, SurfacedDynamics):
+        return {}
+    entry, _ = planned_clip(session, epoch_id, position)
+    plan_length = len(get_epoch(session, epoch_id).plan)
+    recorded = stored_clips(session, epoch_id)
+    order = sorted(
+        ((p, c) for p in range(plan_length) for c in range(entry.n_controls)),
+        key=lambda clip: ((clip[0] - position) % plan_length, clip[1]),
+    )
+    companions: dict[tuple[int, int], ClipJob] = {}
+    for p, c in order:
+        if len(companions) == room:
+            break
+        if (p, c) == (position, control) or (p, c) in recorded:
+            continue
+        companion = _planned_job(session, settings, epoch_id, p, c)
+        key = simulation_key(companion) if settings.growth.reuse_simulations else None
+        if key is None or simulated_clip(session, key) is None:
+            companions[p, c] = companion
+    return companions
 
 
 def sdf_step(

@@ -40,12 +40,12 @@ from app.services.clips import (
     clip_from_arrays,
     clip_job,
     finish_clip,
-    remember_clip,
+    record_finished,
     remembered_clip,
     render_step,
     simulate_jobs,
 )
-from app.services.loading import LoadedGraph, artifact_store, keep_graph, loaded_graph
+from app.services.loading import LoadedGraph, keep_graph, loaded_graph
 from app.services.refining import rank_stored, refiner_for
 from app.store.animations import edges_without_animation, set_animations
 from app.store.epochs import (
@@ -384,8 +384,7 @@ def _simulate_in_process(
     for (control, job), stage in zip(jobs.items(), stages, strict=True):
         clip = finish_clip(job.dynamics, stage) or stage
         with scope() as session:
-            digest = artifact_store(settings).put_arrays(clip, session=session)
-            record_clip(session, epoch_id, position, control, digest)
-            remember_clip(session, settings, job, digest)
-        digests[control] = digest
+            digests[control] = record_finished(
+                session, settings, epoch_id, position, control, job, clip
+            )
     return [(control, digests[control]) for control in controls]

@@ -258,10 +258,15 @@ def expansion_clips(session: Session, epoch_id: int, position: int) -> dict[int,
 
 def record_clip(session: Session, epoch_id: int, position: int, control: int, clip: str) -> None:
     """Note a planned clip's artifact on ``expansion_clips`` (once), and the epoch's
-    heartbeat."""
+    heartbeat.
+
+    The heartbeat comes first: every writer of an epoch's clips takes the epoch's row
+    before any clip row, so two transactions recording the same clips (a worker
+    simulating others' clips with its own) wait for each other instead of deadlocking.
+    """
+    record_heartbeat(session, epoch_id)
     insert_ignoring_duplicates(
         session,
         ExpansionClip,
         [{"epoch_id": epoch_id, "position": position, "control": control, "clip": clip}],
     )
-    record_heartbeat(session, epoch_id)
