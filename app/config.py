@@ -120,14 +120,7 @@ class RuntimeSettings(BaseSettings):
     model_config = _SOURCES
 
     opencl_device: str = Field("", description="substring of the OpenCL device name; '' = PoCL CPU")
-    simulate_batch: int = Field(
-        1,
-        ge=1,
-        le=64,
-        description="clips a worker's srg.simulate runs in one launch sequence: its own, then "
-        "the epoch's other missing clips, its expansion's first (docs/runtime.md, \"Clips "
-        'together on a worker"); 1: each clip alone',
-    )
+    simulate_batch: int = Field(1, ge=1, le=64, description="clips one srg.simulate runs together")
     task_time_limit: int = Field(900, ge=1, le=7 * DAY, description="seconds a task runs at most")
     task_soft_time_limit: int = Field(
         600,
