@@ -26,9 +26,10 @@ STRATEGY = "sr-heuristic"
 BATCH = 4
 
 
-def seed_graph(settings: Settings, name: str = "g") -> int:
+def seed_graph(settings: Settings, name: str = "g", **graph: str) -> int:
+    """A new graph (the toy unless ``graph`` names another dynamics); its id."""
     with session_factory(make_engine(settings.resolved_database_url))() as session:
-        summary = init_graph(session, settings, name=name, strategy=STRATEGY)
+        summary = init_graph(session, settings, name=name, strategy=STRATEGY, **graph)
         session.commit()
     return int(summary["id"])  # type: ignore[call-overload]
 
@@ -52,7 +53,9 @@ def snapshot(session: Session, settings: Settings, graph_id: int) -> dict[str, l
     }
 
 
-def eager_reference(tmp_path: Path, epochs: int, batch: int = BATCH) -> dict[str, list[object]]:
+def eager_reference(
+    tmp_path: Path, epochs: int, batch: int = BATCH, **graph: str
+) -> dict[str, list[object]]:
     """The same seed grown in-process on SQLite: what every distributed run must equal."""
     url = f"sqlite:///{tmp_path / 'eager.sqlite3'}"
     if not (tmp_path / "eager.sqlite3").exists():
@@ -64,7 +67,7 @@ def eager_reference(tmp_path: Path, epochs: int, batch: int = BATCH) -> dict[str
         growth_renders=False,
         batch_size=batch,
     )
-    graph_id = seed_graph(settings, "eager")
+    graph_id = seed_graph(settings, "eager", **graph)
     with session_factory(make_engine(url))() as session:
         grow_graph(in_session(session), settings, name=graph_id, expansions=epochs * batch)
         session.commit()

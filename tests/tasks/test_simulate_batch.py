@@ -6,21 +6,18 @@ from __future__ import annotations
 
 import logging
 from collections.abc import Callable
-from functools import partial
 from pathlib import Path
 
 import pytest
-from database_helpers import migrate
 from sqlalchemy import select
 from tasks_cluster import Cluster
-from tasks_helpers import client, run_epoch, snapshot
+from tasks_helpers import client, eager_reference, run_epoch, seed_graph, snapshot
 
 from app.config import Settings, get_settings
-from app.db.engines import make_engine
-from app.db.sessions import session_factory, transaction
+from app.db.sessions import transaction
 from app.liquid.adapter import LiquidDynamics
 from app.models import Graph
-from app.services import clips, epochs, growing
+from app.services import clips, epochs
 from app.services.creation import init_graph
 from app.services.loading import graph_dynamics
 from app.store.epochs import expansion_clip, stored_clips
@@ -28,6 +25,7 @@ from app.store.graph_catalogue import graph_entry
 
 #: expansions an epoch plans here: six clips of three controls
 EXPANSIONS = 2
+LIQUID = {"dynamics": "liquid", "preset": "tiny"}
 
 
 def _planned_epoch(settings: Settings, name: str) -> int:
@@ -91,32 +89,11 @@ def test_a_worker_with_a_batch_grows_the_graph_grown_in_process(
     cluster_env: Callable[..., Cluster], tmp_path: Path
 ) -> None:
     cluster = cluster_env(batch_size=EXPANSIONS, simulate_batch=3, reuse_simulations=False)
-    sessions = session_factory(make_engine(cluster.settings.resolved_database_url))
-    with sessions() as session:
-        made = init_graph(session, cluster.settings, name="g", dynamics="liquid", preset="tiny")
-        session.commit()
-    graph_id = int(made["id"])  # type: ignore[call-overload]
+    graph_id = seed_graph(cluster.settings, **LIQUID)
     cluster.start_worker("w1", concurrency=1)
     run_epoch(cluster, client(cluster), graph_id, timeout=300)
     log = (cluster.logs / "w1.log").read_text(errors="replace")
     assert "simulated together with 2 more of the epoch" in log, log[-3000:]
     with cluster.session() as session:
         on_worker = snapshot(session, cluster.settings, graph_id)
-
-    url = f"sqlite:///{tmp_path / 'eager.sqlite3'}"
-    migrate(url)
-    eager = Settings().replace(
-        database_url=url,
-        var_dir=tmp_path / "eager-var",
-        artifact_dir=tmp_path / "eager-artifacts",
-        growth_renders=False,
-        batch_size=EXPANSIONS,
-        reuse_simulations=False,
-    )
-    scope = partial(transaction, eager)
-    with scope() as session:
-        init_graph(session, eager, name="g", dynamics="liquid", preset="tiny")
-    growing.grow_graph(scope, eager, name="g", expansions=EXPANSIONS)
-    with scope() as session:
-        eager_id = session.scalars(select(Graph.id).where(Graph.name == "g")).one()
-        assert snapshot(session, eager, eager_id) == on_worker
+    assert on_worker == eager_reference(tmp_path, 1, batch=EXPANSIONS, **LIQUID)
