@@ -257,11 +257,11 @@ def _companions(
     room = settings.runtime.simulate_batch - 1
     if room <= 0 or not isinstance(job.dynamics, SurfacedDynamics):
         return {}
-    entry, _ = planned_clip(session, epoch_id, position)
     plan_length = len(get_epoch(session, epoch_id).plan)
+    n_controls = job.dynamics.n_controls
     recorded = stored_clips(session, epoch_id)
     order = sorted(
-        ((p, c) for p in range(plan_length) for c in range(entry.n_controls)),
+        ((p, c) for p in range(plan_length) for c in range(n_controls)),
         key=lambda clip: ((clip[0] - position) % plan_length, clip[1]),
     )
     companions: dict[tuple[int, int], ClipJob] = {}

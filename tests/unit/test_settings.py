@@ -83,6 +83,7 @@ def test_every_numeric_setting_has_both_bounds() -> None:
         ("SRG_TASK_SOFT_TIME_LIMIT", "1000", "below SRG_TASK_TIME_LIMIT (900 s)"),
         ("SRG_TASK_SOFT_TIME_LIMIT", "900", "below SRG_TASK_TIME_LIMIT (900 s)"),
         ("SRG_BATCH_SIZE", "9" * 20, "less than or equal to 1000"),
+        ("SRG_SIMULATE_BATCH", "0", "greater than or equal to 1"),
         ("SRG_MAX_TRACE_BYTES", "9" * 20, "less than or equal to"),
         ("SRG_OCCUPANCY_CACHE_TTL", "9" * 20, "less than or equal to"),
         ("SRG_DEDUP_ERROR_FRACTION", "1.5", "less than or equal to 1"),
