@@ -37,6 +37,8 @@ class PlayerModelKind(StrEnum):
     SHRUNK = "shrunk"
     #: ``shrunk``'s P(c|v) with heuristic players mixed in (app.core.strategies.mixed_weights)
     MIXED = "mixed"
+    #: ``mixed``, radius and prior weight scored on the latest publication (shrunk_model)
+    MIXED_FORWARD = "mixed-forward"
 
 
 def parse_player_model(name: str) -> PlayerModelKind:
@@ -393,8 +395,6 @@ def _validated_controls(vertex_control: np.ndarray, n_controls: int) -> np.ndarr
         raise ValueError(f"vertex_control must be 1-D, got shape {vertex_control.shape}")
     if vertex_control.size and not np.issubdtype(vertex_control.dtype, np.integer):
         raise ValueError(f"vertex_control must hold integers, got dtype {vertex_control.dtype}")
-    if vertex_control.size and not (
-        vertex_control.min() >= 0 and vertex_control.max() < n_controls
-    ):
+    if vertex_control.size and not 0 <= vertex_control.min() <= vertex_control.max() < n_controls:
         raise ValueError(f"vertex_control holds controls outside 0..{n_controls - 1}")
     return vertex_control.astype(np.int64, copy=False)

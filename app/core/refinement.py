@@ -34,7 +34,13 @@ from app.core.player_models import (
     session_length_of_median,
 )
 from app.core.publication import Publication, freeze
-from app.core.shrunk_model import SHRUNK_KINDS, ShrunkFit, fit_shrunk_model, shrunk_player_model
+from app.core.shrunk_model import (
+    MIXED_KINDS,
+    SHRUNK_KINDS,
+    ShrunkFit,
+    fit_shrunk_model,
+    shrunk_player_model,
+)
 from app.core.staterank import STATERANK_MAX_ITER, edge_probabilities, staterank
 from app.core.strategies import (
     UNSEEN_SHARE,
@@ -209,14 +215,19 @@ class Refiner:
         return self._neighbours
 
     def shrunk_fit(self) -> ShrunkFit:
-        """The radius and prior weight cross-validated on the sessions learnt so far."""
+        """The radius and prior weight chosen on the sessions learnt so far: by 5-fold
+        cross-validation, or for ``mixed-forward`` with two publications' sessions or more
+        by how the earlier ones predict the latest's (learnt one publication at a time)."""
         if self._shrunk is None:
+            played = [play for _, play in self.played if play.sessions]
+            forward = self.config.player_model is PlayerModelKind.MIXED_FORWARD and len(played) > 1
             self._shrunk = fit_shrunk_model(
                 self.graph.vertex_descriptors(),
                 np.asarray(self.graph.vertex_control),
-                self.play,
+                PlayCounts.merged(played[:-1]) if forward else self.play,
                 self.heuristic_model(),
                 self.config.crowd_radius,
+                latest=played[-1] if forward else None,
             )
         return self._shrunk
 
@@ -259,7 +270,7 @@ class Refiner:
         )
         if result.rank is not None:
             self._pi = result.rank.pi
-        if not (self.config.player_model is PlayerModelKind.MIXED and self._learnt):
+        if not (self.config.player_model in MIXED_KINDS and self._learnt):
             return result
         heuristic = edge_weights(
             self.strategy,

@@ -41,8 +41,20 @@ class SessionFolds:
 
     def score(self, learned: LearnedModel) -> float:
         """Mean log-likelihood per step of every fold under the model of the others."""
-        total_ll = 0.0
-        for fold in self.fold_counts:
-            model = learned(self.total - fold)
-            total_ll += float(np.sum(fold * np.log(np.maximum(model, 1e-300))))
+        total_ll = sum(
+            _log_likelihood(learned(self.total - fold), fold) for fold in self.fold_counts
+        )
         return total_ll / float(self.total.sum())
+
+
+def held_out_score(learned: LearnedModel, learnt: np.ndarray, held: np.ndarray) -> float:
+    """Mean log-likelihood per step of the ``held`` control counts under the model learnt
+    from the ``learnt`` ones. Raises ValueError when ``held`` has no step."""
+    steps = float(np.sum(held))
+    if steps <= 0.0:
+        raise ValueError("the held-out sessions have no step: nothing to score")
+    return _log_likelihood(learned(learnt), held) / steps
+
+
+def _log_likelihood(model: np.ndarray, counts: np.ndarray) -> float:
+    return float(np.sum(counts * np.log(np.maximum(model, 1e-300))))

@@ -28,11 +28,16 @@ import numpy as np
 from app.core.crowd_play import PlayCounts
 from app.core.model_checks import check_counts, check_distributions
 from app.core.player_models import PlayerModelKind, kernel_counts
-from app.core.session_folds import FOLDS, LearnedModel, SessionFolds
+from app.core.session_folds import FOLDS, LearnedModel, SessionFolds, held_out_score
 
-#: the crowd models whose P(c|v) is :func:`shrunk_player_model` (``mixed`` only ranks
-#: differently)
-SHRUNK_KINDS = frozenset({PlayerModelKind.SHRUNK, PlayerModelKind.MIXED})
+#: the crowd models whose P(c|v) is :func:`shrunk_player_model` (the mixed ones rank
+#: differently, ``mixed-forward`` also chooses its radius and weight otherwise)
+SHRUNK_KINDS = frozenset(
+    {PlayerModelKind.SHRUNK, PlayerModelKind.MIXED, PlayerModelKind.MIXED_FORWARD}
+)
+#: the crowd models ranked for a population half of which the traces have not seen
+#: (:func:`app.core.strategies.mixed_weights`)
+MIXED_KINDS = frozenset({PlayerModelKind.MIXED, PlayerModelKind.MIXED_FORWARD})
 
 #: kernel radii tried, in multiples of the dynamics' eq. 2 radius
 RADIUS_SCALES = (0.5, 1.0, 2.0, 4.0)
@@ -105,16 +110,29 @@ def fit_shrunk_model(
     radius_scales: Sequence[float] = RADIUS_SCALES,
     prior_weights: Sequence[float] = PRIOR_WEIGHTS,
     folds: int = FOLDS,
+    latest: PlayCounts | None = None,
 ) -> ShrunkFit:
     """The (radius, prior weight) whose model best predicts held-out sessions' controls
     (``play``: the sessions' summed counts).
 
-    Radii are ``base_radius`` times ``radius_scales``. Ties go to the smaller radius,
-    then the larger prior weight (the model closer to the heuristic). Raises ValueError
-    when no trace has a step.
+    Held out are ``folds`` folds of ``play``'s sessions, or, given ``latest`` (the
+    sessions of the latest publication, ``play`` those of the ones before it), ``latest``
+    under the model learnt from ``play``: growth's question, how the players of a graph
+    that has grown since choose (docs/player-models.md, "`mixed-forward`"). Radii are
+    ``base_radius`` times ``radius_scales``. Ties go to the smaller radius, then the
+    larger prior weight (the model closer to the heuristic). Raises ValueError when no
+    trace has a step.
     """
     prior = np.asarray(prior, dtype=np.float64)
-    folded = SessionFolds.of(play, prior.shape[0], prior.shape[1], folds)
+    n_vertices, n_controls = prior.shape
+    if latest is None:
+        score = SessionFolds.of(play, n_vertices, n_controls, folds).score
+    else:
+        learnt = play.control_counts(n_vertices, n_controls)
+        held = latest.control_counts(n_vertices, n_controls)
+
+        def score(learned: LearnedModel) -> float:
+            return held_out_score(learned, learnt, held)
 
     def model(radius: float, weight: float) -> LearnedModel:
         return lambda counts: shrunk_player_model(
@@ -122,6 +140,6 @@ def fit_shrunk_model(
         )
 
     candidates = [(base_radius * s, float(m)) for s in radius_scales for m in prior_weights]
-    scores = {key: folded.score(model(*key)) for key in candidates}
+    scores = {key: score(model(*key)) for key in candidates}
     radius, weight = max(scores, key=lambda key: (scores[key], -key[0], key[1]))
     return ShrunkFit(radius, weight, scores)

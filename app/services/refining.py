@@ -65,13 +65,18 @@ def learn_play(
 ) -> None:
     """Teach ``refiner`` the sums of the sessions ``players`` played on the graph's
     publications (those older than publication ``before`` only, when given): per
-    publication, with it, for the logit model, which reads the goals players saw; one sum
-    over them for the others, which read none."""
-    if refiner.config.player_model is PlayerModelKind.LOGIT:
+    publication for the models that tell publications apart (with it for the logit model,
+    which reads the goals players saw; oldest first for ``mixed-forward``, which scores
+    the latest); one sum over them for the others."""
+    kind = refiner.config.player_model
+    if kind in (PlayerModelKind.LOGIT, PlayerModelKind.MIXED_FORWARD):
         for publication_id, play in publication_play_counts(
             session, graph_id, players, before=before
         ):
-            refiner.learn_counts(play, load_publication(session, publication_id))
+            publication = (
+                load_publication(session, publication_id) if kind is PlayerModelKind.LOGIT else None
+            )
+            refiner.learn_counts(play, publication)
     else:
         refiner.learn_counts(graph_play_counts(session, graph_id, players, before=before))
 
