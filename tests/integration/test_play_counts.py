@@ -26,7 +26,7 @@ from app.core.player_models import PlayerModelKind, observed_control_counts
 from app.core.prediction import PlayedSessions, prediction_figures
 from app.core.refinement import Refiner
 from app.core.session_folds import FOLDS, SessionFolds
-from app.core.shrunk_model import shrunk_player_model
+from app.core.shrunk_model import fit_shrunk_model, shrunk_player_model
 from app.core.strategies import Strategy, parse_strategy
 from app.db.engines import make_engine
 from app.models import GraphSessions, Player
@@ -242,3 +242,23 @@ def test_the_latest_publications_prediction_reads_sums_not_steps(
         assert summed[name] == pytest.approx(value, rel=1e-12), name
     session.execute(text("DELETE FROM trace_steps"))
     assert latest_play_prediction(session, settings, loaded.entry.id) == summed
+
+
+def test_mixed_forward_learns_publication_by_publication_and_scores_the_latest(
+    session: Session, db_url: str, tmp_path: Path
+) -> None:
+    settings = settings_for(db_url, tmp_path)
+    loaded = played_graph(session, settings, "mixed-forward")
+    refiner = refiner_for(session, settings, loaded)
+    first, second = sorted(played_publications(session, loaded.entry.id))
+    assert [play.sessions for _, play in refiner.played] == [18, 18]
+    graph = loaded.graph
+    expected = fit_shrunk_model(
+        graph.vertex_descriptors(),
+        np.asarray(graph.vertex_control),
+        PlayCounts.of_traces(load_traces(session, [first])),
+        refiner.heuristic_model(),
+        refiner.config.crowd_radius,
+        latest=PlayCounts.of_traces(load_traces(session, [second])),
+    )
+    assert refiner.shrunk_fit() == expected
