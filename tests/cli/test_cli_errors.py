@@ -388,7 +388,11 @@ def test_bad_settings_of_several_groups_are_named_in_the_same_line(tmp_path: Pat
         ("SRG_HIGH_ERROR_THRESHOLD", "nan", "finite number"),
         ("SRG_BEAT_INTERVAL", "inf", "finite number"),
         ("SRG_PUBLISH_EVERY", "-600", "greater than or equal to 0"),
-        ("SRG_PLAYER_MODEL", "bogus", "'eq2', 'logit', 'knn', 'shrunk' or 'mixed'"),
+        (
+            "SRG_PLAYER_MODEL",
+            "bogus",
+            "'eq2', 'logit', 'knn', 'shrunk', 'mixed' or 'mixed-forward'",
+        ),
     ],
 )
 def test_a_setting_out_of_its_range_is_named_in_one_line_before_anything_runs(
