@@ -77,8 +77,8 @@ class GrowthSettings(BaseSettings):
     player_model: PlayerModelKind = Field(
         PlayerModelKind.MIXED,
         description="crowd model of new sr-crowd graphs: mixed (default: shrunk, ranked with "
-        "half the mass for unseen players; docs/player-models.md), mixed-forward, shrunk, "
-        "knn, eq2 (the paper's) or logit",
+        "half the mass for unseen players; docs/player-models.md), mixed-forward, "
+        "mixed-fresh, shrunk, knn, eq2 (the paper's) or logit",
     )
     reuse_simulations: bool = Field(
         True,

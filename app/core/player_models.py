@@ -39,6 +39,8 @@ class PlayerModelKind(StrEnum):
     MIXED = "mixed"
     #: ``mixed``, radius and prior weight scored on the latest publication (shrunk_model)
     MIXED_FORWARD = "mixed-forward"
+    #: ``mixed``, steps counted less where the graph has changed since (fresh_evidence)
+    MIXED_FRESH = "mixed-fresh"
 
 
 def parse_player_model(name: str) -> PlayerModelKind:

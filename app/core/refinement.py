@@ -17,6 +17,7 @@ from app.core.clipbank import ClipBank
 from app.core.crowd_play import PlayCounts
 from app.core.dynamics import Dynamics
 from app.core.errors import InvalidInput
+from app.core.fresh_evidence import FreshFit, fit_fresh_evidence, weighted_counts
 from app.core.graph import StateGraph
 from app.core.growth import (
     EpochOutcome,
@@ -127,6 +128,7 @@ class Refiner:
     _choice: ChoiceModel | None = None
     _neighbours: NeighbourFit | None = None
     _shrunk: ShrunkFit | None = None
+    _fresh: FreshFit | None = None
     _heuristic_pi: np.ndarray | None = None
 
     @property
@@ -166,16 +168,17 @@ class Refiner:
                 self.config.crowd_eps,
                 fallback=self.heuristic_model(),
             )[:vertices]
+        if self.config.player_model is PlayerModelKind.MIXED_FRESH:
+            fresh = self.fresh_fit()
+            counts = weighted_counts(
+                self.published_play(),
+                freeze(self.graph),
+                self.graph.n_vertices,
+                fresh.discount,
+                fresh.depth,
+            )
         if self.config.player_model in SHRUNK_KINDS:
-            fit = self.shrunk_fit()
-            return shrunk_player_model(
-                self.graph.vertex_descriptors(),
-                np.asarray(self.graph.vertex_control),
-                counts,
-                fit.radius,
-                fit.prior_weight,
-                prior=self.heuristic_model(),
-            )[:vertices]
+            return self.shrunk_model(counts)[:vertices]
         if self.config.player_model is PlayerModelKind.LOGIT:
             graph = ChoiceGraph.of(
                 freeze(self.graph) if on is None else on,
@@ -231,16 +234,44 @@ class Refiner:
             )
         return self._shrunk
 
+    def shrunk_model(self, counts: np.ndarray) -> np.ndarray:
+        """P(c|v) of ``shrunk`` learnt from ``counts``, its radius and weight chosen
+        (:meth:`shrunk_fit`)."""
+        fit = self.shrunk_fit()
+        return shrunk_player_model(
+            self.graph.vertex_descriptors(),
+            np.asarray(self.graph.vertex_control),
+            counts,
+            fit.radius,
+            fit.prior_weight,
+            prior=self.heuristic_model(),
+        )
+
+    def published_play(self) -> list[tuple[Publication, PlayCounts]]:
+        """The sessions learnt, each publication's with it, oldest first; ValueError
+        when some were learnt without theirs."""
+        if any(publication is None for publication, _ in self.played):
+            raise ValueError(
+                f"the {self.config.player_model} model needs every session's publication"
+            )
+        return [(publication, play) for publication, play in self.played if publication is not None]
+
+    def fresh_fit(self) -> FreshFit:
+        """For ``mixed-fresh``: how much a step counts where the graph has changed since
+        it was played, chosen on the latest publication's sessions (fitted once)."""
+        if self._fresh is None:
+            self._fresh = fit_fresh_evidence(
+                self.published_play(), self.shrunk_model, self.graph.n_vertices
+            )
+        return self._fresh
+
     def choice_model(self) -> ChoiceModel:
         """The logit-prior model fitted to the sessions learnt so far (fitted once)."""
         if self._choice is None:
             control, parents = np.asarray(self.graph.vertex_control), self.graph.vertex_parents()
-            if any(publication is None for publication, _ in self.played):
-                raise ValueError("the logit model needs the publication of every session")
             played = [
                 PlayedGraph(ChoiceGraph.of(publication, control, parents), play)
-                for publication, play in self.played
-                if publication is not None
+                for publication, play in self.published_play()
             ]
             self._choice = fit_choice_model(played, self.kernel())
         return self._choice
@@ -358,3 +389,4 @@ class Refiner:
         self._choice = None
         self._neighbours = None
         self._shrunk = None
+        self._fresh = None

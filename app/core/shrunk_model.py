@@ -31,13 +31,21 @@ from app.core.player_models import PlayerModelKind, kernel_counts
 from app.core.session_folds import FOLDS, LearnedModel, SessionFolds, held_out_score
 
 #: the crowd models whose P(c|v) is :func:`shrunk_player_model` (the mixed ones rank
-#: differently, ``mixed-forward`` also chooses its radius and weight otherwise)
+#: differently, ``mixed-forward`` also chooses its radius and weight otherwise,
+#: ``mixed-fresh`` weighs the counts, app.core.fresh_evidence)
 SHRUNK_KINDS = frozenset(
-    {PlayerModelKind.SHRUNK, PlayerModelKind.MIXED, PlayerModelKind.MIXED_FORWARD}
+    {
+        PlayerModelKind.SHRUNK,
+        PlayerModelKind.MIXED,
+        PlayerModelKind.MIXED_FORWARD,
+        PlayerModelKind.MIXED_FRESH,
+    }
 )
 #: the crowd models ranked for a population half of which the traces have not seen
 #: (:func:`app.core.strategies.mixed_weights`)
-MIXED_KINDS = frozenset({PlayerModelKind.MIXED, PlayerModelKind.MIXED_FORWARD})
+MIXED_KINDS = frozenset(
+    {PlayerModelKind.MIXED, PlayerModelKind.MIXED_FORWARD, PlayerModelKind.MIXED_FRESH}
+)
 
 #: kernel radii tried, in multiples of the dynamics' eq. 2 radius
 RADIUS_SCALES = (0.5, 1.0, 2.0, 4.0)

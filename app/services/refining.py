@@ -20,6 +20,13 @@ from app.store.epochs import latest_warm_start
 from app.store.play_counts import graph_play_counts, publication_play_counts
 from app.store.publications import load_publication
 
+#: the crowd models that learn each publication's sessions apart, and those of them that
+#: read the publication too
+_BY_PUBLICATION = frozenset(
+    {PlayerModelKind.LOGIT, PlayerModelKind.MIXED_FORWARD, PlayerModelKind.MIXED_FRESH}
+)
+_WITH_PUBLICATION = frozenset({PlayerModelKind.LOGIT, PlayerModelKind.MIXED_FRESH})
+
 
 def refiner_config(
     settings: Settings, dynamics: Dynamics, player_model: PlayerModelKind = PlayerModelKind.EQ2
@@ -65,16 +72,17 @@ def learn_play(
 ) -> None:
     """Teach ``refiner`` the sums of the sessions ``players`` played on the graph's
     publications (those older than publication ``before`` only, when given): per
-    publication for the models that tell publications apart (with it for the logit model,
-    which reads the goals players saw; oldest first for ``mixed-forward``, which scores
-    the latest); one sum over them for the others."""
+    publication for the models that tell publications apart, oldest first (with it for
+    the models that read the graph players saw: ``logit`` its goals, ``mixed-fresh`` what
+    has changed since; ``mixed-forward`` scores the latest); one sum over them for the
+    others."""
     kind = refiner.config.player_model
-    if kind in (PlayerModelKind.LOGIT, PlayerModelKind.MIXED_FORWARD):
+    if kind in _BY_PUBLICATION:
         for publication_id, play in publication_play_counts(
             session, graph_id, players, before=before
         ):
             publication = (
-                load_publication(session, publication_id) if kind is PlayerModelKind.LOGIT else None
+                load_publication(session, publication_id) if kind in _WITH_PUBLICATION else None
             )
             refiner.learn_counts(play, publication)
     else:

@@ -262,3 +262,24 @@ def test_mixed_forward_learns_publication_by_publication_and_scores_the_latest(
         latest=PlayCounts.of_traces(load_traces(session, [second])),
     )
     assert refiner.shrunk_fit() == expected
+
+
+def test_mixed_fresh_learns_each_publication_with_the_graph_its_players_saw(
+    session: Session, db_url: str, tmp_path: Path
+) -> None:
+    settings = settings_for(db_url, tmp_path)
+    loaded = played_graph(session, settings, "mixed-fresh")
+    refiner = refiner_for(session, settings, loaded)
+    published = [
+        load_publication(session, i) for i in played_publications(session, loaded.entry.id)
+    ]
+    assert [play.sessions for _, play in refiner.played] == [18, 18]
+    for (seen, _), stored in zip(
+        refiner.played, sorted(published, key=lambda p: p.n_vertices), strict=True
+    ):
+        assert seen is not None
+        np.testing.assert_array_equal(seen.edge_dst, stored.edge_dst)
+    # eight expansions lie between the two: the discount was chosen on the newer one's players
+    fit = refiner.fresh_fit()
+    assert len(fit.scores) == 13
+    assert fit.scores[(fit.discount, fit.depth)] == max(fit.scores.values())
