@@ -125,13 +125,17 @@ PREDICTION: Figures = (
 #: what cross-validation chose for a learned model (app.services.prediction.model_fit)
 MODEL_FIT = {
     "neighbours": "neighbours",
-    "cv_scores": "held-out log-likelihood per step by neighbours",
+    "cv_scores": "held-out log-likelihood per step by candidate",
     "eq2_cv_score": "eq. 2's held-out log-likelihood per step",
     "horizon": "horizon",
     "discount": "discount",
     "penalty": "penalty",
+    "radius": "kernel radius",
     "prior_weight": "prior weight",
     "weights": "weights",
+    "stale_discount": "weight of steps where the graph changed since",
+    "stale_depth": "steps on a change counts",
+    "stale_scores": "latest publication's log-likelihood per step by weight/depth",
 }
 
 

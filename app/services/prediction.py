@@ -38,7 +38,9 @@ def crowd_refiner(settings: Settings, loaded: LoadedGraph, model: PlayerModelKin
 def model_fit(refiner: Refiner) -> dict[str, Any] | None:
     """What cross-validation chose for the learned model (None for eq. 2 and before any
     trace): the neighbour count with every candidate's held-out log-likelihood per step,
-    or the logit-prior model's hyper-parameters and weights."""
+    the shrunk models' radius and prior weight (and ``mixed-fresh``'s discount and depth,
+    scored on the latest publication), or the logit-prior model's hyper-parameters and
+    weights."""
     kind = refiner.config.player_model
     if kind is PlayerModelKind.EQ2 or not refiner.play.sessions:
         return None
@@ -51,11 +53,19 @@ def model_fit(refiner: Refiner) -> dict[str, Any] | None:
         }
     if kind in SHRUNK_KINDS:
         shrunk = refiner.shrunk_fit()
-        return {
+        fit: dict[str, Any] = {
             "radius": shrunk.radius,
             "prior_weight": shrunk.prior_weight,
             "cv_scores": {f"{r:.6g}/{m:g}": round(v, 6) for (r, m), v in shrunk.cv_scores.items()},
         }
+        if kind is PlayerModelKind.MIXED_FRESH:
+            fresh = refiner.fresh_fit()
+            fit |= {
+                "stale_discount": fresh.discount,
+                "stale_depth": fresh.depth,
+                "stale_scores": {f"{w:g}/{d}": round(v, 6) for (w, d), v in fresh.scores.items()},
+            }
+        return fit
     fitted = refiner.choice_model()
     return {
         "horizon": fitted.horizon,

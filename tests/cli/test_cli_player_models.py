@@ -110,6 +110,14 @@ def test_analytics_evaluates_another_model_when_asked(var: Path) -> None:
     shrunk = analytics(var, "twice", "--player-model", "shrunk")["prediction"]
     assert shrunk["player_model"] == "shrunk" and shrunk["model_fit"]["prior_weight"] > 0.0
     assert shrunk["predicted_expected_error"] != knn["predicted_expected_error"]
+    fresh = analytics(var, "twice", "--player-model", "mixed-fresh")["prediction"]
+    # learnt from one publication: every step counts, as in mixed
+    assert fresh["model_fit"]["stale_discount"] == 1.0
+    assert fresh["predicted_expected_error"] == shrunk["predicted_expected_error"]
+    text = ok(var, "analytics", "twice", "--player-model", "mixed-fresh")
+    assert "kernel radius" in text and "weight of steps where the graph changed since 1" in text
+    # the default model's fit prints too (it named a radius the table did not know)
+    assert "kernel radius" in ok(var, "analytics", "twice", "--player-model", "mixed")
 
 
 def test_analytics_before_two_played_publications_says_so_in_one_line(var: Path) -> None:
