@@ -53,19 +53,19 @@ def model_fit(refiner: Refiner) -> dict[str, Any] | None:
         }
     if kind in SHRUNK_KINDS:
         shrunk = refiner.shrunk_fit()
-        fit: dict[str, Any] = {
+        chosen: dict[str, Any] = {
             "radius": shrunk.radius,
             "prior_weight": shrunk.prior_weight,
             "cv_scores": {f"{r:.6g}/{m:g}": round(v, 6) for (r, m), v in shrunk.cv_scores.items()},
         }
         if kind is PlayerModelKind.MIXED_FRESH:
             fresh = refiner.fresh_fit()
-            fit |= {
+            chosen |= {
                 "stale_discount": fresh.discount,
                 "stale_depth": fresh.depth,
                 "stale_scores": {f"{w:g}/{d}": round(v, 6) for (w, d), v in fresh.scores.items()},
             }
-        return fit
+        return chosen
     fitted = refiner.choice_model()
     return {
         "horizon": fitted.horizon,
