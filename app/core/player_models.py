@@ -29,11 +29,9 @@ class PlayerModelKind(StrEnum):
     EQ2 = "eq2"
     #: eq. 2's kernel counts under a logit prior over goal features (app.core.choice_model)
     LOGIT = "logit"
-    #: eq. 2 with a per-vertex radius, the k-th nearest visited vertex's distance, k chosen
-    #: by cross-validation (app.core.neighbour_model)
+    #: eq. 2, its radius the k-th nearest visited vertex's distance (app.core.neighbour_model)
     KNN = "knn"
-    #: eq. 2's kernel counts over the heuristic model as a prior, radius and prior weight
-    #: chosen by cross-validation (app.core.shrunk_model)
+    #: eq. 2's kernel counts over the heuristic model as a prior (app.core.shrunk_model)
     SHRUNK = "shrunk"
     #: ``shrunk``'s P(c|v) with heuristic players mixed in (app.core.strategies.mixed_weights)
     MIXED = "mixed"

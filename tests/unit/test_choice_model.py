@@ -500,5 +500,5 @@ def test_eq2_learns_without_publications_and_the_logit_model_refuses_to() -> Non
     config = RefinerConfig(player_model=PlayerModelKind.LOGIT)
     logit = Refiner(graph, bank, DYN, Strategy.SR_CROWD, config)
     logit.learn(traces)
-    with pytest.raises(ValueError, match="publication of every session"):
+    with pytest.raises(ValueError, match="logit model needs every session.s publication"):
         logit.player_model()
