@@ -157,8 +157,7 @@ class Refiner:
         heuristic = self.heuristic_model()[:vertices]
         if not self._learnt:
             return heuristic
-        play = self.play
-        counts = play.control_counts(self.graph.n_vertices, self.graph.n_controls)
+        counts = self.learnt_counts()
         if self.config.player_model is PlayerModelKind.KNN:
             return neighbour_player_model(
                 self.graph.vertex_descriptors(),
@@ -168,15 +167,6 @@ class Refiner:
                 self.config.crowd_eps,
                 fallback=self.heuristic_model(),
             )[:vertices]
-        if self.config.player_model is PlayerModelKind.MIXED_FRESH:
-            fresh = self.fresh_fit()
-            counts = weighted_counts(
-                self.published_play(),
-                freeze(self.graph),
-                self.graph.n_vertices,
-                fresh.discount,
-                fresh.depth,
-            )
         if self.config.player_model in SHRUNK_KINDS:
             return self.shrunk_model(counts)[:vertices]
         if self.config.player_model is PlayerModelKind.LOGIT:
@@ -233,6 +223,20 @@ class Refiner:
                 latest=played[-1] if forward else None,
             )
         return self._shrunk
+
+    def learnt_counts(self) -> np.ndarray:
+        """The (V, N) control counts the crowd model learns from: every session's steps,
+        for ``mixed-fresh`` weighed by what has changed since (:meth:`fresh_fit`)."""
+        if self.config.player_model is not PlayerModelKind.MIXED_FRESH:
+            return self.play.control_counts(self.graph.n_vertices, self.graph.n_controls)
+        fresh = self.fresh_fit()
+        return weighted_counts(
+            self.published_play(),
+            freeze(self.graph),
+            self.graph.n_vertices,
+            fresh.discount,
+            fresh.depth,
+        )
 
     def shrunk_model(self, counts: np.ndarray) -> np.ndarray:
         """P(c|v) of ``shrunk`` learnt from ``counts``, its radius and weight chosen
