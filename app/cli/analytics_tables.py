@@ -136,6 +136,8 @@ MODEL_FIT = {
     "stale_discount": "weight of steps where the graph changed since",
     "stale_depth": "steps on a change counts",
     "stale_scores": "latest publication's log-likelihood per step by weight/depth",
+    "unseen_share": "share of heuristic players ranked for",
+    "share_scores": "latest publication's error-weighted log score by share",
 }
 
 

@@ -16,7 +16,53 @@ import numpy as np
 
 from app.core.clipbank import ClipBank
 from app.core.dynamics import ClipFeatures, Dynamics, SimClip
+from app.core.errors import InvalidInput
 from app.core.graph import EdgeKind, StateGraph
+
+
+@dataclass(frozen=True)
+class GrowthBudget:
+    """How much to grow: a number of expansions, or a size in simulated frames to reach.
+
+    Frames to add are a size to reach from where growth starts (:meth:`of`); since an
+    expansion adds ``n_controls`` clips at once, growth by frames stops at the first
+    expansion that reaches the size.
+    """
+
+    expansions: int | None = None
+    to_frames: int | None = None
+
+    @staticmethod
+    def check(
+        *, frames: int | None = None, expansions: int | None = None, to_frames: int | None = None
+    ) -> None:
+        """Refuse anything but one positive budget (before any growth starts)."""
+        if sum(b is not None for b in (frames, expansions, to_frames)) != 1:
+            raise InvalidInput("give exactly one budget: frames, expansions or a size to reach")
+        if any(b is not None and b <= 0 for b in (frames, expansions, to_frames)):
+            raise InvalidInput("the growth budget must be positive")
+
+    @classmethod
+    def of(
+        cls,
+        size_frames: int,
+        *,
+        frames: int | None = None,
+        expansions: int | None = None,
+        to_frames: int | None = None,
+    ) -> GrowthBudget:
+        """The budget of growth starting at ``size_frames`` (see :meth:`check`)."""
+        cls.check(frames=frames, expansions=expansions, to_frames=to_frames)
+        if frames is not None:
+            return cls(to_frames=size_frames + frames)
+        return cls(expansions=expansions, to_frames=to_frames)
+
+    def left(self, size_frames: int, expanded: int, per_expansion: int) -> int:
+        """Expansions still to make once ``expanded`` grew the graph to ``size_frames``."""
+        if self.to_frames is not None:
+            return -(-(self.to_frames - size_frames) // per_expansion)
+        assert self.expansions is not None
+        return self.expansions - expanded
 
 
 class NoBlendTarget(LookupError):

@@ -1,9 +1,6 @@
-"""Player models P(c|v): what control a player takes at each vertex (paper section 4).
-
-Both models return a dense (V, N) array whose row v is the distribution over controls at
-vertex v; STATERANK turns it into visit probabilities. The heuristic model bootstraps a new
-graph; the crowd model is learned from traces, each a sequence of (vertex, control) steps.
-"""
+"""Player models P(c|v), what control a player takes at each vertex (paper section 4): a
+dense (V, N) array, row v the distribution over controls at v. The heuristic one bootstraps
+a graph; the crowd ones learn from traces, sequences of (vertex, control) steps."""
 
 from __future__ import annotations
 
@@ -39,6 +36,8 @@ class PlayerModelKind(StrEnum):
     MIXED_FORWARD = "mixed-forward"
     #: ``mixed``, steps counted less where the graph has changed since (fresh_evidence)
     MIXED_FRESH = "mixed-fresh"
+    #: ``mixed``, its share of heuristic players chosen where players met error (error_share)
+    MIXED_ERROR = "mixed-error"
 
 
 def parse_player_model(name: str) -> PlayerModelKind:

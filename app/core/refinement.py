@@ -16,12 +16,13 @@ from app.core.choice_model import ChoiceGraph, ChoiceModel, Kernel, PlayedGraph,
 from app.core.clipbank import ClipBank
 from app.core.crowd_play import PlayCounts
 from app.core.dynamics import Dynamics
-from app.core.errors import InvalidInput
+from app.core.error_share import ShareFit, fit_error_share
 from app.core.fresh_evidence import FreshFit, fit_fresh_evidence, weighted_counts
 from app.core.graph import StateGraph
 from app.core.growth import (
     EpochOutcome,
     Expansion,
+    GrowthBudget,
     expand_blend_edge,
     relink_all,
     relink_blend_edge,
@@ -55,51 +56,6 @@ Trace = np.ndarray
 
 
 @dataclass(frozen=True)
-class GrowthBudget:
-    """How much to grow: a number of expansions, or a size in simulated frames to reach.
-
-    Frames to add are a size to reach from where growth starts (:meth:`of`); since an
-    expansion adds ``n_controls`` clips at once, growth by frames stops at the first
-    expansion that reaches the size.
-    """
-
-    expansions: int | None = None
-    to_frames: int | None = None
-
-    @staticmethod
-    def check(
-        *, frames: int | None = None, expansions: int | None = None, to_frames: int | None = None
-    ) -> None:
-        """Refuse anything but one positive budget (before any growth starts)."""
-        if sum(b is not None for b in (frames, expansions, to_frames)) != 1:
-            raise InvalidInput("give exactly one budget: frames, expansions or a size to reach")
-        if any(b is not None and b <= 0 for b in (frames, expansions, to_frames)):
-            raise InvalidInput("the growth budget must be positive")
-
-    @classmethod
-    def of(
-        cls,
-        size_frames: int,
-        *,
-        frames: int | None = None,
-        expansions: int | None = None,
-        to_frames: int | None = None,
-    ) -> GrowthBudget:
-        """The budget of growth starting at ``size_frames`` (see :meth:`check`)."""
-        cls.check(frames=frames, expansions=expansions, to_frames=to_frames)
-        if frames is not None:
-            return cls(to_frames=size_frames + frames)
-        return cls(expansions=expansions, to_frames=to_frames)
-
-    def left(self, size_frames: int, expanded: int, per_expansion: int) -> int:
-        """Expansions still to make once ``expanded`` grew the graph to ``size_frames``."""
-        if self.to_frames is not None:
-            return -(-(self.to_frames - size_frames) // per_expansion)
-        assert self.expansions is not None
-        return self.expansions - expanded
-
-
-@dataclass(frozen=True)
 class RefinerConfig:
     alpha: float = 0.8
     crowd_radius: float = 0.15
@@ -129,6 +85,7 @@ class Refiner:
     _neighbours: NeighbourFit | None = None
     _shrunk: ShrunkFit | None = None
     _fresh: FreshFit | None = None
+    _share: ShareFit | None = None
     _heuristic_pi: np.ndarray | None = None
 
     @property
@@ -269,6 +226,24 @@ class Refiner:
             )
         return self._fresh
 
+    def share_fit(self) -> ShareFit:
+        """The share of heuristic players the ranking's population holds: ``mixed``'s,
+        or for ``mixed-error`` chosen where the latest publication's players met error
+        (fitted once)."""
+        if self._share is None:
+            self._share = (
+                fit_error_share(
+                    self.published_play(),
+                    self.shrunk_model,
+                    self.heuristic_model(),
+                    self.graph.n_vertices,
+                    self.restart,
+                )
+                if self.config.player_model is PlayerModelKind.MIXED_ERROR
+                else ShareFit(UNSEEN_SHARE)
+            )
+        return self._share
+
     def choice_model(self) -> ChoiceModel:
         """The logit-prior model fitted to the sessions learnt so far (fitted once)."""
         if self._choice is None:
@@ -292,8 +267,8 @@ class Refiner:
 
     def weights(self, warm_start: np.ndarray | None = None) -> EdgeWeights:
         """The strategy's edge weights, STATERANK started from ``warm_start`` (a stored
-        pi), else from this refiner's last; for ``mixed`` with traces, the crowd's and
-        the heuristic model's mixed (:func:`mixed_weights`)."""
+        pi), else from this refiner's last; for the mixed models with traces, the crowd's
+        and the heuristic model's mixed (:func:`mixed_weights`, :meth:`share_fit`)."""
         restart = self.restart
         result = edge_weights(
             self.strategy,
@@ -317,7 +292,7 @@ class Refiner:
         )
         if heuristic.rank is not None:
             self._heuristic_pi = heuristic.rank.pi
-        return mixed_weights(result, heuristic, UNSEEN_SHARE)
+        return mixed_weights(result, heuristic, self.share_fit().share)
 
     def predicted_edge_probabilities(self, model: np.ndarray | None = None) -> np.ndarray:
         """P(e) = pi(v) P(c|v) under ``model`` (default: this refiner's player model)."""
@@ -394,3 +369,4 @@ class Refiner:
         self._neighbours = None
         self._shrunk = None
         self._fresh = None
+        self._share = None

@@ -30,22 +30,20 @@ from app.core.model_checks import check_counts, check_distributions
 from app.core.player_models import PlayerModelKind, kernel_counts
 from app.core.session_folds import FOLDS, LearnedModel, SessionFolds, held_out_score
 
-#: the crowd models whose P(c|v) is :func:`shrunk_player_model` (the mixed ones rank
-#: differently, ``mixed-forward`` also chooses its radius and weight otherwise,
-#: ``mixed-fresh`` weighs the counts, app.core.fresh_evidence)
-SHRUNK_KINDS = frozenset(
+#: the crowd models ranked for a population a share of which the traces have not seen
+#: (app.core.strategies.mixed_weights): ``mixed-forward`` also chooses its radius and
+#: weight otherwise, ``mixed-fresh`` weighs the counts (app.core.fresh_evidence),
+#: ``mixed-error`` chooses the share (app.core.error_share)
+MIXED_KINDS = frozenset(
     {
-        PlayerModelKind.SHRUNK,
         PlayerModelKind.MIXED,
         PlayerModelKind.MIXED_FORWARD,
         PlayerModelKind.MIXED_FRESH,
+        PlayerModelKind.MIXED_ERROR,
     }
 )
-#: the crowd models ranked for a population half of which the traces have not seen
-#: (:func:`app.core.strategies.mixed_weights`)
-MIXED_KINDS = frozenset(
-    {PlayerModelKind.MIXED, PlayerModelKind.MIXED_FORWARD, PlayerModelKind.MIXED_FRESH}
-)
+#: the crowd models whose P(c|v) is :func:`shrunk_player_model`
+SHRUNK_KINDS = MIXED_KINDS | {PlayerModelKind.SHRUNK}
 
 #: kernel radii tried, in multiples of the dynamics' eq. 2 radius
 RADIUS_SCALES = (0.5, 1.0, 2.0, 4.0)

@@ -38,9 +38,9 @@ def crowd_refiner(settings: Settings, loaded: LoadedGraph, model: PlayerModelKin
 def model_fit(refiner: Refiner) -> dict[str, Any] | None:
     """What cross-validation chose for the learned model (None for eq. 2 and before any
     trace): the neighbour count with every candidate's held-out log-likelihood per step,
-    the shrunk models' radius and prior weight (and ``mixed-fresh``'s discount and depth,
-    scored on the latest publication), or the logit-prior model's hyper-parameters and
-    weights."""
+    the shrunk models' radius and prior weight (and, scored on the latest publication,
+    ``mixed-fresh``'s discount and depth, ``mixed-error``'s share of heuristic players),
+    or the logit-prior model's hyper-parameters and weights."""
     kind = refiner.config.player_model
     if kind is PlayerModelKind.EQ2 or not refiner.play.sessions:
         return None
@@ -64,6 +64,12 @@ def model_fit(refiner: Refiner) -> dict[str, Any] | None:
                 "stale_discount": fresh.discount,
                 "stale_depth": fresh.depth,
                 "stale_scores": {f"{w:g}/{d}": round(v, 6) for (w, d), v in fresh.scores.items()},
+            }
+        if kind is PlayerModelKind.MIXED_ERROR:
+            share = refiner.share_fit()
+            chosen |= {
+                "unseen_share": share.share,
+                "share_scores": {f"{s:g}": round(v, 6) for s, v in share.scores.items()},
             }
         return chosen
     fitted = refiner.choice_model()

@@ -20,12 +20,12 @@ from app.store.epochs import latest_warm_start
 from app.store.play_counts import graph_play_counts, publication_play_counts
 from app.store.publications import load_publication
 
-#: the crowd models that learn each publication's sessions apart, and those of them that
-#: read the publication too
-_BY_PUBLICATION = frozenset(
-    {PlayerModelKind.LOGIT, PlayerModelKind.MIXED_FORWARD, PlayerModelKind.MIXED_FRESH}
+#: the crowd models that read the publications their sessions were played on, and those
+#: that learn each publication's sessions apart (those and ``mixed-forward``)
+_WITH_PUBLICATION = frozenset(
+    {PlayerModelKind.LOGIT, PlayerModelKind.MIXED_FRESH, PlayerModelKind.MIXED_ERROR}
 )
-_WITH_PUBLICATION = frozenset({PlayerModelKind.LOGIT, PlayerModelKind.MIXED_FRESH})
+_BY_PUBLICATION = _WITH_PUBLICATION | {PlayerModelKind.MIXED_FORWARD}
 
 
 def refiner_config(
@@ -74,8 +74,8 @@ def learn_play(
     publications (those older than publication ``before`` only, when given): per
     publication for the models that tell publications apart, oldest first (with it for
     the models that read the graph players saw: ``logit`` its goals, ``mixed-fresh`` what
-    has changed since; ``mixed-forward`` scores the latest); one sum over them for the
-    others."""
+    has changed since, ``mixed-error`` its errors; ``mixed-forward`` scores the latest);
+    one sum over them for the others."""
     kind = refiner.config.player_model
     if kind in _BY_PUBLICATION:
         for publication_id, play in publication_play_counts(

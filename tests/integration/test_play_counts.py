@@ -22,6 +22,7 @@ from alembic import command
 from app.config import Settings
 from app.core.bots import BotKind, play_sessions
 from app.core.crowd_play import PlayCounts
+from app.core.error_share import fit_error_share
 from app.core.player_models import PlayerModelKind, observed_control_counts
 from app.core.prediction import PlayedSessions, prediction_figures
 from app.core.refinement import Refiner
@@ -283,3 +284,27 @@ def test_mixed_fresh_learns_each_publication_with_the_graph_its_players_saw(
     fit = refiner.fresh_fit()
     assert len(fit.scores) == 13
     assert fit.scores[(fit.discount, fit.depth)] == max(fit.scores.values())
+
+
+def test_mixed_error_chooses_its_share_on_the_latest_publications_errors(
+    session: Session, db_url: str, tmp_path: Path
+) -> None:
+    settings = settings_for(db_url, tmp_path)
+    loaded = played_graph(session, settings, "mixed-error")
+    refiner = refiner_for(session, settings, loaded)
+    first, second = sorted(played_publications(session, loaded.entry.id))
+    assert [play.sessions for _, play in refiner.played] == [18, 18]
+    # the sums the store keeps choose as the stored steps themselves would
+    played = [
+        (load_publication(session, i), PlayCounts.of_traces(load_traces(session, [i])))
+        for i in (first, second)
+    ]
+    expected = fit_error_share(
+        played,
+        refiner.shrunk_model,
+        refiner.heuristic_model(),
+        loaded.graph.n_vertices,
+        refiner.restart,
+    )
+    assert refiner.share_fit() == expected
+    assert expected.scores and expected.share == max(expected.scores, key=expected.scores.get)
