@@ -8,17 +8,14 @@ import math
 
 import numpy as np
 import pytest
+from refiner_helpers import toy_refiners
 
-from app.core.clipbank import MemoryClipBank
 from app.core.crowd_play import PlayCounts
 from app.core.error_share import SHARES, ShareFit, error_weighted_score, fit_error_share
-from app.core.growth import initial_tree
 from app.core.metrics import predicted_edge_probabilities
 from app.core.player_models import PlayerModelKind
 from app.core.publication import Publication, freeze
-from app.core.refinement import Refiner, RefinerConfig
 from app.core.strategies import UNSEEN_SHARE, Strategy, edge_weights, mixed_weights
-from app.core.toy import ToyDynamics
 
 
 def test_the_score_is_the_error_weighted_mean_log_share_by_hand() -> None:
@@ -90,17 +87,8 @@ def test_without_a_later_publication_that_met_error_the_share_is_mixeds() -> Non
     ) == ShareFit(UNSEEN_SHARE)
 
 
-def _toy(kind: PlayerModelKind) -> Refiner:
-    dyn = ToyDynamics()
-    bank = MemoryClipBank()
-    graph = initial_tree(dyn, bank, depth=3, prefilter_k=10)
-    return Refiner(
-        graph, bank, dyn, Strategy.SR_CROWD, RefinerConfig(crowd_radius=0.5, player_model=kind)
-    )
-
-
 def test_mixed_error_ranks_with_the_share_it_chose() -> None:
-    mixed, error = _toy(PlayerModelKind.MIXED), _toy(PlayerModelKind.MIXED_ERROR)
+    mixed, error = toy_refiners(PlayerModelKind.MIXED, PlayerModelKind.MIXED_ERROR)
     published = freeze(error.graph)
     first = PlayCounts.of_traces([np.array([[0, 1], [1, 1], [3, 1]]), np.array([[0, 1], [1, 1]])])
     for refiner in (mixed, error):
@@ -129,7 +117,7 @@ def test_mixed_error_ranks_with_the_share_it_chose() -> None:
 
 
 def test_mixed_error_needs_every_sessions_publication() -> None:
-    error = _toy(PlayerModelKind.MIXED_ERROR)
+    (error,) = toy_refiners(PlayerModelKind.MIXED_ERROR)
     error.learn([np.array([[0, 1], [1, 1]])])
     with pytest.raises(ValueError, match="mixed-error model needs every session's publication"):
         error.weights()

@@ -8,8 +8,8 @@ from dataclasses import replace
 
 import numpy as np
 import pytest
+from refiner_helpers import toy_refiners
 
-from app.core.clipbank import MemoryClipBank
 from app.core.crowd_play import PlayCounts
 from app.core.fresh_evidence import (
     NO_DISCOUNT,
@@ -17,13 +17,9 @@ from app.core.fresh_evidence import (
     fit_fresh_evidence,
     weighted_counts,
 )
-from app.core.growth import initial_tree
 from app.core.player_models import PlayerModelKind
 from app.core.publication import Publication, freeze
-from app.core.refinement import Refiner, RefinerConfig
 from app.core.session_folds import held_out_score
-from app.core.strategies import Strategy
-from app.core.toy import ToyDynamics
 
 
 def _chain(dst: list[list[int]], kind: list[list[int]] | None = None) -> Publication:
@@ -122,17 +118,8 @@ def test_the_discount_is_the_one_that_best_predicts_the_latest_publication_by_ha
     )
 
 
-def _toy(kind: PlayerModelKind) -> Refiner:
-    dyn = ToyDynamics()
-    bank = MemoryClipBank()
-    graph = initial_tree(dyn, bank, depth=3, prefilter_k=10)
-    return Refiner(
-        graph, bank, dyn, Strategy.SR_CROWD, RefinerConfig(crowd_radius=0.5, player_model=kind)
-    )
-
-
 def test_mixed_fresh_is_mixed_until_the_graph_changes_under_its_players() -> None:
-    mixed, fresh = _toy(PlayerModelKind.MIXED), _toy(PlayerModelKind.MIXED_FRESH)
+    mixed, fresh = toy_refiners(PlayerModelKind.MIXED, PlayerModelKind.MIXED_FRESH)
     published = freeze(fresh.graph)
     first = PlayCounts.of_traces([np.array([[0, 1], [1, 1], [3, 1]]), np.array([[0, 1], [1, 1]])])
     later = PlayCounts.of_traces([np.array([[0, 2], [2, 2], [5, 2]])], first=first.sessions)
@@ -147,7 +134,7 @@ def test_mixed_fresh_is_mixed_until_the_graph_changes_under_its_players() -> Non
 
 
 def test_mixed_fresh_needs_every_sessions_publication() -> None:
-    fresh = _toy(PlayerModelKind.MIXED_FRESH)
+    (fresh,) = toy_refiners(PlayerModelKind.MIXED_FRESH)
     fresh.learn([np.array([[0, 1], [1, 1]])])
     with pytest.raises(ValueError, match="mixed-fresh model needs every session's publication"):
         fresh.player_model()

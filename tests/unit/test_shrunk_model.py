@@ -5,6 +5,7 @@ from __future__ import annotations
 
 import numpy as np
 import pytest
+from refiner_helpers import toy_refiners
 
 from app.core.clipbank import MemoryClipBank
 from app.core.crowd_play import PlayCounts
@@ -103,20 +104,9 @@ def test_the_refiner_learns_the_shrunk_model_and_keeps_the_heuristic_before_trac
     assert refiner.shrunk_fit().prior_weight > 0.0
 
 
-def _toy_refiners(*kinds: PlayerModelKind, strategy: Strategy = Strategy.SR_CROWD) -> list[Refiner]:
-    """One refiner per crowd model, all on one toy tree."""
-    dyn = ToyDynamics()
-    bank = MemoryClipBank()
-    graph = initial_tree(dyn, bank, depth=3, prefilter_k=10)
-    return [
-        Refiner(graph, bank, dyn, strategy, RefinerConfig(crowd_radius=0.5, player_model=kind))
-        for kind in kinds
-    ]
-
-
 def test_mixed_ranks_half_the_mass_as_the_heuristic_model_once_traces_exist() -> None:
-    shrunk, mixed = _toy_refiners(PlayerModelKind.SHRUNK, PlayerModelKind.MIXED)
-    (heuristic,) = _toy_refiners(PlayerModelKind.SHRUNK, strategy=Strategy.SR_HEURISTIC)
+    shrunk, mixed = toy_refiners(PlayerModelKind.SHRUNK, PlayerModelKind.MIXED)
+    (heuristic,) = toy_refiners(PlayerModelKind.SHRUNK, strategy=Strategy.SR_HEURISTIC)
     # before any trace every sr-crowd ranking is sr-heuristic's
     np.testing.assert_array_equal(mixed.weights().weights, heuristic.weights().weights)
     traces = [np.array([[0, 1], [1, 1], [3, 1]]), np.array([[0, 1], [1, 1], [3, 0]])]
@@ -163,7 +153,7 @@ def test_held_out_sessions_without_a_step_are_refused() -> None:
 
 
 def test_mixed_forward_scores_the_latest_publication_once_two_are_learnt() -> None:
-    mixed, forward = _toy_refiners(PlayerModelKind.MIXED, PlayerModelKind.MIXED_FORWARD)
+    mixed, forward = toy_refiners(PlayerModelKind.MIXED, PlayerModelKind.MIXED_FORWARD)
     graph = forward.graph
     first = PlayCounts.of_traces([np.array([[0, 1], [1, 1], [3, 1]]), np.array([[0, 1], [1, 1]])])
     for refiner in (mixed, forward):
