@@ -78,7 +78,7 @@ class GrowthSettings(BaseSettings):
         PlayerModelKind.MIXED,
         description="crowd model of new sr-crowd graphs: mixed (default: shrunk, ranked with "
         "half the mass for unseen players; docs/player-models.md), mixed-forward, "
-        "mixed-fresh, shrunk, knn, eq2 (the paper's) or logit",
+        "mixed-fresh, mixed-error, shrunk, knn, eq2 (the paper's) or logit",
     )
     reuse_simulations: bool = Field(
         True,
