@@ -75,10 +75,11 @@ class GrowthSettings(BaseSettings):
     crowd_eps: float = Field(1e-3, gt=0.0, le=1.0, description="crowd model prior weight epsilon")
     high_error_threshold: float = Field(0.0, ge=0.0, le=1e6, description="0: per dynamics default")
     player_model: PlayerModelKind = Field(
-        PlayerModelKind.MIXED,
-        description="crowd model of new sr-crowd graphs: mixed (default: shrunk, ranked with "
-        "half the mass for unseen players; docs/player-models.md), mixed-forward, "
-        "mixed-fresh, mixed-error, shrunk, knn, eq2 (the paper's) or logit",
+        PlayerModelKind.MIXED_ERROR,
+        description="crowd model of new sr-crowd graphs: mixed-error (default: shrunk, ranked "
+        "with a share of heuristic players chosen where players met error; "
+        "docs/player-models.md), mixed (half), mixed-forward, mixed-fresh, shrunk, knn, eq2 "
+        "(the paper's) or logit",
     )
     reuse_simulations: bool = Field(
         True,

@@ -52,7 +52,7 @@ def graph_count(var: Path) -> int:
 # ---- srg init --player-model ------------------------------------------------------------
 def test_init_stores_the_player_model_chosen_else_the_setting(tmp_path: Path) -> None:
     ok(tmp_path, "db", "upgrade")
-    assert json.loads(ok(tmp_path, "init", "plain", "--json"))["player_model"] == "mixed"
+    assert json.loads(ok(tmp_path, "init", "plain", "--json"))["player_model"] == "mixed-error"
     chosen = json.loads(ok(tmp_path, "init", "chosen", "--player-model", "logit", "--json"))
     assert chosen["player_model"] == "logit"
     done = srg(tmp_path, "init", "configured", "--json", SRG_PLAYER_MODEL="logit")
