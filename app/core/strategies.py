@@ -95,8 +95,9 @@ def edge_weights(
 
 
 #: the share of the population ``mixed`` ranks for as heuristic players: players the
-#: traces have not seen. Fixed beforehand as half (docs/player-models.md, "`mixed`"), not
-#: fitted: no trace can tell how many future players are unlike the ones who left traces
+#: traces have not seen. Fixed beforehand as half (docs/player-models.md, "`mixed`");
+#: ``mixed-error`` chooses it per world instead (app.core.error_share), from this one
+#: until its players have met error on two publications
 UNSEEN_SHARE = 0.5
 
 
