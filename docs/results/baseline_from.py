@@ -24,47 +24,46 @@ RESULTS = Path(__file__).resolve().parent
 
 
 def checkpoints(run: str, crowd: str, strategies: tuple[str, ...]) -> dict:
-    crowds = json.loads((RESULTS / run / "result.json").read_text())["crowds"]
+    """Per strategy and seed, the run's checkpoints keyed by their frames."""
+    path = RESULTS / run / "result.json"
+    if not path.is_file():
+        sys.exit(f"no {path}")
+    crowds = json.loads(path.read_text())["crowds"]
     if crowd not in crowds:
         sys.exit(f"{run} has no crowd {crowd!r} (it has {', '.join(crowds)})")
     results = crowds[crowd]["results"]
     for strategy in strategies:
         if strategy not in results:
             sys.exit(f"{run} grew no {strategy} for {crowd}")
-    return results
-
-
-def by_frames(points: list[dict]) -> dict[int, dict]:
-    return {point["checkpoint_frames"]: point for point in points}
+    return {
+        strategy: {
+            seed: {point["checkpoint_frames"]: point for point in points}
+            for seed, points in results[strategy].items()
+        }
+        for strategy in strategies
+    }
 
 
 def main(crowd_run: str, baseline_run: str, crowd: str) -> None:
     grown = checkpoints(crowd_run, crowd, ("sr-crowd", "sr-heuristic"))
     other = checkpoints(baseline_run, crowd, ("baseline", "sr-heuristic"))
     seeds = sorted(grown["sr-crowd"], key=int)
-    for point in grown["sr-crowd"][seeds[0]]:
-        frames = point["checkpoint_frames"]
-        if frames not in by_frames(other["baseline"][seeds[0]]):
+    if missing := [s for s in seeds if s not in other["baseline"]]:
+        sys.exit(f"{baseline_run} grew no baseline for seed(s) {', '.join(missing)}")
+    for frames in sorted(grown["sr-crowd"][seeds[0]]):
+        if any(frames not in other["baseline"][s] for s in seeds):
             print(f"{frames}: no baseline grown to it in {baseline_run}")
             continue
-        pairs = {
-            s: (
-                by_frames(grown["sr-heuristic"][s])[frames],
-                by_frames(other["sr-heuristic"][s])[frames],
-            )
-            for s in seeds
-        }
-        for seed, (ours, theirs) in pairs.items():
-            if ours["observed_mean_error"] != theirs["observed_mean_error"]:
+        for seed in seeds:
+            ours = grown["sr-heuristic"][seed][frames]["observed_mean_error"]
+            theirs = other["sr-heuristic"][seed][frames]["observed_mean_error"]
+            if ours != theirs:
                 sys.exit(
-                    f"seed {seed}, {frames} frames: sr-heuristic met "
-                    f"{ours['observed_mean_error']} here and "
-                    f"{theirs['observed_mean_error']} there: not the same worlds"
+                    f"seed {seed}, {frames} frames: sr-heuristic met {ours} here and "
+                    f"{theirs} there: not the same worlds"
                 )
-        crowd_error = [
-            by_frames(grown["sr-crowd"][s])[frames]["observed_mean_error"] for s in seeds
-        ]
-        baseline = [by_frames(other["baseline"][s])[frames] for s in seeds]
+        crowd_error = [grown["sr-crowd"][s][frames]["observed_mean_error"] for s in seeds]
+        baseline = [other["baseline"][s][frames] for s in seeds]
         ratio = ratio_interval(crowd_error, [b["observed_mean_error"] for b in baseline])
         visible = sum(b["high_error_fraction"] for b in baseline) / len(baseline)
         print(
