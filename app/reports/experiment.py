@@ -21,6 +21,7 @@ from app.core.comparison import (
     HIGH_ERROR_RATIO_TARGET,
     NO_DIP_FROM_FRAMES,
 )
+from app.reports.error_origin import error_origin_section
 from app.reports.figures import (
     COMPARED,
     FIGURES,
@@ -76,6 +77,7 @@ def markdown(
                 f"| {mean('mean_score_per_step')} |"
             )
     lines += _prediction_section(result)
+    lines += error_origin_section(result)
     lines += settings_section(result)
     lines += ingredients_section(ingredients or [])
     lines += _per_seed_section(result["summary"])

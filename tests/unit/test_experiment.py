@@ -97,6 +97,11 @@ def test_prediction_is_for_the_publication_played_from_earlier_traces(
     assert rows[1]["predicted_session_steps"] != pytest.approx(rows[1]["observed_session_steps"])
     assert rows[0]["predicted_mass_prior_only"] is None
     assert 0.0 <= float(rows[1]["predicted_mass_prior_only"]) <= 1.0  # type: ignore[arg-type]
+    # where the second checkpoint's players met their error adds up to what they met
+    assert "error_origin" not in rows[0]
+    origin = rows[1]["error_origin"]
+    assert sum(origin["observed"].values()) == pytest.approx(rows[1]["observed_mean_error"])
+    assert sum(origin["predicted"].values()) == pytest.approx(rows[1]["predicted_expected_error"])
 
 
 def test_every_run_reaches_a_checkpoint_before_any_grows_towards_the_next(

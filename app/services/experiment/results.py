@@ -23,6 +23,7 @@ from app.core.comparison import (
     compare_checkpoint,
     targets,
 )
+from app.core.error_origin import error_origin
 from app.core.metrics import relative_difference
 from app.db.sessions import transaction
 from app.services.experiment.plan import ExperimentPlan, stored_experiment_id, stored_plan
@@ -99,6 +100,10 @@ def collect(
             {**row.figures, **derived, "arrays": row.arrays}
         )
         samples[(row.bot, row.strategy, str(row.seed), row.checkpoint)] = (errors, threshold)
+    for results in crowds.values():
+        for runs in results.values():
+            for checkpoints in runs.values():
+                _add_error_origins(artifacts, checkpoints)
     complete = all(
         len(by_seed) == len(plan.checkpoints)
         for results in crowds.values()
@@ -117,6 +122,29 @@ def collect(
         "seconds": None if seconds is None else round(seconds, 2),
         "through_frames": None if through is None else plan.checkpoints[-1],
     }
+
+
+#: the arrays :func:`_add_error_origins` reads of a checkpoint
+ORIGIN_ARRAYS = ("edge_kind", "edge_err", "observed_density", "predicted_density")
+
+
+def _add_error_origins(artifacts: ArtifactStore, checkpoints: list[dict[str, Any]]) -> None:
+    """Give every checkpoint after a run's first the split of its players' error by the
+    age of the blends they met it on (:mod:`app.core.error_origin`), as
+    ``error_origin``."""
+    earlier: dict[str, np.ndarray] | None = None
+    for figures in checkpoints:
+        arrays = artifacts.get_arrays(figures["arrays"], ORIGIN_ARRAYS)
+        if earlier is not None:
+            figures["error_origin"] = error_origin(
+                arrays["edge_kind"],
+                arrays["edge_err"],
+                arrays["observed_density"],
+                arrays["predicted_density"],
+                earlier["observed_density"],
+                arrays["edge_kind"].size // figures["vertices"],
+            ).to_dict()
+        earlier = arrays
 
 
 def _step_errors(artifacts: ArtifactStore, digest: str) -> np.ndarray:
