@@ -30,7 +30,7 @@ def error_origin_section(result: dict[str, Any]) -> list[str]:
         "before (new), on older blends that checkpoint's players took, and on older blends "
         "they did not take; seed means, the part's share of the mean error in brackets. "
         "Predicted: the same parts under the play the strategy's model predicted "
-        "(docs/experiment.md, \"Where the error lay\").",
+        '(docs/experiment.md, "Where the error lay").',
         "",
         "| strategy | frames | mean error/step | new | old, taken before | old, not taken before "
         "| predicted: new / old taken / old not taken |",

@@ -297,7 +297,7 @@ def _targets_table(comparison: dict[str, Any]) -> list[str]:
     ]
     lines += [
         f"| {bot} | {t['frames']} | {t['target']} | {_number(t['value'], 3)} "
-        f"| {t['relation']} {t['bar']:g} | {'met' if t['met'] else 'NOT met'} |"
+        f"| {t['relation']} {t['bar']:g} | {_verdict(t)} |"
         for bot, t in judged
     ]
     verdicts = [
@@ -306,6 +306,14 @@ def _targets_table(comparison: dict[str, Any]) -> list[str]:
         if "meets_targets" in rows[-1]
     ]
     return lines + ["", "; ".join(verdicts) + "."]
+
+
+def _verdict(target: dict[str, Any]) -> str:
+    """A target without its number (a strategy the run did not grow) is not met, and the
+    report says why."""
+    if target["met"]:
+        return "met"
+    return "NOT met" if target["value"] is not None else "NOT met: not measured"
 
 
 def interval_text(compared: dict[str, Any], digits: int = 2) -> str:

@@ -90,3 +90,18 @@ def test_a_comparison_whose_arms_are_absent_is_left_out() -> None:
     assert set(row) == {"checkpoint_frames", "heuristic_vs_baseline", "high_error_fraction"}
     one = plan(Strategy.BASELINE)
     assert compare_strategies(one, samples(one)) == {}
+
+
+def test_a_target_on_a_strategy_not_grown_is_reported_not_met_and_not_measured() -> None:
+    two = plan(Strategy.SR_HEURISTIC, Strategy.SR_CROWD)
+    rows = compare_strategies(two, samples(two))["goal-directed"]
+    lines = comparison_section({"plan": two.to_dict(), "comparison": {"goal-directed": rows}})
+    assert (
+        "| goal-directed | 5000 | sr-crowd / baseline error, mean | n/a | <= 0.5 "
+        "| NOT met: not measured |" in lines
+    )
+    assert (
+        "| goal-directed | 5000 | sr-crowd / sr-heuristic error, mean | 0.707 | <= 0.5 | NOT met |"
+        in lines
+    )
+    assert rows[-1]["meets_targets"] is False
