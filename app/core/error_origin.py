@@ -34,6 +34,9 @@ class ErrorOrigin:
 
     observed: dict[str, float]
     predicted: dict[str, float]
+    #: blends whose error is above ``large``, and the share of the observed error met on them
+    large_blends: int
+    large_share: float
 
     def to_dict(self) -> dict[str, dict[str, float]]:
         return asdict(self)
@@ -46,8 +49,10 @@ def error_origin(
     predicted: np.ndarray,
     earlier_observed: np.ndarray,
     n_controls: int,
+    large: float,
 ) -> ErrorOrigin:
-    """Split the error of one checkpoint's play (:class:`ErrorOrigin`).
+    """Split the error of one checkpoint's play (:class:`ErrorOrigin`); count the blends
+    with an error above ``large``, where a few blends can hold most of it.
 
     ``edge_kind``, ``edge_err``, ``observed`` and ``predicted`` are per edge of the
     checkpoint's publication (shares of play summing to one); ``earlier_observed`` is the
@@ -75,7 +80,12 @@ def error_origin(
         "old_taken": blend & taken,
         "old_untaken": blend & old & ~taken,
     }
+    met = seen * err
+    big = blend & (err > large)
+    total = float(met.sum())
     return ErrorOrigin(
-        observed={part: float((seen * err)[m].sum()) for part, m in masks.items()},
+        observed={part: float(met[m].sum()) for part, m in masks.items()},
         predicted={part: float((expected * err)[m].sum()) for part, m in masks.items()},
+        large_blends=int(big.sum()),
+        large_share=float(met[big].sum()) / total if total > 0.0 else 0.0,
     )

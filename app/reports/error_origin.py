@@ -29,12 +29,13 @@ def error_origin_section(result: dict[str, Any]) -> list[str]:
         "Error per step on the blends that leave vertices added since the checkpoint "
         "before (new), on older blends that checkpoint's players took, and on older blends "
         "they did not take; seed means, the part's share of the mean error in brackets. "
-        "Predicted: the same parts under the play the strategy's model predicted "
-        '(docs/experiment.md, "Where the error lay").',
+        "Predicted: the same parts under the play the strategy's model predicted. Large "
+        "blends: blends above half the high-error threshold, and the share of the error "
+        'met on them (docs/experiment.md, "Where the error lay").',
         "",
         "| strategy | frames | mean error/step | new | old, taken before | old, not taken before "
-        "| predicted: new / old taken / old not taken |",
-        "|---|---|---|---|---|---|---|",
+        "| predicted: new / old taken / old not taken | large blends (share of error) |",
+        "|---|---|---|---|---|---|---|---|",
         *rows,
     ]
 
@@ -50,5 +51,6 @@ def _row(strategy: str, rows: tuple[dict[str, Any], ...]) -> str:
         + " | ".join(cells)
         + " | "
         + " / ".join(f"{predicted[p]:.2g}" for p in PARTS)
-        + " |"
+        + f" | {np.mean([o['large_blends'] for o in origins]):.0f} "
+        + f"({np.mean([o['large_share'] for o in origins]):.0%}) |"
     )

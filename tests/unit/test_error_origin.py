@@ -25,7 +25,7 @@ def split() -> tuple[np.ndarray, np.ndarray, np.ndarray, np.ndarray, np.ndarray]
 
 
 def test_the_parts_are_the_error_met_on_new_taken_and_untaken_blends() -> None:
-    origin = error_origin(*split(), n_controls=2)
+    origin = error_origin(*split(), n_controls=2, large=0.25)
     assert origin.observed == pytest.approx(
         {"new": 0.25 * 0.4, "old_taken": 0.1 * 0.1, "old_untaken": 0.2 * 0.3}
     )
@@ -36,18 +36,26 @@ def test_the_parts_are_the_error_met_on_new_taken_and_untaken_blends() -> None:
 
 def test_the_observed_parts_add_up_to_the_mean_error_per_step() -> None:
     kind, err, observed, predicted, earlier = split()
-    origin = error_origin(kind, err, observed, predicted, earlier, 2)
+    origin = error_origin(kind, err, observed, predicted, earlier, 2, 0.25)
     assert sum(origin.observed.values()) == pytest.approx(float(observed @ err))
     assert sum(origin.predicted.values()) == pytest.approx(float(predicted @ err))
+
+
+def test_large_blends_are_counted_with_their_share_of_the_error_whatever_their_age() -> None:
+    origin = error_origin(*split(), n_controls=2, large=0.25)
+    # edges 3 (0.2 of play at 0.3) and 4 (0.25 at 0.4), of 0.17 met in all
+    assert origin.large_blends == 2
+    assert origin.large_share == pytest.approx((0.2 * 0.3 + 0.25 * 0.4) / 0.17)
+    assert error_origin(*split(), n_controls=2, large=0.4).large_blends == 0
 
 
 def test_an_earlier_publication_that_is_not_a_prefix_is_refused() -> None:
     kind, err, observed, predicted, _ = split()
     for earlier in (np.zeros(8), np.zeros(3)):
         with pytest.raises(ValueError, match="prefix"):
-            error_origin(kind, err, observed, predicted, earlier, 2)
+            error_origin(kind, err, observed, predicted, earlier, 2, 0.25)
     with pytest.raises(ValueError, match="6 entries"):
-        error_origin(kind, err[:4], observed, predicted, np.zeros(2), 2)
+        error_origin(kind, err[:4], observed, predicted, np.zeros(2), 2, 0.25)
 
 
 def _row(frames: int, origin: dict[str, Any] | None) -> dict[str, Any]:
@@ -55,11 +63,8 @@ def _row(frames: int, origin: dict[str, Any] | None) -> dict[str, Any]:
 
 
 def test_the_report_gives_seed_means_and_shares_from_the_second_checkpoint() -> None:
-    origin = error_origin(*split(), n_controls=2).to_dict()
-    twice = {
-        "observed": {k: 2 * v for k, v in origin["observed"].items()},
-        "predicted": origin["predicted"],
-    }
+    origin = error_origin(*split(), n_controls=2, large=0.25).to_dict()
+    twice = {**origin, "observed": {k: 2 * v for k, v in origin["observed"].items()}}
     result = {
         "results": {
             "sr-crowd": {
@@ -73,6 +78,7 @@ def test_the_report_gives_seed_means_and_shares_from_the_second_checkpoint() -> 
     assert len(rows) == 1
     # seed means 1.5 x the single split: 0.15 new of 0.255 in all
     assert rows[0].startswith("| sr-crowd | 200 | 0.255 | 0.15 (59%) | 0.015 (6%) | 0.09 (35%) |")
+    assert rows[0].endswith("| 2 (94%) |")
 
 
 def test_the_report_says_nothing_of_runs_with_one_checkpoint() -> None:

@@ -124,6 +124,9 @@ def collect(
     }
 
 
+#: a blend counts as large above this share of the visibility threshold: the lower of the
+#: threshold's sensitivity multiples, where a step is half-way to visibly wrong
+LARGE_BLEND = THRESHOLD_SENSITIVITY["half"]
 #: the arrays :func:`_add_error_origins` reads of a checkpoint
 ORIGIN_ARRAYS = ("edge_kind", "edge_err", "observed_density", "predicted_density")
 
@@ -143,6 +146,7 @@ def _add_error_origins(artifacts: ArtifactStore, checkpoints: list[dict[str, Any
                 arrays["predicted_density"],
                 earlier["observed_density"],
                 arrays["edge_kind"].size // figures["vertices"],
+                LARGE_BLEND * float(figures["high_error_threshold"]),
             ).to_dict()
         earlier = arrays
 
