@@ -12,6 +12,7 @@ earlier checkpoint's observed play. Vertices are only ever appended, so edge
 from __future__ import annotations
 
 from dataclasses import asdict, dataclass
+from typing import Any
 
 import numpy as np
 
@@ -38,7 +39,7 @@ class ErrorOrigin:
     large_blends: int
     large_share: float
 
-    def to_dict(self) -> dict[str, dict[str, float]]:
+    def to_dict(self) -> dict[str, Any]:
         return asdict(self)
 
 

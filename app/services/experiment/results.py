@@ -28,7 +28,6 @@ from app.core.metrics import relative_difference
 from app.db.sessions import transaction
 from app.services.experiment.plan import ExperimentPlan, stored_experiment_id, stored_plan
 from app.services.loading import artifact_store
-from app.store.artifacts import ArtifactStore
 from app.store.experiments import checkpoint_rows
 
 #: figures that depend on the machine or on the order processes created rows in: two
@@ -84,8 +83,11 @@ def collect(
     }
     samples: dict[tuple[str, str, str, int], tuple[np.ndarray, float]] = {}
     artifacts = artifact_store(settings)
+    #: each run's latest checkpoint's arrays: rows come in checkpoint order within a run
+    earlier: dict[tuple[str, str, int], dict[str, np.ndarray]] = {}
     for row in rows:
-        errors = _step_errors(artifacts, row.arrays)
+        arrays = artifacts.get_arrays(row.arrays, CHECKPOINT_ARRAYS)
+        errors = arrays["step_errors"]
         threshold = float(row.figures["high_error_threshold"])
         derived = {
             f"high_error_fraction_at_{label}_threshold": float(np.mean(errors > factor * threshold))
@@ -96,14 +98,13 @@ def collect(
         blends = errors[errors > 0.0]
         derived["blend_step_fraction"] = float(blends.size / max(errors.size, 1))
         derived["mean_error_on_blend_steps"] = float(blends.mean()) if blends.size else 0.0
-        crowds[row.bot][row.strategy][str(row.seed)].append(
-            {**row.figures, **derived, "arrays": row.arrays}
-        )
+        figures = {**row.figures, **derived, "arrays": row.arrays}
+        run = (row.bot, row.strategy, row.seed)
+        if run in earlier:
+            figures["error_origin"] = _error_origin(arrays, earlier[run], row.figures)
+        earlier[run] = arrays
+        crowds[row.bot][row.strategy][str(row.seed)].append(figures)
         samples[(row.bot, row.strategy, str(row.seed), row.checkpoint)] = (errors, threshold)
-    for results in crowds.values():
-        for runs in results.values():
-            for checkpoints in runs.values():
-                _add_error_origins(artifacts, checkpoints)
     complete = all(
         len(by_seed) == len(plan.checkpoints)
         for results in crowds.values()
@@ -127,33 +128,30 @@ def collect(
 #: a blend counts as large above this share of the visibility threshold: the lower of the
 #: threshold's sensitivity multiples, where a step is half-way to visibly wrong
 LARGE_BLEND = THRESHOLD_SENSITIVITY["half"]
-#: the arrays :func:`_add_error_origins` reads of a checkpoint
-ORIGIN_ARRAYS = ("edge_kind", "edge_err", "observed_density", "predicted_density")
+#: the arrays :func:`collect` decodes of a checkpoint, each artifact read once
+CHECKPOINT_ARRAYS = (
+    "step_errors",
+    "edge_kind",
+    "edge_err",
+    "observed_density",
+    "predicted_density",
+)
 
 
-def _add_error_origins(artifacts: ArtifactStore, checkpoints: list[dict[str, Any]]) -> None:
-    """Give every checkpoint after a run's first the split of its players' error by the
-    age of the blends they met it on (:mod:`app.core.error_origin`), as
-    ``error_origin``."""
-    earlier: dict[str, np.ndarray] | None = None
-    for figures in checkpoints:
-        arrays = artifacts.get_arrays(figures["arrays"], ORIGIN_ARRAYS)
-        if earlier is not None:
-            figures["error_origin"] = error_origin(
-                arrays["edge_kind"],
-                arrays["edge_err"],
-                arrays["observed_density"],
-                arrays["predicted_density"],
-                earlier["observed_density"],
-                arrays["edge_kind"].size // figures["vertices"],
-                LARGE_BLEND * float(figures["high_error_threshold"]),
-            ).to_dict()
-        earlier = arrays
-
-
-def _step_errors(artifacts: ArtifactStore, digest: str) -> np.ndarray:
-    """A checkpoint's per-step errors, decoding nothing else."""
-    return artifacts.get_arrays(digest, ("step_errors",))["step_errors"]
+def _error_origin(
+    arrays: dict[str, np.ndarray], earlier: dict[str, np.ndarray], figures: dict[str, Any]
+) -> dict[str, Any]:
+    """The split of a checkpoint's error by the age of the blends its players met it on
+    (:mod:`app.core.error_origin`), against the run's checkpoint before."""
+    return error_origin(
+        arrays["edge_kind"],
+        arrays["edge_err"],
+        arrays["observed_density"],
+        arrays["predicted_density"],
+        earlier["observed_density"],
+        arrays["edge_kind"].size // figures["vertices"],
+        LARGE_BLEND * float(figures["high_error_threshold"]),
+    ).to_dict()
 
 
 def compare_strategies(
