@@ -9,18 +9,17 @@ Reads an experiment's database (SRG_DATABASE_URL, a SQLite file) and artifacts
   the earlier checkpoint or an older one; whether the earlier players visited the vertex);
 - jumps: the share of play on blends that leave a new vertex for an older one, observed
   and as the strategy's model predicted it (the checkpoint's stored densities);
-- large blends: how many of the publication's blends have an error above half the
-  visibility threshold, how many the players met, and their share of the error.
+- large blends (as the report counts them: above half the run's visibility threshold):
+  how many, how many the players met, and their share of the error.
 
     PYTHONPATH=. SRG_DATABASE_URL=sqlite:///RUN/srg.db SRG_ARTIFACT_DIR=RUN/artifacts \
-        python docs/results/dip-why/where_error.py THRESHOLD
+        python docs/results/dip-why/where_error.py
 
 docs/experiment.md, "Where the error lay", quotes its output.
 """
 
 from __future__ import annotations
 
-import sys
 from collections import Counter
 
 import numpy as np
@@ -31,6 +30,7 @@ from app.core.graph import EdgeKind
 from app.db.sessions import transaction
 from app.models.experiment import ExperimentCheckpoint
 from app.models.play import Trace, TraceStep
+from app.services.experiment.results import LARGE_BLEND
 from app.services.loading import artifact_store
 
 ARRAYS = ("edge_kind", "edge_dst", "edge_err", "observed_density", "predicted_density")
@@ -79,9 +79,10 @@ def arrivals(steps: list[np.ndarray], arrays: dict, earlier: dict, n: int) -> Co
     return Counter({how: value / total for how, value in shares.items()})
 
 
-def describe(session, arrays: dict, earlier: dict, row, threshold: float) -> list[str]:
+def describe(session, arrays: dict, earlier: dict, row) -> list[str]:
     """The lines of one checkpoint after a run's first."""
     strategy, seed, bot, _, publication_id, figures, _ = row
+    threshold = float(figures["high_error_threshold"])
     kind, dst, err = arrays["edge_kind"], arrays["edge_dst"], arrays["edge_err"]
     observed, predicted = arrays["observed_density"], arrays["predicted_density"]
     n = kind.size // figures["vertices"]
@@ -91,7 +92,7 @@ def describe(session, arrays: dict, earlier: dict, row, threshold: float) -> lis
         & (np.arange(kind.size) // n >= earlier["edge_kind"].size // n)
         & (dst < earlier["edge_kind"].size // n)
     )
-    large = blend & (err > threshold / 2)
+    large = blend & (err > LARGE_BLEND * threshold)
     met = observed * err
     lines = [
         f"{strategy} seed {seed} {bot} at {figures['size_frames']} frames: "
@@ -106,7 +107,6 @@ def describe(session, arrays: dict, earlier: dict, row, threshold: float) -> lis
 
 
 def main() -> None:
-    threshold = float(sys.argv[1])
     settings = get_settings()
     store = artifact_store(settings)
     order = ("strategy", "seed", "bot", "checkpoint")
@@ -121,7 +121,7 @@ def main() -> None:
         for i, row in enumerate(rows):
             arrays = store.get_arrays(row.arrays, ARRAYS)
             if earlier is not None and rows[i - 1][:3] == row[:3]:
-                print("\n".join(describe(session, arrays, earlier, row, threshold)))
+                print("\n".join(describe(session, arrays, earlier, row)))
             earlier = arrays
 
 
