@@ -16,7 +16,7 @@ from app.core.choice_model import ChoiceGraph, ChoiceModel, Kernel, PlayedGraph,
 from app.core.clipbank import ClipBank
 from app.core.crowd_play import PlayCounts
 from app.core.dynamics import Dynamics
-from app.core.error_share import ShareFit, fit_error_share
+from app.core.error_share import ShareFit, fit_error_share, fit_residual_share
 from app.core.fresh_evidence import FreshFit, fit_fresh_evidence, weighted_counts
 from app.core.graph import StateGraph
 from app.core.growth import (
@@ -53,6 +53,11 @@ from app.core.strategies import (
 )
 
 Trace = np.ndarray
+#: the crowd models that choose their share of heuristic players, and how
+_SHARE_FITS = {
+    PlayerModelKind.MIXED_ERROR: fit_error_share,
+    PlayerModelKind.MIXED_RESIDUAL: fit_residual_share,
+}
 
 
 @dataclass(frozen=True)
@@ -228,19 +233,21 @@ class Refiner:
 
     def share_fit(self) -> ShareFit:
         """The share of heuristic players the ranking's population holds: ``mixed``'s,
-        or for ``mixed-error`` chosen where the latest publication's players met error
-        (fitted once)."""
+        or chosen on the latest publication's players: for ``mixed-error`` where they met
+        error, for ``mixed-residual`` by the error growth would have left them (fitted
+        once)."""
         if self._share is None:
+            fit = _SHARE_FITS.get(self.config.player_model)
             self._share = (
-                fit_error_share(
+                ShareFit(UNSEEN_SHARE)
+                if fit is None
+                else fit(
                     self.published_play(),
                     self.shrunk_model,
                     self.heuristic_model(),
                     self.graph.n_vertices,
                     self.restart,
                 )
-                if self.config.player_model is PlayerModelKind.MIXED_ERROR
-                else ShareFit(UNSEEN_SHARE)
             )
         return self._share
 
