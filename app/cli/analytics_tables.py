@@ -138,7 +138,6 @@ MODEL_FIT = {
     "stale_scores": "latest publication's log-likelihood per step by weight/depth",
     "unseen_share": "share of heuristic players ranked for",
     "share_scores": "latest publication's error-weighted log score by share",
-    "share_residuals": "error per step growth would have left the latest players, by share",
 }
 
 

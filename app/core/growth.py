@@ -259,22 +259,50 @@ def select_for_expansion(
     weights: np.ndarray,
     count: int,
     relink: Callable[[int], bool],
+    *,
+    hedge: tuple[np.ndarray, float] | None = None,
 ) -> EpochOutcome:
     """Pop BLEND edges by priority ``weights[e] * err[e]``, relinking each lazily first.
 
     A relinked edge goes back into the queue with its new priority instead of being
     simulated (paper 6.1); the outcome lists the edges to expand, best first.
+
+    ``hedge`` = (other weights, share) gives that share of the expansions to a second
+    queue ranked by the other weights (``mixed-split``, docs/player-models.md): each
+    expansion comes from the queue furthest behind its share so far, the first queue on
+    a tie; an edge one queue took is skipped by the other, one it relinked re-ranked in
+    both.
     """
-    err = np.asarray(graph.edge_err)
-    blends = graph.blend_edges()
-    queue = [(-float(weights[e] * err[e]), int(e)) for e in blends]
-    heapq.heapify(queue)
+    rankings = [(np.asarray(weights), 1.0)]
+    if hedge is not None:
+        rankings = [(rankings[0][0], 1.0 - hedge[1]), (np.asarray(hedge[0]), hedge[1])]
+    err = graph.edge_err
+    # an entry is stale once its edge was relinked after it was queued (through a queue)
+    relinks: dict[int, int] = {}
+    queues = [
+        [(-float(w[e] * err[e]), int(e), 0) for e in graph.blend_edges()] for w, _ in rankings
+    ]
+    for queue in queues:
+        heapq.heapify(queue)
+    taken = [0] * len(rankings)
     outcome = EpochOutcome()
-    while queue and len(outcome.expanded) < count:
-        _, edge = heapq.heappop(queue)
+    chosen: set[int] = set()
+    while len(outcome.expanded) < count and any(queues):
+        due = len(outcome.expanded) + 1
+        k = max(
+            (k for k, queue in enumerate(queues) if queue),
+            key=lambda k: (rankings[k][1] * due - taken[k], -k),
+        )
+        _, edge, stamp = heapq.heappop(queues[k])
+        if edge in chosen or stamp != relinks.get(edge, 0):
+            continue
         if relink(edge):
             outcome.relinked.append(edge)
-            heapq.heappush(queue, (-float(weights[edge] * graph.edge_err[edge]), edge))
+            relinks[edge] = stamp + 1
+            for (w, _), queue in zip(rankings, queues, strict=True):
+                heapq.heappush(queue, (-float(w[edge] * err[edge]), edge, stamp + 1))
         else:
             outcome.expanded.append(edge)
+            chosen.add(edge)
+            taken[k] += 1
     return outcome

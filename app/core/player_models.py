@@ -38,8 +38,8 @@ class PlayerModelKind(StrEnum):
     MIXED_FRESH = "mixed-fresh"
     #: ``mixed``, its share of heuristic players chosen where players met error (error_share)
     MIXED_ERROR = "mixed-error"
-    #: ``mixed``, its share chosen by the error growth would have left players (error_share)
-    MIXED_RESIDUAL = "mixed-residual"
+    #: ``mixed``'s two kinds of player, each ranking its own share of growth (strategies)
+    MIXED_SPLIT = "mixed-split"
 
 
 def parse_player_model(name: str) -> PlayerModelKind:

@@ -16,7 +16,7 @@ from app.core.choice_model import ChoiceGraph, ChoiceModel, Kernel, PlayedGraph,
 from app.core.clipbank import ClipBank
 from app.core.crowd_play import PlayCounts
 from app.core.dynamics import Dynamics
-from app.core.error_share import ShareFit, fit_error_share, fit_residual_share
+from app.core.error_share import ShareFit, fit_error_share
 from app.core.fresh_evidence import FreshFit, fit_fresh_evidence, weighted_counts
 from app.core.graph import StateGraph
 from app.core.growth import (
@@ -50,14 +50,10 @@ from app.core.strategies import (
     Strategy,
     edge_weights,
     mixed_weights,
+    split_weights,
 )
 
 Trace = np.ndarray
-#: the crowd models that choose their share of heuristic players, and how
-_SHARE_FITS = {
-    PlayerModelKind.MIXED_ERROR: fit_error_share,
-    PlayerModelKind.MIXED_RESIDUAL: fit_residual_share,
-}
 
 
 @dataclass(frozen=True)
@@ -233,21 +229,19 @@ class Refiner:
 
     def share_fit(self) -> ShareFit:
         """The share of heuristic players the ranking's population holds: ``mixed``'s,
-        or chosen on the latest publication's players: for ``mixed-error`` where they met
-        error, for ``mixed-residual`` by the error growth would have left them (fitted
-        once)."""
+        or for ``mixed-error`` chosen where the latest publication's players met error
+        (fitted once)."""
         if self._share is None:
-            fit = _SHARE_FITS.get(self.config.player_model)
             self._share = (
-                ShareFit(UNSEEN_SHARE)
-                if fit is None
-                else fit(
+                fit_error_share(
                     self.published_play(),
                     self.shrunk_model,
                     self.heuristic_model(),
                     self.graph.n_vertices,
                     self.restart,
                 )
+                if self.config.player_model is PlayerModelKind.MIXED_ERROR
+                else ShareFit(UNSEEN_SHARE)
             )
         return self._share
 
@@ -299,6 +293,8 @@ class Refiner:
         )
         if heuristic.rank is not None:
             self._heuristic_pi = heuristic.rank.pi
+        if self.config.player_model is PlayerModelKind.MIXED_SPLIT:
+            return split_weights(result, heuristic, self.share_fit().share)
         return mixed_weights(result, heuristic, self.share_fit().share)
 
     def predicted_edge_probabilities(self, model: np.ndarray | None = None) -> np.ndarray:
@@ -317,8 +313,13 @@ class Refiner:
 
     def plan_epoch(self, count: int | None = None) -> EpochOutcome:
         """Rank, then pop the top BLEND edges (relinking lazily) to expand next."""
+        ranked = self.weights()
         return select_for_expansion(
-            self.graph, self.weights().weights, count or self.config.batch_size, self.relink
+            self.graph,
+            ranked.weights,
+            count or self.config.batch_size,
+            self.relink,
+            hedge=ranked.hedge,
         )
 
     def grow(

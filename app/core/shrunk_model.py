@@ -33,14 +33,15 @@ from app.core.session_folds import FOLDS, LearnedModel, SessionFolds, held_out_s
 #: the crowd models ranked for a population a share of which the traces have not seen
 #: (app.core.strategies.mixed_weights): ``mixed-forward`` also chooses its radius and
 #: weight otherwise, ``mixed-fresh`` weighs the counts (app.core.fresh_evidence),
-#: ``mixed-error`` and ``mixed-residual`` choose the share (app.core.error_share)
+#: ``mixed-error`` chooses the share (app.core.error_share),
+#: ``mixed-split`` gives each kind of player its own share of growth (strategies)
 MIXED_KINDS = frozenset(
     {
         PlayerModelKind.MIXED,
         PlayerModelKind.MIXED_FORWARD,
         PlayerModelKind.MIXED_FRESH,
         PlayerModelKind.MIXED_ERROR,
-        PlayerModelKind.MIXED_RESIDUAL,
+        PlayerModelKind.MIXED_SPLIT,
     }
 )
 #: the crowd models whose P(c|v) is :func:`shrunk_player_model`

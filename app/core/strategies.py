@@ -49,6 +49,9 @@ class EdgeWeights:
     #: why the weights are not the strategy's own (STATERANK failed) and what they are
     #: instead; None when they are the strategy's
     fallback: str | None = None
+    #: a second population's weights and the share of growth ranked by them
+    #: (:func:`split_weights`); None when growth follows ``weights`` alone
+    hedge: tuple[np.ndarray, float] | None = None
 
 
 def edge_weights(
@@ -116,3 +119,20 @@ def mixed_weights(crowd: EdgeWeights, heuristic: EdgeWeights, share: float) -> E
     if crowd.fallback or heuristic.fallback:
         return EdgeWeights(crowd.weights, crowd.rank, crowd.fallback or heuristic.fallback)
     return EdgeWeights((1.0 - share) * crowd.weights + share * heuristic.weights, crowd.rank)
+
+
+def split_weights(crowd: EdgeWeights, heuristic: EdgeWeights, share: float) -> EdgeWeights:
+    """The population of :func:`mixed_weights`, each kind of player served by its own
+    share of growth instead: ``share`` of the expansions go to the blends the heuristic
+    model ranks first, the rest to the crowd's (app.core.growth.select_for_expansion).
+
+    A mix ranks every blend by the population's density, where a crowd that walks one
+    route outweighs players spread over the graph, so blends off the route wait however
+    large they are (docs/player-models.md, "`mixed-split`"). Where either STATERANK fell
+    back, the crowd's weights stand alone, with the fallback's reason.
+    """
+    if not 0.0 <= share <= 1.0:
+        raise ValueError(f"a share is in [0, 1], not {share}")
+    if crowd.fallback or heuristic.fallback:
+        return EdgeWeights(crowd.weights, crowd.rank, crowd.fallback or heuristic.fallback)
+    return EdgeWeights(crowd.weights, crowd.rank, hedge=(heuristic.weights, share))

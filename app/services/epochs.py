@@ -146,7 +146,11 @@ def plan_epoch(
     refiner = refiner_for(session, settings, loaded, strategy)
     ranked = rank_stored(session, loaded, refiner)
     outcome = select_for_expansion(
-        loaded.graph, ranked.weights, count or refiner.config.batch_size, refiner.relink
+        loaded.graph,
+        ranked.weights,
+        count or refiner.config.batch_size,
+        refiner.relink,
+        hedge=ranked.hedge,
     )
     if outcome.relinked:
         save_graph(session, graph_id, loaded.graph, loaded.bank, loaded.artifacts)

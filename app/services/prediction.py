@@ -39,8 +39,7 @@ def model_fit(refiner: Refiner) -> dict[str, Any] | None:
     """What cross-validation chose for the learned model (None for eq. 2 and before any
     trace): the neighbour count with every candidate's held-out log-likelihood per step,
     the shrunk models' radius and prior weight (and, scored on the latest publication,
-    ``mixed-fresh``'s discount and depth, ``mixed-error``'s and ``mixed-residual``'s share
-    of heuristic players),
+    ``mixed-fresh``'s discount and depth, ``mixed-error``'s share of heuristic players),
     or the logit-prior model's hyper-parameters and weights."""
     kind = refiner.config.player_model
     if kind is PlayerModelKind.EQ2 or not refiner.play.sessions:
@@ -66,12 +65,11 @@ def model_fit(refiner: Refiner) -> dict[str, Any] | None:
                 "stale_depth": fresh.depth,
                 "stale_scores": {f"{w:g}/{d}": round(v, 6) for (w, d), v in fresh.scores.items()},
             }
-        if kind in (PlayerModelKind.MIXED_ERROR, PlayerModelKind.MIXED_RESIDUAL):
+        if kind is PlayerModelKind.MIXED_ERROR:
             share = refiner.share_fit()
-            scores = "share_scores" if kind is PlayerModelKind.MIXED_ERROR else "share_residuals"
             chosen |= {
                 "unseen_share": share.share,
-                scores: {f"{s:g}": round(v, 6) for s, v in share.scores.items()},
+                "share_scores": {f"{s:g}": round(v, 6) for s, v in share.scores.items()},
             }
         return chosen
     fitted = refiner.choice_model()

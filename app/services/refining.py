@@ -23,12 +23,7 @@ from app.store.publications import load_publication
 #: the crowd models that read the publications their sessions were played on, and those
 #: that learn each publication's sessions apart (those and ``mixed-forward``)
 _WITH_PUBLICATION = frozenset(
-    {
-        PlayerModelKind.LOGIT,
-        PlayerModelKind.MIXED_FRESH,
-        PlayerModelKind.MIXED_ERROR,
-        PlayerModelKind.MIXED_RESIDUAL,
-    }
+    {PlayerModelKind.LOGIT, PlayerModelKind.MIXED_FRESH, PlayerModelKind.MIXED_ERROR}
 )
 _BY_PUBLICATION = _WITH_PUBLICATION | {PlayerModelKind.MIXED_FORWARD}
 
@@ -79,8 +74,8 @@ def learn_play(
     publications (those older than publication ``before`` only, when given): per
     publication for the models that tell publications apart, oldest first (with it for
     the models that read the graph players saw: ``logit`` its goals, ``mixed-fresh`` what
-    has changed since, ``mixed-error`` and ``mixed-residual`` its errors; ``mixed-forward``
-    scores the latest); one sum over them for the others."""
+    has changed since, ``mixed-error`` its errors; ``mixed-forward`` scores the latest);
+    one sum over them for the others."""
     kind = refiner.config.player_model
     if kind in _BY_PUBLICATION:
         for publication_id, play in publication_play_counts(
