@@ -23,6 +23,7 @@ from app.config import Settings
 from app.core.bots import BotKind, play_sessions
 from app.core.crowd_play import PlayCounts
 from app.core.error_share import fit_error_share
+from app.core.growth import select_for_expansion
 from app.core.player_models import PlayerModelKind, observed_control_counts
 from app.core.prediction import PlayedSessions, prediction_figures
 from app.core.refinement import Refiner
@@ -32,6 +33,7 @@ from app.core.strategies import Strategy, parse_strategy
 from app.db.engines import make_engine
 from app.models import GraphSessions, Player
 from app.services.creation import init_graph
+from app.services.epochs import plan_epoch
 from app.services.graph_cache import graph_cache
 from app.services.loading import LoadedGraph, open_graph
 from app.services.prediction import crowd_refiner, latest_play_prediction
@@ -308,3 +310,21 @@ def test_mixed_error_chooses_its_share_on_the_latest_publications_errors(
     )
     assert refiner.share_fit() == expected
     assert expected.scores and expected.share == max(expected.scores, key=expected.scores.get)
+
+
+def test_mixed_split_plans_an_epoch_on_the_workers_path_as_its_refiner_does(
+    session: Session, db_url: str, tmp_path: Path
+) -> None:
+    settings = settings_for(db_url, tmp_path)
+    loaded = played_graph(session, settings, "mixed-split")
+    refiner = refiner_for(session, settings, loaded)
+    ranked = refiner.weights()
+    assert ranked.hedge is not None and ranked.fallback is None
+    expected = refiner.plan_epoch().expanded
+    crowd_only = select_for_expansion(
+        loaded.graph, ranked.weights, len(expected), lambda edge: False
+    ).expanded
+    # half of the epoch is the heuristic ranking's: not the crowd's first blends alone
+    assert len(expected) == refiner.config.batch_size and expected != crowd_only
+    plan = plan_epoch(session, settings, loaded.entry.id, renders=False)
+    assert plan is not None and [edge for edge, _ in plan.expansions] == expected

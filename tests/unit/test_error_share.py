@@ -121,3 +121,37 @@ def test_mixed_error_needs_every_sessions_publication() -> None:
     error.learn([np.array([[0, 1], [1, 1]])])
     with pytest.raises(ValueError, match="mixed-error model needs every session's publication"):
         error.weights()
+
+
+def test_mixed_split_grows_half_for_each_kind_of_player() -> None:
+    mixed, split = toy_refiners(PlayerModelKind.MIXED, PlayerModelKind.MIXED_SPLIT)
+    (heuristic,) = toy_refiners(PlayerModelKind.MIXED, strategy=Strategy.SR_HEURISTIC)
+    # before any trace both halves are the heuristic's: it grows as sr-heuristic
+    assert split.plan_epoch(4).expanded == heuristic.plan_epoch(4).expanded
+    first = PlayCounts.of_traces([np.array([[0, 1], [1, 1], [3, 1]]), np.array([[0, 1], [1, 1]])])
+    for refiner in (mixed, split):
+        refiner.learn_counts(first, freeze(refiner.graph))
+    ranked = split.weights()
+    assert ranked.hedge is not None and ranked.hedge[1] == UNSEEN_SHARE
+    restart = split.restart
+    crowd = edge_weights(Strategy.SR_CROWD, split.graph, split.player_model(), restart=restart)
+    by_heuristic = edge_weights(
+        Strategy.SR_CROWD, split.graph, split.heuristic_model(), restart=restart
+    )
+    np.testing.assert_allclose(ranked.weights, crowd.weights, rtol=1e-6)
+    np.testing.assert_allclose(ranked.hedge[0], by_heuristic.weights, rtol=1e-6)
+    # the same population as mixed's, but not its ranking
+    np.testing.assert_array_equal(split.player_model(), mixed.player_model())
+    err = np.asarray(split.graph.edge_err)
+    blends = split.graph.blend_edges()
+
+    def first_of(weights: np.ndarray) -> list[int]:
+        return [int(e) for e in blends[np.argsort(-(weights[blends] * err[blends]), kind="stable")]]
+
+    by_crowd, by_prior = first_of(ranked.weights), first_of(ranked.hedge[0])
+    expanded = split.plan_epoch(4).expanded
+    # alternately the crowd's best and the heuristic's best not yet taken
+    expected: list[int] = []
+    for queue in (by_crowd, by_prior, by_crowd, by_prior):
+        expected.append(next(e for e in queue if e not in expected))
+    assert expanded == expected

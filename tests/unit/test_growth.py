@@ -168,3 +168,51 @@ def test_selection_pops_by_priority_and_requeues_relinked_edges() -> None:
     outcome = select_for_expansion(graph, weights, 1, relink=relink_first_only)
     assert outcome.relinked == [int(top[0])]
     assert outcome.expanded == [int(top[1])]
+
+
+def test_a_hedged_selection_gives_each_ranking_its_share_of_the_expansions() -> None:
+    graph, _ = grown(10)
+    err = np.asarray(graph.edge_err)
+    blends = graph.blend_edges()
+    order = blends[np.argsort(-err[blends], kind="stable")]
+    order = order[err[order] > 0]
+    # the first ranking likes the largest errors, the second the smallest
+    first = np.ones(graph.n_edges)
+    second = np.zeros(graph.n_edges)
+    second[order] = np.arange(1, len(order) + 1) / err[order]
+    outcome = select_for_expansion(graph, first, 4, lambda e: False, hedge=(second, 0.5))
+    # alternately, the first ranking on a tie: largest, smallest, next largest, next smallest
+    assert outcome.expanded == [int(order[0]), int(order[-1]), int(order[1]), int(order[-2])]
+    # a quarter for the second ranking: owed 0.75 of the third expansion against the
+    # first's 0.25, it takes that one
+    outcome = select_for_expansion(graph, first, 4, lambda e: False, hedge=(second, 0.25))
+    assert outcome.expanded == [int(order[0]), int(order[1]), int(order[-1]), int(order[2])]
+    # with no share the hedge changes nothing
+    plain = select_for_expansion(graph, first, 4, lambda e: False)
+    assert select_for_expansion(graph, first, 4, lambda e: False, hedge=(second, 0.0)) == plain
+
+
+def test_a_hedged_selection_skips_what_the_other_ranking_took_and_reranks_what_it_relinked() -> (
+    None
+):
+    graph, _ = grown(10)
+    err = np.asarray(graph.edge_err)
+    blends = graph.blend_edges()
+    order = [int(e) for e in blends[np.argsort(-err[blends], kind="stable")]]
+    weights = np.ones(graph.n_edges)
+    # both rankings alike: each takes the best the other has not
+    outcome = select_for_expansion(graph, weights, 3, lambda e: False, hedge=(weights, 0.5))
+    assert outcome.expanded == order[:3]
+
+    def relink_the_best_once(edge: int) -> bool:
+        if edge == order[0] and not outcome_relinked:
+            outcome_relinked.append(edge)
+            graph.edge_err[edge] = 0.0  # a much better target was found
+            return True
+        return False
+
+    outcome_relinked: list[int] = []
+    outcome = select_for_expansion(graph, weights, 3, relink_the_best_once, hedge=(weights, 0.5))
+    assert outcome.relinked == [order[0]]
+    # the edge relinked to no error falls to the back of both queues
+    assert outcome.expanded == order[1:4]
