@@ -1,6 +1,5 @@
-"""Player models P(c|v), what control a player takes at each vertex (paper section 4): a
-dense (V, N) array, row v the distribution over controls at v. The heuristic one bootstraps
-a graph; the crowd ones learn from traces, sequences of (vertex, control) steps."""
+"""Player models P(c|v), the control a player takes at each vertex (paper section 4): row v
+of a dense (V, N) array. The heuristic one bootstraps a graph; the crowd ones learn from traces."""
 
 from __future__ import annotations
 
