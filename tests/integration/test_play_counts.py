@@ -82,6 +82,15 @@ def played_graph(session: Session, settings: Settings, model: str) -> LoadedGrap
     return loaded
 
 
+def played_refiner(
+    session: Session, db_url: str, tmp_path: Path, model: str
+) -> tuple[Settings, LoadedGraph, Refiner]:
+    """:func:`played_graph` for ``model``, with its refiner as growth makes it."""
+    settings = settings_for(db_url, tmp_path)
+    loaded = played_graph(session, settings, model)
+    return settings, loaded, refiner_for(session, settings, loaded)
+
+
 @pytest.mark.parametrize("model", ["shrunk", "knn", "eq2"])
 def test_growth_from_the_sums_is_growth_from_every_step(
     session: Session, db_url: str, tmp_path: Path, model: str
@@ -250,9 +259,7 @@ def test_the_latest_publications_prediction_reads_sums_not_steps(
 def test_mixed_forward_learns_publication_by_publication_and_scores_the_latest(
     session: Session, db_url: str, tmp_path: Path
 ) -> None:
-    settings = settings_for(db_url, tmp_path)
-    loaded = played_graph(session, settings, "mixed-forward")
-    refiner = refiner_for(session, settings, loaded)
+    _, loaded, refiner = played_refiner(session, db_url, tmp_path, "mixed-forward")
     first, second = sorted(played_publications(session, loaded.entry.id))
     assert [play.sessions for _, play in refiner.played] == [18, 18]
     graph = loaded.graph
@@ -270,9 +277,7 @@ def test_mixed_forward_learns_publication_by_publication_and_scores_the_latest(
 def test_mixed_fresh_learns_each_publication_with_the_graph_its_players_saw(
     session: Session, db_url: str, tmp_path: Path
 ) -> None:
-    settings = settings_for(db_url, tmp_path)
-    loaded = played_graph(session, settings, "mixed-fresh")
-    refiner = refiner_for(session, settings, loaded)
+    _, loaded, refiner = played_refiner(session, db_url, tmp_path, "mixed-fresh")
     published = [
         load_publication(session, i) for i in played_publications(session, loaded.entry.id)
     ]
@@ -291,9 +296,7 @@ def test_mixed_fresh_learns_each_publication_with_the_graph_its_players_saw(
 def test_mixed_error_chooses_its_share_on_the_latest_publications_errors(
     session: Session, db_url: str, tmp_path: Path
 ) -> None:
-    settings = settings_for(db_url, tmp_path)
-    loaded = played_graph(session, settings, "mixed-error")
-    refiner = refiner_for(session, settings, loaded)
+    _, loaded, refiner = played_refiner(session, db_url, tmp_path, "mixed-error")
     first, second = sorted(played_publications(session, loaded.entry.id))
     assert [play.sessions for _, play in refiner.played] == [18, 18]
     # the sums the store keeps choose as the stored steps themselves would
@@ -315,9 +318,7 @@ def test_mixed_error_chooses_its_share_on_the_latest_publications_errors(
 def test_mixed_split_plans_an_epoch_on_the_workers_path_as_its_refiner_does(
     session: Session, db_url: str, tmp_path: Path
 ) -> None:
-    settings = settings_for(db_url, tmp_path)
-    loaded = played_graph(session, settings, "mixed-split")
-    refiner = refiner_for(session, settings, loaded)
+    settings, loaded, refiner = played_refiner(session, db_url, tmp_path, "mixed-split")
     ranked = refiner.weights()
     assert ranked.hedge is not None and ranked.fallback is None
     expected = refiner.plan_epoch().expanded
