@@ -273,9 +273,10 @@ def select_for_expansion(
     a tie; an edge one queue took is skipped by the other, one it relinked re-ranked in
     both.
     """
-    rankings = [(np.asarray(weights), 1.0)]
+    share = 0.0 if hedge is None else hedge[1]
+    rankings = [(np.asarray(weights), 1.0 - share)]
     if hedge is not None:
-        rankings = [(rankings[0][0], 1.0 - hedge[1]), (np.asarray(hedge[0]), hedge[1])]
+        rankings.append((np.asarray(hedge[0]), share))
     err = graph.edge_err
     # an entry is stale once its edge was relinked after it was queued (through a queue)
     relinks: dict[int, int] = {}

@@ -114,11 +114,9 @@ def mixed_weights(crowd: EdgeWeights, heuristic: EdgeWeights, share: float) -> E
     STATERANK fell back, the two are not distributions to mix: the crowd's weights stand,
     with the fallback's reason.
     """
-    if not 0.0 <= share <= 1.0:
-        raise ValueError(f"a share is in [0, 1], not {share}")
-    if crowd.fallback or heuristic.fallback:
-        return EdgeWeights(crowd.weights, crowd.rank, crowd.fallback or heuristic.fallback)
-    return EdgeWeights((1.0 - share) * crowd.weights + share * heuristic.weights, crowd.rank)
+    return _fallen_back(crowd, heuristic, share) or EdgeWeights(
+        (1.0 - share) * crowd.weights + share * heuristic.weights, crowd.rank
+    )
 
 
 def split_weights(crowd: EdgeWeights, heuristic: EdgeWeights, share: float) -> EdgeWeights:
@@ -131,8 +129,16 @@ def split_weights(crowd: EdgeWeights, heuristic: EdgeWeights, share: float) -> E
     large they are (docs/player-models.md, "`mixed-split`"). Where either STATERANK fell
     back, the crowd's weights stand alone, with the fallback's reason.
     """
+    return _fallen_back(crowd, heuristic, share) or EdgeWeights(
+        crowd.weights, crowd.rank, hedge=(heuristic.weights, share)
+    )
+
+
+def _fallen_back(crowd: EdgeWeights, heuristic: EdgeWeights, share: float) -> EdgeWeights | None:
+    """The crowd's weights with the fallback's reason where either STATERANK fell back,
+    else None; ValueError for a share outside [0, 1]."""
     if not 0.0 <= share <= 1.0:
         raise ValueError(f"a share is in [0, 1], not {share}")
     if crowd.fallback or heuristic.fallback:
         return EdgeWeights(crowd.weights, crowd.rank, crowd.fallback or heuristic.fallback)
-    return EdgeWeights(crowd.weights, crowd.rank, hedge=(heuristic.weights, share))
+    return None

@@ -15,7 +15,14 @@ from app.core.error_share import SHARES, ShareFit, error_weighted_score, fit_err
 from app.core.metrics import predicted_edge_probabilities
 from app.core.player_models import PlayerModelKind
 from app.core.publication import Publication, freeze
-from app.core.strategies import UNSEEN_SHARE, Strategy, edge_weights, mixed_weights
+from app.core.strategies import (
+    UNSEEN_SHARE,
+    EdgeWeights,
+    Strategy,
+    edge_weights,
+    mixed_weights,
+    split_weights,
+)
 
 
 def test_the_score_is_the_error_weighted_mean_log_share_by_hand() -> None:
@@ -155,3 +162,14 @@ def test_mixed_split_grows_half_for_each_kind_of_player() -> None:
     for queue in (by_crowd, by_prior, by_crowd, by_prior):
         expected.append(next(e for e in queue if e not in expected))
     assert expanded == expected
+
+
+def test_split_weights_refuse_a_bad_share_and_give_way_to_a_fallen_back_ranking() -> None:
+    crowd = EdgeWeights(np.array([0.6, 0.4]), None)
+    fallen = EdgeWeights(np.array([0.5, 0.5]), None, fallback="did not converge")
+    with pytest.raises(ValueError, match=r"a share is in \[0, 1\], not 1.5"):
+        split_weights(crowd, crowd, 1.5)
+    # the heuristic ranking fell back: no second queue, the crowd's weights with the reason
+    given_way = split_weights(crowd, fallen, 0.5)
+    assert given_way.hedge is None and given_way.fallback == "did not converge"
+    np.testing.assert_array_equal(given_way.weights, crowd.weights)
