@@ -39,6 +39,8 @@ class PlayerModelKind(StrEnum):
     MIXED_ERROR = "mixed-error"
     #: ``mixed``'s two kinds of player, each ranking its own share of growth (strategies)
     MIXED_SPLIT = "mixed-split"
+    #: ``mixed-error``, its share moved from a half only where the sessions are sure of it
+    MIXED_SURE = "mixed-sure"
 
 
 def parse_player_model(name: str) -> PlayerModelKind:
@@ -100,9 +102,8 @@ def crowd_player_model(
     holding; the :math:`\epsilon` term is a prior that lets the model answer for vertices
     far from every visited one, by the control frequencies of their whole control group.
 
-    Evaluated for all vertices at once: per control group, one KD-tree ball query between
-    the group's vertices and its visited vertices gives the kernel part, and one sum over
-    the group's counts gives the prior.
+    Evaluated for all vertices at once: per control group, one KD-tree ball query (its
+    vertices against its visited ones) gives the kernel part, one sum of its counts the prior.
 
     Parameters
     ----------
@@ -111,8 +112,7 @@ def crowd_player_model(
     vertex_control : ndarray of int, shape (V,)
         :math:`c_v` of every vertex.
     control_counts : ndarray, shape (V, N)
-        How often control c was taken at vertex v in the traces
-        (:func:`observed_control_counts`).
+        How often control c was taken at vertex v (:func:`observed_control_counts`).
     radius : float
         Kernel radius r > 0 in descriptor space.
     eps : float

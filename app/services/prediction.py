@@ -15,6 +15,7 @@ from sqlalchemy.orm import Session
 
 from app.config import Settings
 from app.core.bots import BotKind, play_sessions
+from app.core.error_share import ERROR_SHARE_KINDS
 from app.core.player_models import PlayerModelKind, parse_player_model
 from app.core.players import PlayerSelection
 from app.core.prediction import PlayedSessions, prediction_figures, split_half_correlation
@@ -65,11 +66,12 @@ def model_fit(refiner: Refiner) -> dict[str, Any] | None:
                 "stale_depth": fresh.depth,
                 "stale_scores": {f"{w:g}/{d}": round(v, 6) for (w, d), v in fresh.scores.items()},
             }
-        if kind is PlayerModelKind.MIXED_ERROR:
+        if kind in ERROR_SHARE_KINDS:
             share = refiner.share_fit()
             chosen |= {
                 "unseen_share": share.share,
                 "share_scores": {f"{s:g}": round(v, 6) for s, v in share.scores.items()},
+                "share_lower": share.lower,
             }
         return chosen
     fitted = refiner.choice_model()

@@ -11,6 +11,7 @@ from sqlalchemy.orm import Session
 
 from app.config import Settings
 from app.core.dynamics import Dynamics
+from app.core.error_share import ERROR_SHARE_KINDS
 from app.core.player_models import PlayerModelKind, parse_player_model
 from app.core.players import PlayerSelection
 from app.core.refinement import Refiner, RefinerConfig
@@ -22,8 +23,8 @@ from app.store.publications import load_publication
 
 #: the crowd models that read the publications their sessions were played on, and those
 #: that learn each publication's sessions apart (those and ``mixed-forward``)
-_WITH_PUBLICATION = frozenset(
-    {PlayerModelKind.LOGIT, PlayerModelKind.MIXED_FRESH, PlayerModelKind.MIXED_ERROR}
+_WITH_PUBLICATION = frozenset({PlayerModelKind.LOGIT, PlayerModelKind.MIXED_FRESH}) | (
+    ERROR_SHARE_KINDS
 )
 _BY_PUBLICATION = _WITH_PUBLICATION | {PlayerModelKind.MIXED_FORWARD}
 

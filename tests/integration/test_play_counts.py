@@ -22,7 +22,7 @@ from alembic import command
 from app.config import Settings
 from app.core.bots import BotKind, play_sessions
 from app.core.crowd_play import PlayCounts
-from app.core.error_share import fit_error_share
+from app.core.error_share import SURE_LEVEL, fit_error_share
 from app.core.growth import select_for_expansion
 from app.core.player_models import PlayerModelKind, observed_control_counts
 from app.core.prediction import PlayedSessions, prediction_figures
@@ -313,6 +313,29 @@ def test_mixed_error_chooses_its_share_on_the_latest_publications_errors(
     )
     assert refiner.share_fit() == expected
     assert expected.scores and expected.share == max(expected.scores, key=expected.scores.get)
+
+
+def test_mixed_sure_tests_its_share_on_the_stored_sums_as_on_the_steps(
+    session: Session, db_url: str, tmp_path: Path
+) -> None:
+    _, loaded, refiner = played_refiner(session, db_url, tmp_path, "mixed-sure")
+    # the sessions' groups are the ordinals the store kept, as the steps number them
+    played, first = [], 0
+    for i in sorted(played_publications(session, loaded.entry.id)):
+        counts = PlayCounts.of_traces(load_traces(session, [i]), first)
+        played.append((load_publication(session, i), counts))
+        first += counts.sessions
+    expected = fit_error_share(
+        played,
+        refiner.shrunk_model,
+        refiner.heuristic_model(),
+        loaded.graph.n_vertices,
+        refiner.restart,
+        sure=SURE_LEVEL,
+    )
+    fit = refiner.share_fit()
+    assert expected.lower is not None and fit.lower == pytest.approx(expected.lower)
+    assert (fit.share, fit.scores) == (expected.share, expected.scores)
 
 
 def test_mixed_split_plans_an_epoch_on_the_workers_path_as_its_refiner_does(
