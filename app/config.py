@@ -78,7 +78,7 @@ class GrowthSettings(BaseSettings):
         PlayerModelKind.MIXED_ERROR,
         description="crowd model of new sr-crowd graphs: mixed-error (default: shrunk, ranked "
         "with a share of heuristic players chosen where players met error; "
-        "docs/player-models.md), mixed (half), mixed-sure, mixed-split, mixed-forward, "
+        "docs/player-models.md), mixed (half), mixed-held, mixed-split, mixed-forward, "
         "mixed-fresh, shrunk, knn, eq2 (the paper's) or logit",
     )
     reuse_simulations: bool = Field(

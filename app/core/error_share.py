@@ -11,10 +11,11 @@ chosen here by the error-weighted log score: over the error the latest publicati
 players met, the mean log of the share of play the ranking's population, learnt from the
 earlier publications' sessions, put on the edge where they met it.
 
-``mixed-sure`` moves the share from one half only where the latest players' sessions are
-sure of the move (docs/player-models.md, "`mixed-sure`"): at 5,000 frames ``mixed-error``
-chose the fewest heuristic players on every selection world and dipped at 10,000, as the
-next players left the route the last ones had met their error on. Pure numpy and scipy.
+``mixed-held`` applies a share other than one half only once the share chosen the time
+before held on the next players (docs/player-models.md, "`mixed-held`"): at 5,000 frames
+``mixed-error`` chose the fewest heuristic players on every selection world, the next
+players left the route the last ones had met their error on, and the graph dipped.
+Pure numpy.
 """
 
 from __future__ import annotations
@@ -23,9 +24,8 @@ from collections.abc import Callable, Sequence
 from dataclasses import dataclass, field
 
 import numpy as np
-from scipy import stats
 
-from app.core.crowd_play import FOLD_BUCKETS, PlayCounts
+from app.core.crowd_play import PlayCounts
 from app.core.metrics import predicted_edge_probabilities
 from app.core.player_models import PlayerModelKind
 from app.core.publication import Publication
@@ -34,9 +34,7 @@ from app.core.strategies import UNSEEN_SHARE
 #: shares of heuristic players tried; ``mixed``'s (UNSEEN_SHARE) among them
 SHARES = (0.25, 0.5, 0.75, 0.9)
 #: the crowd models whose share of heuristic players is chosen here
-ERROR_SHARE_KINDS = frozenset({PlayerModelKind.MIXED_ERROR, PlayerModelKind.MIXED_SURE})
-#: ``mixed-sure``'s confidence that a share gains over one half, all shares tried together
-SURE_LEVEL = 0.95
+ERROR_SHARE_KINDS = frozenset({PlayerModelKind.MIXED_ERROR, PlayerModelKind.MIXED_HELD})
 #: a player model of the control counts it learns from: (V, N) counts in, P(c|v) out
 CountsModel = Callable[[np.ndarray], np.ndarray]
 
@@ -48,9 +46,9 @@ class ShareFit:
 
     share: float
     scores: dict[float, float] = field(default_factory=dict)
-    #: for a sure fit, the lower end of the best other share's gain over one half, in
-    #: units of the score (:func:`sure_gain`); None where nothing was tested
-    lower: float | None = None
+    #: for a held fit, the share chosen on the publications before the latest (None
+    #: where none was chosen): the choice is applied only if that one held
+    before: float | None = None
 
 
 def error_weighted_score(weights: np.ndarray, steps: np.ndarray, edge_err: np.ndarray) -> float:
@@ -72,24 +70,6 @@ def _log(weights: np.ndarray) -> np.ndarray:
     return np.log(np.maximum(weights, 1e-300))
 
 
-def sure_gain(log_gain: np.ndarray, groups: np.ndarray, level: float, tests: int) -> float:
-    """The lower end of a one-sided Student t bound, at ``level`` split over ``tests``
-    (Bonferroni), on the mean over session groups of what a share gains over another:
-    ``log_gain[e]`` is the difference of their log shares of play on edge e, ``groups``
-    (G, E) the error each group of sessions met there. In units of the score (the gain
-    divided by the mean error a group met); -inf with fewer than two groups that met error.
-    """
-    mass = groups.sum(axis=1)
-    met = mass > 0.0
-    if int(met.sum()) < 2:
-        return float("-inf")
-    gains = groups[met] @ log_gain
-    n = gains.size
-    spread = float(np.std(gains, ddof=1)) / np.sqrt(n)
-    quantile = float(stats.t.ppf(1.0 - (1.0 - level) / tests, n - 1))
-    return float((np.mean(gains) - quantile * spread) / np.mean(mass[met]))
-
-
 def fit_error_share(
     played: Sequence[tuple[Publication, PlayCounts]],
     model: CountsModel,
@@ -98,7 +78,7 @@ def fit_error_share(
     restart: float,
     *,
     shares: Sequence[float] = SHARES,
-    sure: float | None = None,
+    held: bool = False,
 ) -> ShareFit:
     """The share of heuristic players under which the ranking's population, the crowd
     ``model`` learnt from every publication's sessions but the latest mixed with the
@@ -107,9 +87,10 @@ def fit_error_share(
     publication. ``mixed``'s share before two publications' sessions or when the
     latest's met no error; ties go to the share nearest it.
 
-    With ``sure`` (a confidence level), the best share replaces ``mixed``'s only where
-    its gain over it is sure at that level across the latest publication's session
-    groups, the sessions of one ordinal bucket each (:func:`sure_gain`)."""
+    With ``held``, the share chosen on the publications before the latest must score at
+    least as well as one half on the latest's players (its forecast held) for the new
+    choice to be applied; otherwise, and before any earlier choice, the share is one half.
+    A choice of one half moved nothing and has nothing to hold."""
     played = [(then, play) for then, play in played if play.sessions]
     if len(played) < 2:
         return ShareFit(UNSEEN_SHARE)
@@ -132,12 +113,10 @@ def fit_error_share(
         for share in shares
     }
     share = max(scores, key=lambda s: (scores[s], -abs(s - UNSEEN_SHARE)))
-    if sure is None or share == UNSEEN_SHARE:
+    if not held:
         return ShareFit(share, scores)
-    groups = (
-        np.stack([f.reshape(-1) for f in play.fold_counts(FOLD_BUCKETS, vertices, controls)])
-        * latest.edge_err
-    )
-    best, half = ((1.0 - s) * crowd + s * prior for s in (share, UNSEEN_SHARE))
-    lower = sure_gain(_log(best) - _log(half), groups, sure, len(scores) - 1)
-    return ShareFit(share if lower > 0.0 else UNSEEN_SHARE, scores, lower)
+    before = fit_error_share(played[:-1], model, heuristic, n_vertices, restart, shares=shares)
+    if not before.scores:
+        return ShareFit(UNSEEN_SHARE, scores)
+    kept = scores[before.share] >= scores[UNSEEN_SHARE]
+    return ShareFit(share if kept else UNSEEN_SHARE, scores, before.share)

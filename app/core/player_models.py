@@ -39,8 +39,8 @@ class PlayerModelKind(StrEnum):
     MIXED_ERROR = "mixed-error"
     #: ``mixed``'s two kinds of player, each ranking its own share of growth (strategies)
     MIXED_SPLIT = "mixed-split"
-    #: ``mixed-error``, its share moved from a half only where the sessions are sure of it
-    MIXED_SURE = "mixed-sure"
+    #: ``mixed-error``, its share applied once the one chosen before held (error_share)
+    MIXED_HELD = "mixed-held"
 
 
 def parse_player_model(name: str) -> PlayerModelKind:

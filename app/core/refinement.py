@@ -16,7 +16,7 @@ from app.core.choice_model import ChoiceGraph, ChoiceModel, Kernel, PlayedGraph,
 from app.core.clipbank import ClipBank
 from app.core.crowd_play import PlayCounts
 from app.core.dynamics import Dynamics
-from app.core.error_share import ERROR_SHARE_KINDS, SURE_LEVEL, ShareFit, fit_error_share
+from app.core.error_share import ERROR_SHARE_KINDS, ShareFit, fit_error_share
 from app.core.fresh_evidence import FreshFit, fit_fresh_evidence, weighted_counts
 from app.core.graph import StateGraph
 from app.core.growth import (
@@ -229,7 +229,7 @@ class Refiner:
 
     def share_fit(self) -> ShareFit:
         """The share of heuristic players the ranking's population holds: ``mixed``'s,
-        or for ``mixed-error`` and ``mixed-sure`` chosen where the latest publication's
+        or for ``mixed-error`` and ``mixed-held`` chosen where the latest publication's
         players met error (fitted once)."""
         kind = self.config.player_model
         if self._share is None:
@@ -240,7 +240,7 @@ class Refiner:
                     self.heuristic_model(),
                     self.graph.n_vertices,
                     self.restart,
-                    sure=SURE_LEVEL if kind is PlayerModelKind.MIXED_SURE else None,
+                    held=kind is PlayerModelKind.MIXED_HELD,
                 )
                 if kind in ERROR_SHARE_KINDS
                 else ShareFit(UNSEEN_SHARE)

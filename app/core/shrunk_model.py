@@ -33,7 +33,7 @@ from app.core.session_folds import FOLDS, LearnedModel, SessionFolds, held_out_s
 #: the crowd models ranked for a population a share of which the traces have not seen
 #: (app.core.strategies.mixed_weights): ``mixed-forward`` also chooses its radius and
 #: weight otherwise, ``mixed-fresh`` weighs the counts (app.core.fresh_evidence),
-#: ``mixed-error`` and ``mixed-sure`` choose the share (app.core.error_share),
+#: ``mixed-error`` and ``mixed-held`` choose the share (app.core.error_share),
 #: ``mixed-split`` gives each kind of player its own share of growth (strategies)
 MIXED_KINDS = frozenset(
     {
@@ -42,7 +42,7 @@ MIXED_KINDS = frozenset(
         PlayerModelKind.MIXED_FRESH,
         PlayerModelKind.MIXED_ERROR,
         PlayerModelKind.MIXED_SPLIT,
-        PlayerModelKind.MIXED_SURE,
+        PlayerModelKind.MIXED_HELD,
     }
 )
 #: the crowd models whose P(c|v) is :func:`shrunk_player_model`

@@ -71,7 +71,7 @@ def model_fit(refiner: Refiner) -> dict[str, Any] | None:
             chosen |= {
                 "unseen_share": share.share,
                 "share_scores": {f"{s:g}": round(v, 6) for s, v in share.scores.items()},
-                "share_lower": share.lower,
+                "share_before": share.before,
             }
         return chosen
     fitted = refiner.choice_model()

@@ -392,7 +392,7 @@ def test_bad_settings_of_several_groups_are_named_in_the_same_line(tmp_path: Pat
             "SRG_PLAYER_MODEL",
             "bogus",
             "'eq2', 'logit', 'knn', 'shrunk', 'mixed', 'mixed-forward', 'mixed-fresh', "
-            "'mixed-error', 'mixed-split' or 'mixed-sure'",
+            "'mixed-error', 'mixed-split' or 'mixed-held'",
         ),
     ],
 )

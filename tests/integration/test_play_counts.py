@@ -22,14 +22,14 @@ from alembic import command
 from app.config import Settings
 from app.core.bots import BotKind, play_sessions
 from app.core.crowd_play import PlayCounts
-from app.core.error_share import SURE_LEVEL, fit_error_share
+from app.core.error_share import fit_error_share
 from app.core.growth import select_for_expansion
 from app.core.player_models import PlayerModelKind, observed_control_counts
 from app.core.prediction import PlayedSessions, prediction_figures
 from app.core.refinement import Refiner
 from app.core.session_folds import FOLDS, SessionFolds
 from app.core.shrunk_model import fit_shrunk_model, shrunk_player_model
-from app.core.strategies import Strategy, parse_strategy
+from app.core.strategies import UNSEEN_SHARE, Strategy, parse_strategy
 from app.db.engines import make_engine
 from app.models import GraphSessions, Player
 from app.services.creation import init_graph
@@ -315,27 +315,19 @@ def test_mixed_error_chooses_its_share_on_the_latest_publications_errors(
     assert expected.scores and expected.share == max(expected.scores, key=expected.scores.get)
 
 
-def test_mixed_sure_tests_its_share_on_the_stored_sums_as_on_the_steps(
+def test_mixed_held_checks_its_share_on_the_stored_sums_as_on_the_steps(
     session: Session, db_url: str, tmp_path: Path
 ) -> None:
-    _, loaded, refiner = played_refiner(session, db_url, tmp_path, "mixed-sure")
-    # the sessions' groups are the ordinals the store kept, as the steps number them
-    played, first = [], 0
-    for i in sorted(played_publications(session, loaded.entry.id)):
-        counts = PlayCounts.of_traces(load_traces(session, [i]), first)
-        played.append((load_publication(session, i), counts))
-        first += counts.sessions
-    expected = fit_error_share(
-        played,
-        refiner.shrunk_model,
-        refiner.heuristic_model(),
-        loaded.graph.n_vertices,
-        refiner.restart,
-        sure=SURE_LEVEL,
-    )
-    fit = refiner.share_fit()
-    assert expected.lower is not None and fit.lower == pytest.approx(expected.lower)
-    assert (fit.share, fit.scores) == (expected.share, expected.scores)
+    _, loaded, refiner = played_refiner(session, db_url, tmp_path, "mixed-held")
+    played = [
+        (load_publication(session, i), PlayCounts.of_traces(load_traces(session, [i])))
+        for i in sorted(played_publications(session, loaded.entry.id))
+    ]
+    args = (refiner.shrunk_model, refiner.heuristic_model(), loaded.graph.n_vertices)
+    expected = fit_error_share(played, *args, refiner.restart, held=True)
+    # two publications played: no choice was made before the latest, the share is one half
+    assert len(played) == 2 and expected.before is None and expected.share == UNSEEN_SHARE
+    assert refiner.share_fit() == expected and expected.scores
 
 
 def test_mixed_split_plans_an_epoch_on_the_workers_path_as_its_refiner_does(

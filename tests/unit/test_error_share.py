@@ -1,6 +1,6 @@
 """The share of heuristic players ``mixed-error`` ranks for: the error-weighted log score
-by hand, the share it chooses on the latest publication's players, ``mixed-sure``'s test
-of that choice across sessions, and the refiners that rank with them."""
+by hand, the share it chooses on the latest publication's players, ``mixed-held``'s check of
+the choice made the time before, and the refiners that rank with them."""
 
 from __future__ import annotations
 
@@ -11,14 +11,7 @@ import pytest
 from refiner_helpers import toy_refiners
 
 from app.core.crowd_play import PlayCounts
-from app.core.error_share import (
-    SHARES,
-    SURE_LEVEL,
-    ShareFit,
-    error_weighted_score,
-    fit_error_share,
-    sure_gain,
-)
+from app.core.error_share import SHARES, ShareFit, error_weighted_score, fit_error_share
 from app.core.metrics import predicted_edge_probabilities
 from app.core.player_models import PlayerModelKind
 from app.core.publication import Publication, freeze
@@ -101,44 +94,43 @@ def test_without_a_later_publication_that_met_error_the_share_is_mixeds() -> Non
     ) == ShareFit(UNSEEN_SHARE)
 
 
-def test_the_sure_gain_is_a_one_sided_t_bound_over_session_groups_by_hand() -> None:
-    log_gain = np.array([0.0, 0.5, -1.0])
-    # three groups of sessions, the error each met per edge; a fourth met none
-    groups = np.array([[1.0, 0.2, 0.0], [0.0, 0.4, 0.1], [0.0, 0.3, 0.0], [0.0, 0.0, 0.0]])
-    gains = np.array([0.1, 0.1, 0.15])  # groups @ log_gain, by hand
-    mean, sd = gains.mean(), math.sqrt(((gains - gains.mean()) ** 2).sum() / 2)
-    # one-sided 95 % over 3 tests: Student t with 2 degrees of freedom at 1 - 0.05/3
-    by_hand = (mean - 5.3393 * sd / math.sqrt(3)) / np.mean([1.2, 0.5, 0.3])
-    assert sure_gain(log_gain, groups, 0.95, 3) == pytest.approx(by_hand, rel=1e-4)
-    # one group alone says nothing of the spread
-    assert sure_gain(log_gain, groups[[0, 3]], 0.95, 3) == -math.inf
-
-
-#: the latest players who turn at vertex 1 (where the earlier crowd never went) and those
-#: who keep to the route, each meeting a blend
+#: players who turn at vertex 1, where the earlier crowd never went, and players who keep
+#: to its route to vertex 2; each meets a blend there
 TURN, KEEP = np.array([[0, 0], [1, 1]]), np.array([[0, 0], [1, 0], [2, 0]])
 
 
 @pytest.mark.parametrize(
-    ("sessions", "chosen"),
+    ("middle", "latest", "before", "chosen"),
     [
-        # every session met its error off the route: sure of more heuristic players
-        ([TURN] * 5, 0.9),
-        # half and half: the best share's gain is not sure, the share stays mixed's
-        ([TURN] * 3 + [KEEP] * 3, UNSEEN_SHARE),
-        # one session is no spread to be sure of
-        ([TURN], UNSEEN_SHARE),
+        # the middle players turned (more heuristic players, 0.9), the latest did too: held
+        (TURN, TURN, 0.9, 0.9),
+        # they kept to the route (0.25), the latest did too: held
+        (KEEP, KEEP, 0.25, 0.25),
+        # they kept to it, the latest left it: 0.25 scores below one half, which stays
+        (KEEP, TURN, 0.25, UNSEEN_SHARE),
+        (TURN, KEEP, 0.9, UNSEEN_SHARE),
     ],
 )
-def test_mixed_sure_moves_the_share_only_where_the_sessions_agree(
-    sessions: list[np.ndarray], chosen: float
+def test_mixed_held_applies_its_choice_only_once_the_one_before_held(
+    middle: np.ndarray, latest: np.ndarray, before: float, chosen: float
 ) -> None:
-    then, latest = _chain([0.0] * 8), _chain([0, 0, 0, 0.5, 0.5, 0, 0, 0])
-    played = [(then, ROUTE), (latest, PlayCounts.of_traces(sessions, first=ROUTE.sessions))]
+    err = _chain([0, 0, 0, 0.5, 0.5, 0, 0, 0])
+    played = [
+        (_chain([0.0] * 8), ROUTE),
+        (err, PlayCounts.of_traces([middle] * 5, first=30)),
+        (err, PlayCounts.of_traces([latest] * 5, first=35)),
+    ]
     plain = fit_error_share(played, _uniform_blend, UNIFORM, 4, 0.1)
-    sure = fit_error_share(played, _uniform_blend, UNIFORM, 4, 0.1, sure=SURE_LEVEL)
-    assert plain.share == 0.9 and sure.scores == plain.scores and sure.share == chosen
-    assert sure.lower is not None and (sure.lower > 0) == (chosen == 0.9)
+    held = fit_error_share(played, _uniform_blend, UNIFORM, 4, 0.1, held=True)
+    earlier = fit_error_share(played[:2], _uniform_blend, UNIFORM, 4, 0.1)
+    assert held == ShareFit(chosen, plain.scores, before) and earlier.share == before
+    assert (chosen == plain.share) == (plain.scores[before] >= plain.scores[UNSEEN_SHARE])
+    # with no choice made before (two publications), nothing has held: one half
+    two = played[:1] + played[2:]
+    first = fit_error_share(two, _uniform_blend, UNIFORM, 4, 0.1, held=True)
+    assert first == ShareFit(
+        UNSEEN_SHARE, fit_error_share(two, _uniform_blend, UNIFORM, 4, 0.1).scores
+    )
 
 
 def test_mixed_error_ranks_with_the_share_it_chose() -> None:
@@ -170,31 +162,32 @@ def test_mixed_error_ranks_with_the_share_it_chose() -> None:
     )
 
 
-def test_mixed_sure_ranks_with_its_tested_share() -> None:
-    error, sure = toy_refiners(PlayerModelKind.MIXED_ERROR, PlayerModelKind.MIXED_SURE)
+def test_mixed_held_ranks_with_its_checked_share() -> None:
+    error, held = toy_refiners(PlayerModelKind.MIXED_ERROR, PlayerModelKind.MIXED_HELD)
     published = freeze(error.graph)
     first = PlayCounts.of_traces([np.array([[0, 1], [1, 1], [3, 1]]), np.array([[0, 1], [1, 1]])])
     blends = np.flatnonzero(published.edge_err > 0)
-    vertex, control = divmod(int(blends[0]), published.n_controls)
-    path = PlayCounts.of_traces([np.array([[vertex, control]])] * 4, first=first.sessions)
-    for refiner in (error, sure):
+    for refiner in (error, held):
         refiner.learn_counts(first, published)
-        refiner.learn_counts(path, published)
-    tested = fit_error_share(
-        sure.published_play(),
-        sure.shrunk_model,
-        sure.heuristic_model(),
-        sure.graph.n_vertices,
-        sure.restart,
-        sure=SURE_LEVEL,
+        for ordinal, blend in enumerate(blends[:2]):
+            vertex, control = divmod(int(blend), published.n_controls)
+            path = np.array([[vertex, control]])
+            refiner.learn_counts(PlayCounts.of_traces([path] * 4, 2 + 4 * ordinal), published)
+    checked = fit_error_share(
+        held.published_play(),
+        held.shrunk_model,
+        held.heuristic_model(),
+        held.graph.n_vertices,
+        held.restart,
+        held=True,
     )
-    assert sure.share_fit() == tested and tested.scores == error.share_fit().scores
-    assert error.share_fit().lower is None
-    restart = sure.restart
-    crowd = edge_weights(Strategy.SR_CROWD, sure.graph, sure.player_model(), restart=restart)
-    heuristic = edge_weights(Strategy.SR_CROWD, sure.graph, sure.heuristic_model(), restart=restart)
+    assert held.share_fit() == checked and checked.scores == error.share_fit().scores
+    assert checked.before is not None and error.share_fit().before is None
+    restart = held.restart
+    crowd = edge_weights(Strategy.SR_CROWD, held.graph, held.player_model(), restart=restart)
+    heuristic = edge_weights(Strategy.SR_CROWD, held.graph, held.heuristic_model(), restart=restart)
     np.testing.assert_allclose(
-        sure.weights().weights, mixed_weights(crowd, heuristic, tested.share).weights, rtol=1e-6
+        held.weights().weights, mixed_weights(crowd, heuristic, checked.share).weights, rtol=1e-6
     )
 
 
