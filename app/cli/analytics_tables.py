@@ -138,6 +138,7 @@ MODEL_FIT = {
     "stale_scores": "latest publication's log-likelihood per step by weight/depth",
     "unseen_share": "share of heuristic players ranked for",
     "share_scores": "latest publication's error-weighted log score by share",
+    "share_before": "share chosen the time before, applied only if it held",
 }
 
 
@@ -236,9 +237,12 @@ def _print_prediction(console: Console, prediction: dict[str, Any] | None) -> No
 
 
 def _fit_value(value: Any) -> str:
-    """A model-fit value: numbers to four significant digits, lists and maps flattened."""
+    """A model-fit value: numbers to four significant digits, lists and maps flattened,
+    "none" where nothing was chosen."""
     if isinstance(value, dict):
         return ", ".join(f"{k}: {_fit_value(v)}" for k, v in value.items())
     if isinstance(value, list):
         return ", ".join(_fit_value(v) for v in value)
+    if value is None:
+        return "none"
     return f"{value:.4g}" if isinstance(value, float) else str(value)

@@ -62,12 +62,7 @@ def error_weighted_score(weights: np.ndarray, steps: np.ndarray, edge_err: np.nd
     if total <= 0.0:
         raise ValueError("no step met error: nothing to score")
     met = mass > 0.0
-    return float(np.sum(mass[met] * _log(weights[met])) / total)
-
-
-def _log(weights: np.ndarray) -> np.ndarray:
-    """log of shares of play, a share of zero as the least positive double's."""
-    return np.log(np.maximum(weights, 1e-300))
+    return float(np.sum(mass[met] * np.log(np.maximum(weights[met], 1e-300))) / total)
 
 
 def fit_error_share(

@@ -71,8 +71,9 @@ def model_fit(refiner: Refiner) -> dict[str, Any] | None:
             chosen |= {
                 "unseen_share": share.share,
                 "share_scores": {f"{s:g}": round(v, 6) for s, v in share.scores.items()},
-                "share_before": share.before,
             }
+        if kind is PlayerModelKind.MIXED_HELD:
+            chosen["share_before"] = refiner.share_fit().before
         return chosen
     fitted = refiner.choice_model()
     return {

@@ -118,6 +118,15 @@ def test_analytics_evaluates_another_model_when_asked(var: Path) -> None:
     assert "kernel radius" in text and "weight of steps where the graph changed since 1" in text
     # the default model's fit prints too (it named a radius the table did not know)
     assert "kernel radius" in ok(var, "analytics", "twice", "--player-model", "mixed")
+    # learnt from one publication: nothing chosen, nothing chosen before it
+    held = analytics(var, "twice", "--player-model", "mixed-held")["prediction"]["model_fit"]
+    assert held["unseen_share"] == 0.5 and held["share_before"] is None
+    text = ok(var, "analytics", "twice", "--player-model", "mixed-held")
+    assert "share of heuristic players ranked for 0.5" in text
+    assert "share chosen the time before, applied only if it held none" in text
+    error = ok(var, "analytics", "twice", "--player-model", "mixed-error")
+    assert "share of heuristic players ranked for 0.5" in error
+    assert "share chosen the time before" not in error
 
 
 def test_analytics_before_two_played_publications_says_so_in_one_line(var: Path) -> None:
