@@ -72,8 +72,8 @@ def model_fit(refiner: Refiner) -> dict[str, Any] | None:
                 "unseen_share": share.share,
                 "share_scores": {f"{s:g}": round(v, 6) for s, v in share.scores.items()},
             }
-        if kind is PlayerModelKind.MIXED_HELD:
-            chosen["share_before"] = refiner.share_fit().before
+            if kind is PlayerModelKind.MIXED_HELD:
+                chosen["share_before"] = share.before
         return chosen
     fitted = refiner.choice_model()
     return {

@@ -23,8 +23,8 @@ from app.store.publications import load_publication
 
 #: the crowd models that read the publications their sessions were played on, and those
 #: that learn each publication's sessions apart (those and ``mixed-forward``)
-_WITH_PUBLICATION = frozenset({PlayerModelKind.LOGIT, PlayerModelKind.MIXED_FRESH}) | (
-    ERROR_SHARE_KINDS
+_WITH_PUBLICATION = frozenset(
+    {PlayerModelKind.LOGIT, PlayerModelKind.MIXED_FRESH, *ERROR_SHARE_KINDS}
 )
 _BY_PUBLICATION = _WITH_PUBLICATION | {PlayerModelKind.MIXED_FORWARD}
 

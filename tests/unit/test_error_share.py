@@ -15,6 +15,7 @@ from app.core.error_share import SHARES, ShareFit, error_weighted_score, fit_err
 from app.core.metrics import predicted_edge_probabilities
 from app.core.player_models import PlayerModelKind
 from app.core.publication import Publication, freeze
+from app.core.refinement import Refiner
 from app.core.strategies import (
     UNSEEN_SHARE,
     EdgeWeights,
@@ -133,6 +134,18 @@ def test_mixed_held_applies_its_choice_only_once_the_one_before_held(
     )
 
 
+def assert_ranks_mixed(refiner: Refiner, share: float) -> None:
+    """``refiner`` ranks for its crowd model mixed with ``share`` heuristic players."""
+    restart = refiner.restart
+    crowd = edge_weights(Strategy.SR_CROWD, refiner.graph, refiner.player_model(), restart=restart)
+    heuristic = edge_weights(
+        Strategy.SR_CROWD, refiner.graph, refiner.heuristic_model(), restart=restart
+    )
+    np.testing.assert_allclose(
+        refiner.weights().weights, mixed_weights(crowd, heuristic, share).weights, rtol=1e-6
+    )
+
+
 def test_mixed_error_ranks_with_the_share_it_chose() -> None:
     mixed, error = toy_refiners(PlayerModelKind.MIXED, PlayerModelKind.MIXED_ERROR)
     published = freeze(error.graph)
@@ -152,14 +165,7 @@ def test_mixed_error_ranks_with_the_share_it_chose() -> None:
     assert set(fit.scores) == set(SHARES) and fit.share == max(fit.scores, key=fit.scores.get)
     assert mixed.share_fit() == ShareFit(UNSEEN_SHARE)
     np.testing.assert_array_equal(error.player_model(), mixed.player_model())
-    restart = error.restart
-    crowd = edge_weights(Strategy.SR_CROWD, error.graph, error.player_model(), restart=restart)
-    heuristic = edge_weights(
-        Strategy.SR_CROWD, error.graph, error.heuristic_model(), restart=restart
-    )
-    np.testing.assert_allclose(
-        error.weights().weights, mixed_weights(crowd, heuristic, fit.share).weights, rtol=1e-6
-    )
+    assert_ranks_mixed(error, fit.share)
 
 
 def test_mixed_held_ranks_with_its_checked_share() -> None:
@@ -183,12 +189,7 @@ def test_mixed_held_ranks_with_its_checked_share() -> None:
     )
     assert held.share_fit() == checked and checked.scores == error.share_fit().scores
     assert checked.before is not None and error.share_fit().before is None
-    restart = held.restart
-    crowd = edge_weights(Strategy.SR_CROWD, held.graph, held.player_model(), restart=restart)
-    heuristic = edge_weights(Strategy.SR_CROWD, held.graph, held.heuristic_model(), restart=restart)
-    np.testing.assert_allclose(
-        held.weights().weights, mixed_weights(crowd, heuristic, checked.share).weights, rtol=1e-6
-    )
+    assert_ranks_mixed(held, checked.share)
 
 
 def test_mixed_error_needs_every_sessions_publication() -> None:
