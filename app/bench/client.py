@@ -2,12 +2,15 @@
 
 The browser test (``tests/e2e/test_browser_client.py``) holds the client to what it
 decides: every animation-frame callback that ran once a frame was due drew one
-(:func:`undrawn_due_frames`). How often the browser runs no callback at all for longer
-than two frame periods, and so how many due frames it lets pass, is the browser's and the
-machine's: a timing figure, which a busy machine makes worse (9 stalls over 67 ms in 604
-frames beside one other job). It is measured here, not bounded in a test: a toy
-publication with an animation on every edge, served on loopback, played with the keys in
-headless Chromium for ``seconds`` at a desktop's size.
+(:func:`undrawn_due_frames`), except while it held the last frame for a late clip, and
+every late clip had been asked to decode before it was due. How often the browser runs no
+callback at all for longer than two frame periods, and so how many due frames it lets
+pass, is the browser's and the machine's: a timing figure, which a busy machine makes
+worse (9 stalls over 67 ms in 604 frames beside one other job). So is how often a clip
+asked ahead is still decoding when it is due (a test run beside other jobs once waited
+300 ms for one). Both are measured here, not bounded in a test: a toy publication with an
+animation on every edge, served on loopback, played with the keys in headless Chromium for
+``seconds`` at a desktop's size.
 """
 
 from __future__ import annotations
@@ -74,27 +77,47 @@ class ClientSite:
     frame_width: int
 
 
-def undrawn_due_frames(frames: np.ndarray, ticks: np.ndarray, period: float) -> np.ndarray:
+def undrawn_due_frames(
+    frames: np.ndarray, ticks: np.ndarray, period: float, waits: np.ndarray | None = None
+) -> np.ndarray:
     """The animation-frame callbacks (ms) that ran once the next frame was due and drew
     nothing: the client's gaps, as opposed to the browser's.
 
     A frame is drawn at the first callback after its boundary, so the next one is due at
     most one ``period`` after the last one drawn; a callback a millisecond past that
     (rounding) that drew no frame left a due frame undrawn. Whether the browser calls
-    often does not enter: a stalled browser runs no callback inside its stall.
+    often does not enter: a stalled browser runs no callback inside its stall. Nor do the
+    ``waits`` (rows of from, to; to NaN while it lasts) in which the client held the last
+    frame for a clip still decoding: whether that clip had been asked for in time is
+    checked on its own (the client's ``lateUnasked``).
     """
     drawn = np.searchsorted(frames, ticks, side="right") - 1
     after = drawn >= 0
     since = ticks[after] - frames[drawn[after]]
-    return np.asarray(ticks[after][since >= period + 1])
+    undrawn = ticks[after][since >= period + 1]
+    if waits is not None and len(waits):
+        ends = np.where(np.isnan(waits[:, 1]), np.inf, waits[:, 1])
+        held = (undrawn[:, None] >= waits[:, 0]) & (undrawn[:, None] <= ends)
+        undrawn = undrawn[~held.any(axis=1)]
+    return np.asarray(undrawn)
 
 
-def stall_figures(frames: np.ndarray, ticks: np.ndarray, period: float) -> dict[str, Any]:
+def client_waits(stats: dict[str, Any]) -> np.ndarray:
+    """The client's holds for late clips as rows of (from, to) ms, to NaN while it lasts."""
+    rows = [(start, np.nan if end is None else end) for start, end in stats["waits"]]
+    return np.asarray(rows, dtype=float).reshape(-1, 2)
+
+
+def stall_figures(
+    frames: np.ndarray, ticks: np.ndarray, period: float, waits: np.ndarray
+) -> dict[str, Any]:
     """What the browser let pass: its stalls (gaps between drawn frames over two periods),
-    their share of the gaps, the longest gap and the frames drawn per frame due."""
+    their share of the gaps, the longest gap and the frames drawn per frame due; and the
+    clips still decoding when due, with the time the last frame was held for them."""
     gaps = np.diff(frames)
     stalls = int((gaps > 2 * period).sum())
     due = (frames[-1] - frames[0]) / period
+    held = np.nan_to_num(waits[:, 1], nan=float(frames[-1])) - waits[:, 0]
     return {
         "frames_drawn": int(len(frames)),
         "callbacks": int(len(ticks)),
@@ -103,7 +126,9 @@ def stall_figures(frames: np.ndarray, ticks: np.ndarray, period: float) -> dict[
         "stall_share": round(stalls / max(len(gaps), 1), 4),
         "longest_gap_ms": round(float(gaps.max()) if len(gaps) else 0.0, 1),
         "drawn_per_due": round(len(frames) / due, 3) if due > 0 else None,
-        "undrawn_due": int(len(undrawn_due_frames(frames, ticks, period))),
+        "undrawn_due": int(len(undrawn_due_frames(frames, ticks, period, waits))),
+        "late_clips": int(len(waits)),
+        "late_held_ms": round(float(held.sum()), 1),
     }
 
 
@@ -195,8 +220,11 @@ def bench_client(seconds: float) -> dict[str, Any]:
         end = time.monotonic() + seconds
         while time.monotonic() < end:
             play_with_keys(page)
-        stats = page.evaluate("() => ({frames: srgStats.frames, ticks: srgStats.ticks})")
+        stats = page.evaluate(
+            "() => ({frames: srgStats.frames, ticks: srgStats.ticks, waits: srgStats.waits})"
+        )
         browser.close()
     period = 1000.0 / FPS
-    figures = stall_figures(np.asarray(stats["frames"]), np.asarray(stats["ticks"]), period)
+    frames, ticks = np.asarray(stats["frames"]), np.asarray(stats["ticks"])
+    figures = stall_figures(frames, ticks, period, client_waits(stats))
     return {"seconds": seconds, "fps": FPS, **figures}

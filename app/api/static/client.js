@@ -59,6 +59,8 @@ const stats = {
   unanimated: 0, // clips of edges without an animation (the last frame held meanwhile)
   late: 0, // clips not decoded when due: the last frame was held until they were
   waitedMs: 0, // time spent holding a frame for late clips
+  waits: [], // [from, to] (ms) of each hold for a late clip; to is null while it lasts
+  lateUnasked: 0, // late clips whose decoding had not begun before they were due
   uploads: [], // {status, trace_id, n_steps} per answered upload
   score: 0,
   steps: 0,
@@ -202,7 +204,7 @@ function clipEntry(url) {
   if (entry) {
     clips.delete(url); // to the most recently used end
   } else {
-    entry = { decoding: null, clip: null };
+    entry = { decoding: null, askedAt: null, clip: null };
     entry.bytes = fetch(url).then((r) => (r.ok ? r.blob() : Promise.reject(new Error(r.statusText))));
     entry.bytes.catch(() => setTimeout(() => forget(url, entry), RETRY_MS));
   }
@@ -225,16 +227,20 @@ function dropFrames(entry) {
   if (entry.clip && entry.clip !== game.image) entry.clip.close(); // never the one playing
   entry.clip = null;
   entry.decoding = null;
+  entry.askedAt = null;
 }
 
 // The clip ready to play, or null while it is on its way (asking for it if need be).
 function readyClip(url) {
   const entry = clipEntry(url);
   if (entry.clip) keepDecoded(url);
-  entry.decoding ??= entry.bytes.then(decodeBlob).then(
-    (clip) => { entry.clip = clip; keepDecoded(url); },
-    () => {}, // lost on the way (forgotten, then fetched again) or undecodable (said once)
-  );
+  if (!entry.decoding) {
+    entry.askedAt = performance.now();
+    entry.decoding = entry.bytes.then(decodeBlob).then(
+      (clip) => { entry.clip = clip; keepDecoded(url); },
+      () => {}, // lost on the way (forgotten, then fetched again) or undecodable (said once)
+    );
+  }
   return entry.clip;
 }
 
@@ -341,10 +347,19 @@ function endTrace() {
   send(body);
 }
 
+function edgeNow() { return game.pub.vertices[game.vertex][currentControl()]; }
+
+// Whether the clip due at ``now`` was asked to decode before then: a late clip that was
+// is the machine's decoding time, one that was not is the client's gap.
+function askedAhead(now) {
+  const url = clipUrl(edgeNow());
+  return !url || (clips.get(url)?.askedAt ?? now) < now;
+}
+
 // Start the edge of the control held now, if its clip is ready; false while it is not.
 function startEdge() {
   const control = currentControl();
-  const edge = game.pub.vertices[game.vertex][control];
+  const edge = edgeNow();
   const url = clipUrl(edge);
   const image = url ? readyClip(url) : null;
   if (url && !image) return false;
@@ -375,16 +390,25 @@ function startEdge() {
 // frame stays on the canvas and this is asked again at the next animation frame.
 function nextClip(now) {
   const clip = game.k * game.period;
+  const asked = askedAhead(now);
   if (!startEdge()) {
     if (game.waitingSince === null) {
       game.waitingSince = now;
-      if (stats.clips > 0) stats.late += 1;
+      if (stats.clips > 0) {
+        stats.late += 1;
+        stats.lateUnasked += asked ? 0 : 1;
+        if (stats.waits.length < FRAME_LOG_MAX) stats.waits.push([now, null]);
+      }
     }
     showWait(stats.clips > 0 ? "late" : "loading");
     return false;
   }
   const onTime = game.waitingSince === null && game.clipStart !== null && now - game.clipStart < 2 * clip;
-  if (game.waitingSince !== null && stats.clips > 1) stats.waitedMs += now - game.waitingSince;
+  if (game.waitingSince !== null && stats.clips > 1) {
+    stats.waitedMs += now - game.waitingSince;
+    const wait = stats.waits.at(-1);
+    if (wait && wait[1] === null) wait[1] = now;
+  }
   game.waitingSince = null;
   game.clipStart = onTime ? game.clipStart + clip : now;
   game.lastFrame = -1;
