@@ -1,0 +1,82 @@
+"""The null of a world's sr-crowd / sr-heuristic: sr-heuristic nudged against itself.
+
+Reads the result.json of the two nudged runs (SRG_ALPHA 0.79 and 0.81) and of the stored
+sr-heuristic at 0.8 (the mixed-held selection's, the same worlds and bots), prints per
+crowd and checkpoint the per-world ratios of mean error per step, and the pooled
+standard deviation of their logs beside that of the candidates' per-world sr-crowd /
+sr-heuristic (the sel-gd20k-* and sel-av20k-* selections on the same worlds).
+
+    python docs/results/null-alpha/ratios.py RUNS_DIR
+
+RUNS_DIR holds null-alpha079/result.json and null-alpha081/result.json.
+"""
+
+from __future__ import annotations
+
+import json
+import sys
+from pathlib import Path
+
+import numpy as np
+
+RESULTS = Path(__file__).resolve().parent.parent
+REFERENCE = {"goal-directed": "sel-gd20k-mixed-held-tiny", "avoider": "sel-av20k-mixed-held-tiny"}
+SEEDS = ("10", "11", "12")
+
+
+def errors(result: dict, crowd: str) -> dict[int, np.ndarray]:
+    """Mean error per step of sr-heuristic per checkpoint, one per world."""
+    runs = result["crowds"][crowd]["results"]["sr-heuristic"]
+    by_frames: dict[int, list[float]] = {}
+    for seed in SEEDS:
+        for row in runs[seed]:
+            by_frames.setdefault(row["checkpoint_frames"], []).append(row["observed_mean_error"])
+    return {frames: np.asarray(v) for frames, v in by_frames.items()}
+
+
+def within_candidates(crowd: str) -> dict[int, tuple[float, int]]:
+    """Per checkpoint, the pooled within-candidate standard deviation of log sr-crowd /
+    sr-heuristic over worlds, of every stored selection on these worlds, and their count."""
+    prefix = "sel-gd20k-" if crowd == "goal-directed" else "sel-av20k-"
+    squares: dict[int, list[float]] = {}
+    for path in sorted(RESULTS.glob(f"{prefix}*/result.json")):
+        for row in json.loads(path.read_text())["comparison"].get(crowd, []):
+            logs = np.log(row["crowd_vs_heuristic"]["per_seed"])
+            if row["checkpoint_frames"] >= 5000:
+                squares.setdefault(row["checkpoint_frames"], []).append(
+                    float(((logs - logs.mean()) ** 2).sum())
+                )
+    return {f: (float(np.sqrt(sum(v) / (2 * len(v)))), len(v)) for f, v in squares.items()}
+
+
+def main(runs: Path) -> None:
+    nudged = {
+        alpha: json.loads((runs / f"null-alpha{alpha}" / "result.json").read_text())
+        for alpha in ("079", "081")
+    }
+    for crowd, reference in REFERENCE.items():
+        at80 = errors(json.loads((RESULTS / reference / "result.json").read_text()), crowd)
+        low, high = errors(nudged["079"], crowd), errors(nudged["081"], crowd)
+        spread = within_candidates(crowd)
+        print(f"{crowd}: ratios of mean error per step, worlds 10, 11, 12")
+        for frames in sorted(at80):
+            pairs = {
+                "0.79/0.80": low[frames] / at80[frames],
+                "0.81/0.80": high[frames] / at80[frames],
+                "0.79/0.81": low[frames] / high[frames],
+            }
+            logs = np.log(np.concatenate([pairs["0.79/0.80"], pairs["0.81/0.80"]]))
+            line = "; ".join(f"{k} " + ", ".join(f"{r:.2f}" for r in v) for k, v in pairs.items())
+            null = np.sqrt(np.mean(logs**2))
+            print(f"  {frames}: {line}")
+            print(f"    null: rms of log {null:.2f}, largest {np.exp(np.abs(logs).max()):.2f}x")
+            if frames in spread:
+                sd, n = spread[frames]
+                print(
+                    f"    candidates' sr-crowd / sr-heuristic: within-candidate sd of log "
+                    f"{sd:.2f} over {n} selections"
+                )
+
+
+if __name__ == "__main__":
+    main(Path(sys.argv[1]))
