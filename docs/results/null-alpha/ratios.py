@@ -6,15 +6,14 @@ crowd and checkpoint the per-world ratios of mean error per step, and the pooled
 standard deviation of their logs beside that of the candidates' per-world sr-crowd /
 sr-heuristic (the sel-gd20k-* and sel-av20k-* selections on the same worlds).
 
-    python docs/results/null-alpha/ratios.py RUNS_DIR
+    python docs/results/null-alpha/ratios.py
 
-RUNS_DIR holds null-alpha079/result.json and null-alpha081/result.json.
+from the stored reports (null-alpha079-tiny, null-alpha081-tiny and the selections').
 """
 
 from __future__ import annotations
 
 import json
-import sys
 from pathlib import Path
 
 import numpy as np
@@ -49,9 +48,9 @@ def within_candidates(crowd: str) -> dict[int, tuple[float, int]]:
     return {f: (float(np.sqrt(sum(v) / (2 * len(v)))), len(v)) for f, v in squares.items()}
 
 
-def main(runs: Path) -> None:
+def main() -> None:
     nudged = {
-        alpha: json.loads((runs / f"null-alpha{alpha}" / "result.json").read_text())
+        alpha: json.loads((RESULTS / f"null-alpha{alpha}-tiny" / "result.json").read_text())
         for alpha in ("079", "081")
     }
     for crowd, reference in REFERENCE.items():
@@ -79,4 +78,4 @@ def main(runs: Path) -> None:
 
 
 if __name__ == "__main__":
-    main(Path(sys.argv[1]))
+    main()
