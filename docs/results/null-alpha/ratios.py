@@ -1,4 +1,5 @@
-"""The null of a world's sr-crowd / sr-heuristic: sr-heuristic nudged against itself.
+"""The null of a world's sr-crowd / sr-heuristic: sr-heuristic nudged against itself,
+and the default's own ratios regrown at the nudge beside the stored ones.
 
 Reads the result.json of the two nudged runs (SRG_ALPHA 0.79 and 0.81) and of the stored
 sr-heuristic at 0.8 (the mixed-held selection's, the same worlds and bots), prints per
@@ -8,7 +9,8 @@ sr-heuristic (the sel-gd20k-* and sel-av20k-* selections on the same worlds).
 
     python docs/results/null-alpha/ratios.py
 
-from the stored reports (null-alpha079-tiny, null-alpha081-tiny and the selections').
+from the stored reports (null-alpha079-tiny, null-alpha081-tiny, null-crowd079-tiny and
+the selections').
 """
 
 from __future__ import annotations
@@ -75,6 +77,30 @@ def main() -> None:
                     f"    candidates' sr-crowd / sr-heuristic: within-candidate sd of log "
                     f"{sd:.2f} over {n} selections"
                 )
+
+    crowd_null()
+
+
+def crowd_null() -> None:
+    """mixed-error's sr-crowd / sr-heuristic per world, stored (0.8) and both arms at 0.79."""
+    print("goal-directed, mixed-error's sr-crowd / sr-heuristic, worlds 10, 11, 12")
+    rows = {}
+    for name in ("sel-gd20k-mixed-error-tiny", "null-crowd079-tiny"):
+        result = json.loads((RESULTS / name / "result.json").read_text())
+        for row in result["comparison"]["goal-directed"]:
+            rows.setdefault(row["checkpoint_frames"], []).append(row["crowd_vs_heuristic"])
+        shares = [
+            [run["model_fit"] and run["model_fit"].get("unseen_share") for run in runs]
+            for _, runs in sorted(result["crowds"]["goal-directed"]["results"]["sr-crowd"].items())
+        ]
+        print(f"  {name}: shares that grew each checkpoint, per world {shares}")
+    for frames, (stored, nudged) in sorted(rows.items()):
+        print(
+            f"  {frames}: at 0.8 {stored['mean']:.2f} "
+            f"({', '.join(f'{r:.2f}' for r in stored['per_seed'])}); "
+            f"at 0.79 {nudged['mean']:.2f} [{nudged['low']:.2f}, {nudged['high']:.2f}] "
+            f"({', '.join(f'{r:.2f}' for r in nudged['per_seed'])})"
+        )
 
 
 if __name__ == "__main__":
