@@ -10,7 +10,7 @@ sr-heuristic (the sel-gd20k-* and sel-av20k-* selections on the same worlds).
     python docs/results/null-alpha/ratios.py
 
 from the stored reports (null-alpha079-tiny, null-alpha081-tiny, null-crowd079-tiny and
-the selections').
+the selections', sel-w1314-mixed-error-tiny).
 """
 
 from __future__ import annotations
@@ -19,6 +19,7 @@ import json
 from pathlib import Path
 
 import numpy as np
+from scipy import stats
 
 RESULTS = Path(__file__).resolve().parent.parent
 REFERENCE = {"goal-directed": "sel-gd20k-mixed-held-tiny", "avoider": "sel-av20k-mixed-held-tiny"}
@@ -79,6 +80,7 @@ def main() -> None:
                 )
 
     crowd_null()
+    five_worlds()
 
 
 def crowd_null() -> None:
@@ -101,6 +103,33 @@ def crowd_null() -> None:
             f"at 0.79 {nudged['mean']:.2f} [{nudged['low']:.2f}, {nudged['high']:.2f}] "
             f"({', '.join(f'{r:.2f}' for r in nudged['per_seed'])})"
         )
+
+
+def five_worlds() -> None:
+    """mixed-error's sr-crowd / sr-heuristic over the five selection worlds 10-14: the
+    stored selections' 10-12 and sel-w1314's 13, 14; geometric mean and 95 % Student t."""
+    print("mixed-error's sr-crowd / sr-heuristic over selection worlds 10-14")
+    for crowd, name in (
+        ("goal-directed", "sel-gd20k-mixed-error-tiny"),
+        ("avoider", "sel-av20k-mixed-error-tiny"),
+    ):
+        ratios: dict[int, list[float]] = {}
+        for source in (name, "sel-w1314-mixed-error-tiny"):
+            result = json.loads((RESULTS / source / "result.json").read_text())
+            for row in result["comparison"][crowd]:
+                ratios.setdefault(row["checkpoint_frames"], []).extend(
+                    row["crowd_vs_heuristic"]["per_seed"]
+                )
+        for frames, per_world in sorted(ratios.items()):
+            if frames < 5000:
+                continue
+            logs = np.log(per_world)
+            half = stats.t.ppf(0.975, len(logs) - 1) * logs.std(ddof=1) / np.sqrt(len(logs))
+            low, mean, high = np.exp(logs.mean() + np.array([-half, 0.0, half]))
+            print(
+                f"  {crowd} {frames}: {mean:.2f} [{low:.2f}, {high:.2f}] "
+                f"({', '.join(f'{r:.2f}' for r in per_world)})"
+            )
 
 
 if __name__ == "__main__":
