@@ -1,16 +1,17 @@
 """The null of a world's sr-crowd / sr-heuristic: sr-heuristic nudged against itself,
 and the default's own ratios regrown at the nudge beside the stored ones.
 
-Reads the result.json of the two nudged runs (SRG_ALPHA 0.79 and 0.81) and of the stored
-sr-heuristic at 0.8 (the mixed-held selection's, the same worlds and bots), prints per
-crowd and checkpoint the per-world ratios of mean error per step, and the pooled
-standard deviation of their logs beside that of the candidates' per-world sr-crowd /
-sr-heuristic (the sel-gd20k-* and sel-av20k-* selections on the same worlds).
+Reads the result.json of the nudged runs (SRG_ALPHA 0.79 and 0.81 on worlds 10-12, 0.79
+on worlds 13 and 14) and of the stored sr-heuristic at 0.8 (the mixed-held selection's
+and sel-w1314's, the same worlds and bots), prints per crowd and checkpoint the
+per-world ratios of mean error per step and the root mean square of their logs, beside
+the pooled within-candidate standard deviation of the selections' per-world sr-crowd /
+sr-heuristic (sel-gd20k-* and sel-av20k-*, worlds 10-12).
 
     python docs/results/null-alpha/ratios.py
 
-from the stored reports (null-alpha079-tiny, null-alpha081-tiny, null-crowd079-tiny and
-the selections', sel-w1314-mixed-error-tiny).
+from the stored reports (null-alpha079-tiny, null-alpha081-tiny, null-w1314-alpha079-tiny,
+null-crowd079-tiny, sel-w1314-mixed-error-tiny and the selections').
 """
 
 from __future__ import annotations
@@ -24,13 +25,14 @@ from scipy import stats
 RESULTS = Path(__file__).resolve().parent.parent
 REFERENCE = {"goal-directed": "sel-gd20k-mixed-held-tiny", "avoider": "sel-av20k-mixed-held-tiny"}
 SEEDS = ("10", "11", "12")
+LATER_SEEDS = ("13", "14")
 
 
-def errors(result: dict, crowd: str) -> dict[int, np.ndarray]:
+def errors(result: dict, crowd: str, seeds: tuple[str, ...] = SEEDS) -> dict[int, np.ndarray]:
     """Mean error per step of sr-heuristic per checkpoint, one per world."""
     runs = result["crowds"][crowd]["results"]["sr-heuristic"]
     by_frames: dict[int, list[float]] = {}
-    for seed in SEEDS:
+    for seed in seeds:
         for row in runs[seed]:
             by_frames.setdefault(row["checkpoint_frames"], []).append(row["observed_mean_error"])
     return {frames: np.asarray(v) for frames, v in by_frames.items()}
@@ -51,27 +53,36 @@ def within_candidates(crowd: str) -> dict[int, tuple[float, int]]:
     return {f: (float(np.sqrt(sum(v) / (2 * len(v)))), len(v)) for f, v in squares.items()}
 
 
+def stored(name: str) -> dict:
+    return json.loads((RESULTS / name / "result.json").read_text())
+
+
 def main() -> None:
-    nudged = {
-        alpha: json.loads((RESULTS / f"null-alpha{alpha}-tiny" / "result.json").read_text())
-        for alpha in ("079", "081")
-    }
+    nudged = {alpha: stored(f"null-alpha{alpha}-tiny") for alpha in ("079", "081")}
+    later = stored("null-w1314-alpha079-tiny"), stored("sel-w1314-mixed-error-tiny")
     for crowd, reference in REFERENCE.items():
-        at80 = errors(json.loads((RESULTS / reference / "result.json").read_text()), crowd)
+        at80 = errors(stored(reference), crowd)
         low, high = errors(nudged["079"], crowd), errors(nudged["081"], crowd)
+        later_low, later_at80 = (errors(result, crowd, LATER_SEEDS) for result in later)
         spread = within_candidates(crowd)
-        print(f"{crowd}: ratios of mean error per step, worlds 10, 11, 12")
+        print(f"{crowd}: ratios of mean error per step, worlds 10, 11, 12 (then 13, 14)")
         for frames in sorted(at80):
             pairs = {
                 "0.79/0.80": low[frames] / at80[frames],
                 "0.81/0.80": high[frames] / at80[frames],
                 "0.79/0.81": low[frames] / high[frames],
+                "worlds 13, 14: 0.79/0.80": later_low[frames] / later_at80[frames],
             }
             logs = np.log(np.concatenate([pairs["0.79/0.80"], pairs["0.81/0.80"]]))
+            five = np.concatenate([logs, np.log(pairs["worlds 13, 14: 0.79/0.80"])])
             line = "; ".join(f"{k} " + ", ".join(f"{r:.2f}" for r in v) for k, v in pairs.items())
             null = np.sqrt(np.mean(logs**2))
             print(f"  {frames}: {line}")
-            print(f"    null: rms of log {null:.2f}, largest {np.exp(np.abs(logs).max()):.2f}x")
+            print(
+                f"    null: rms of log {null:.2f}, largest {np.exp(np.abs(logs).max()):.2f}x; "
+                f"with worlds 13, 14 {np.sqrt(np.mean(five**2)):.2f}, "
+                f"largest {np.exp(np.abs(five).max()):.2f}x"
+            )
             if frames in spread:
                 sd, n = spread[frames]
                 print(
