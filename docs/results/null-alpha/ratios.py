@@ -96,21 +96,30 @@ def main() -> None:
 
 def crowd_null() -> None:
     """mixed-error's sr-crowd / sr-heuristic per world, stored (0.8) and both arms at 0.79."""
-    print("goal-directed, mixed-error's sr-crowd / sr-heuristic, worlds 10, 11, 12")
+    for crowd, worlds, pair in (
+        ("goal-directed", "10, 11, 12", ("sel-gd20k-mixed-error-tiny", "null-crowd079-tiny")),
+        ("goal-directed", "13, 14", ("sel-w1314-mixed-error-tiny", "null-w1314-crowd079-tiny")),
+        ("avoider", "13, 14", ("sel-w1314-mixed-error-tiny", "null-w1314-crowd079-tiny")),
+    ):
+        print(f"{crowd}, mixed-error's sr-crowd / sr-heuristic, worlds {worlds}")
+        crowd_pair(crowd, pair)
+
+
+def crowd_pair(crowd: str, pair: tuple[str, str]) -> None:
     rows = {}
-    for name in ("sel-gd20k-mixed-error-tiny", "null-crowd079-tiny"):
-        result = json.loads((RESULTS / name / "result.json").read_text())
-        for row in result["comparison"]["goal-directed"]:
+    for name in pair:
+        result = stored(name)
+        for row in result["comparison"][crowd]:
             rows.setdefault(row["checkpoint_frames"], []).append(row["crowd_vs_heuristic"])
         shares = [
             [run["model_fit"] and run["model_fit"].get("unseen_share") for run in runs]
-            for _, runs in sorted(result["crowds"]["goal-directed"]["results"]["sr-crowd"].items())
+            for _, runs in sorted(result["crowds"][crowd]["results"]["sr-crowd"].items())
         ]
         print(f"  {name}: shares that grew each checkpoint, per world {shares}")
-    for frames, (stored, nudged) in sorted(rows.items()):
+    for frames, (stored_row, nudged) in sorted(rows.items()):
         print(
-            f"  {frames}: at 0.8 {stored['mean']:.2f} "
-            f"({', '.join(f'{r:.2f}' for r in stored['per_seed'])}); "
+            f"  {frames}: at 0.8 {stored_row['mean']:.2f} "
+            f"({', '.join(f'{r:.2f}' for r in stored_row['per_seed'])}); "
             f"at 0.79 {nudged['mean']:.2f} [{nudged['low']:.2f}, {nudged['high']:.2f}] "
             f"({', '.join(f'{r:.2f}' for r in nudged['per_seed'])})"
         )
