@@ -57,9 +57,11 @@ const stats = {
   ticks: [], // every rAF timestamp while playing: tells browser stalls from client gaps
   clips: 0,
   unanimated: 0, // clips of edges without an animation (the last frame held meanwhile)
-  late: 0, // clips not decoded when due: the last frame was held until they were
-  waitedMs: 0, // time spent holding a frame for late clips
   waits: [], // [from, to] (ms) of each hold for a late clip; to is null while it lasts
+  // clips not decoded when due: the last frame was held until they were
+  get late() { return this.waits.length; },
+  // time spent holding a frame for late clips (the holds that ended)
+  get waitedMs() { return this.waits.reduce((ms, [from, to]) => ms + (to === null ? 0 : to - from), 0); },
   lateUnasked: 0, // late clips whose decoding had not begun before they were due
   uploads: [], // {status, trace_id, n_steps} per answered upload
   score: 0,
@@ -347,19 +349,13 @@ function endTrace() {
   send(body);
 }
 
-function edgeNow() { return game.pub.vertices[game.vertex][currentControl()]; }
-
-// Whether the clip due at ``now`` was asked to decode before then: a late clip that was
-// is the machine's decoding time, one that was not is the client's gap.
-function askedAhead(now) {
-  const url = clipUrl(edgeNow());
-  return !url || (clips.get(url)?.askedAt ?? now) < now;
-}
+// The edge of the control held now, from the vertex the next edge starts at.
+function edgeDue() { return game.pub.vertices[game.vertex][currentControl()]; }
 
 // Start the edge of the control held now, if its clip is ready; false while it is not.
 function startEdge() {
   const control = currentControl();
-  const edge = edgeNow();
+  const edge = edgeDue();
   const url = clipUrl(edge);
   const image = url ? readyClip(url) : null;
   if (url && !image) return false;
@@ -390,13 +386,13 @@ function startEdge() {
 // frame stays on the canvas and this is asked again at the next animation frame.
 function nextClip(now) {
   const clip = game.k * game.period;
-  const asked = askedAhead(now);
   if (!startEdge()) {
     if (game.waitingSince === null) {
       game.waitingSince = now;
       if (stats.clips > 0) {
-        stats.late += 1;
-        stats.lateUnasked += asked ? 0 : 1;
+        // asked to decode before this frame began, or only just now by startEdge: a late
+        // clip that was is the machine's decoding time, one that was not the client's gap
+        if (!(clips.get(clipUrl(edgeDue())).askedAt < now)) stats.lateUnasked += 1;
         if (stats.waits.length < FRAME_LOG_MAX) stats.waits.push([now, null]);
       }
     }
@@ -404,11 +400,8 @@ function nextClip(now) {
     return false;
   }
   const onTime = game.waitingSince === null && game.clipStart !== null && now - game.clipStart < 2 * clip;
-  if (game.waitingSince !== null && stats.clips > 1) {
-    stats.waitedMs += now - game.waitingSince;
-    const wait = stats.waits.at(-1);
-    if (wait && wait[1] === null) wait[1] = now;
-  }
+  const wait = stats.waits.at(-1);
+  if (wait && wait[1] === null) wait[1] = now;
   game.waitingSince = null;
   game.clipStart = onTime ? game.clipStart + clip : now;
   game.lastFrame = -1;
