@@ -20,7 +20,8 @@ import json
 from pathlib import Path
 
 import numpy as np
-from scipy import stats
+
+from app.core.seed_interval import seed_interval
 
 RESULTS = Path(__file__).resolve().parent.parent
 REFERENCE = {"goal-directed": "sel-gd20k-mixed-held-tiny", "avoider": "sel-av20k-mixed-held-tiny"}
@@ -42,15 +43,17 @@ def within_candidates(crowd: str) -> dict[int, tuple[float, int]]:
     """Per checkpoint, the pooled within-candidate standard deviation of log sr-crowd /
     sr-heuristic over worlds, of every stored selection on these worlds, and their count."""
     prefix = "sel-gd20k-" if crowd == "goal-directed" else "sel-av20k-"
-    squares: dict[int, list[float]] = {}
+    pooled: dict[int, list[tuple[float, int]]] = {}
     for path in sorted(RESULTS.glob(f"{prefix}*/result.json")):
-        for row in json.loads(path.read_text())["comparison"].get(crowd, []):
+        for row in stored(path.parent.name)["comparison"].get(crowd, []):
             logs = np.log(row["crowd_vs_heuristic"]["per_seed"])
             if row["checkpoint_frames"] >= 5000:
-                squares.setdefault(row["checkpoint_frames"], []).append(
-                    float(((logs - logs.mean()) ** 2).sum())
-                )
-    return {f: (float(np.sqrt(sum(v) / (2 * len(v)))), len(v)) for f, v in squares.items()}
+                squares = float(((logs - logs.mean()) ** 2).sum())
+                pooled.setdefault(row["checkpoint_frames"], []).append((squares, len(logs) - 1))
+    return {
+        frames: (float(np.sqrt(sum(s for s, _ in v) / sum(d for _, d in v))), len(v))
+        for frames, v in pooled.items()
+    }
 
 
 def stored(name: str) -> dict:
@@ -135,17 +138,16 @@ def five_worlds() -> None:
     ):
         ratios: dict[int, list[float]] = {}
         for source in (name, "sel-w1314-mixed-error-tiny"):
-            result = json.loads((RESULTS / source / "result.json").read_text())
-            for row in result["comparison"][crowd]:
+            for row in stored(source)["comparison"][crowd]:
                 ratios.setdefault(row["checkpoint_frames"], []).extend(
                     row["crowd_vs_heuristic"]["per_seed"]
                 )
         for frames, per_world in sorted(ratios.items()):
             if frames < 5000:
                 continue
-            logs = np.log(per_world)
-            half = stats.t.ppf(0.975, len(logs) - 1) * logs.std(ddof=1) / np.sqrt(len(logs))
-            low, mean, high = np.exp(logs.mean() + np.array([-half, 0.0, half]))
+            mean, low, high = (
+                float(np.exp(v[0])) for v in seed_interval(np.log(per_world)[:, None])[:3]
+            )
             print(
                 f"  {crowd} {frames}: {mean:.2f} [{low:.2f}, {high:.2f}] "
                 f"({', '.join(f'{r:.2f}' for r in per_world)})"
