@@ -40,6 +40,7 @@ from app.config_types import (
 )
 from app.core.errors import InvalidInput
 from app.core.player_models import PlayerModelKind
+from app.core.rank_error import RankError
 
 _SOURCES = SettingsConfigDict(
     env_prefix="SRG_",
@@ -73,6 +74,11 @@ class GrowthSettings(BaseSettings):
         0.0, ge=0.0, le=1e6, description="crowd model kernel radius r (0: per dynamics)"
     )
     crowd_eps: float = Field(1e-3, gt=0.0, le=1.0, description="crowd model prior weight epsilon")
+    rank_error: RankError = Field(
+        RankError.MEAN,
+        description="what a blend's error costs when growth ranks it: mean (the error, "
+        "the paper's) or squared (docs/design.md)",
+    )
     high_error_threshold: float = Field(0.0, ge=0.0, le=1e6, description="0: per dynamics default")
     player_model: PlayerModelKind = Field(
         PlayerModelKind.MIXED_ERROR,

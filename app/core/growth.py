@@ -18,6 +18,7 @@ from app.core.clipbank import ClipBank
 from app.core.dynamics import ClipFeatures, Dynamics, SimClip
 from app.core.errors import InvalidInput
 from app.core.graph import EdgeKind, StateGraph
+from app.core.rank_error import RankError
 
 
 @dataclass(frozen=True)
@@ -261,8 +262,12 @@ def select_for_expansion(
     relink: Callable[[int], bool],
     *,
     hedge: tuple[np.ndarray, float] | None = None,
+    rank_error: RankError = RankError.MEAN,
 ) -> EpochOutcome:
-    """Pop BLEND edges by priority ``weights[e] * err[e]``, relinking each lazily first.
+    """Pop BLEND edges by priority ``weights[e] * cost(err[e])``, relinking each lazily first.
+
+    ``rank_error`` says what a blend's error costs: itself (the expected error per step,
+    the paper's) or its square (docs/design.md, "What a blend's error costs in growth").
 
     A relinked edge goes back into the queue with its new priority instead of being
     simulated (paper 6.1); the outcome lists the edges to expand, best first.
@@ -277,11 +282,12 @@ def select_for_expansion(
     rankings = [(np.asarray(weights), 1.0 - share)]
     if hedge is not None:
         rankings.append((np.asarray(hedge[0]), share))
+    cost = rank_error.cost
     err = graph.edge_err
     # an entry is stale once its edge was relinked after it was queued (through a queue)
     relinks: dict[int, int] = {}
     queues = [
-        [(-float(w[e] * err[e]), int(e), 0) for e in graph.blend_edges()] for w, _ in rankings
+        [(-float(w[e] * cost(err[e])), int(e), 0) for e in graph.blend_edges()] for w, _ in rankings
     ]
     for queue in queues:
         heapq.heapify(queue)
@@ -301,7 +307,7 @@ def select_for_expansion(
             outcome.relinked.append(edge)
             relinks[edge] = stamp + 1
             for (w, _), queue in zip(rankings, queues, strict=True):
-                heapq.heappush(queue, (-float(w[edge] * err[edge]), edge, stamp + 1))
+                heapq.heappush(queue, (-float(w[edge] * cost(err[edge])), edge, stamp + 1))
         else:
             outcome.expanded.append(edge)
             chosen.add(edge)

@@ -36,6 +36,7 @@ from app.core.player_models import (
     session_length_of_median,
 )
 from app.core.publication import Publication, freeze
+from app.core.rank_error import RankError
 from app.core.shrunk_model import (
     MIXED_KINDS,
     SHRUNK_KINDS,
@@ -70,6 +71,8 @@ class RefinerConfig:
     batch_size: int = 4
     #: the crowd model sr-crowd learns: the paper's eq. 2, or eq. 2 under a logit prior
     player_model: PlayerModelKind = PlayerModelKind.EQ2
+    #: what a blend's error costs in the ranking (app.core.rank_error)
+    rank_error: RankError = RankError.MEAN
 
 
 @dataclass
@@ -322,6 +325,7 @@ class Refiner:
             count or self.config.batch_size,
             self.relink,
             hedge=ranked.hedge,
+            rank_error=self.config.rank_error,
         )
 
     def grow(

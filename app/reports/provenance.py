@@ -15,13 +15,13 @@ import shlex
 import subprocess
 import sys
 from collections.abc import Mapping
-from dataclasses import asdict, dataclass, is_dataclass
+from dataclasses import asdict, dataclass, field, is_dataclass
 from datetime import UTC, datetime
 from importlib.metadata import PackageNotFoundError, version
 from pathlib import Path
 from typing import Any
 
-from app.config import Settings
+from app.config import GrowthSettings, Settings
 
 #: what a field says when this process cannot find it out (no checkout, no git)
 UNKNOWN = "unknown"
@@ -51,6 +51,10 @@ class Provenance:
         The OpenCL device the settings select, with its platform's version, or why none.
     command : str
         The command line of the process that wrote the result.
+    growth : dict
+        The growth settings that were not at their defaults, by their variables
+        (``SRG_ALPHA``...): they change every graph grown, and a command line does not
+        show them. Empty in results written before it was recorded.
     """
 
     date: str
@@ -60,14 +64,19 @@ class Provenance:
     cpu_count: int
     opencl_device: str
     command: str
+    growth: dict[str, str] = field(default_factory=dict)
 
     def markdown(self) -> str:
         """One paragraph for the top of a report."""
         return (
             f"Written {self.date} by srg {self.srg_version} (commit `{self.commit}`) on "
             f"{self.cpu} ({self.cpu_count} cores), OpenCL device {self.opencl_device}: "
-            f"`{self.command}`."
+            f"`{self.command}`{self._growth_markdown()}."
         )
+
+    def _growth_markdown(self) -> str:
+        changed = ", ".join(f"`{name}={value}`" for name, value in sorted(self.growth.items()))
+        return f", growth settings off their defaults: {changed}" if changed else ""
 
 
 def provenance(settings: Settings) -> Provenance:
@@ -80,7 +89,18 @@ def provenance(settings: Settings) -> Provenance:
         cpu_count=os.cpu_count() or 1,
         opencl_device=opencl_device(settings.runtime.opencl_device),
         command=shlex.join([Path(sys.argv[0]).name, *sys.argv[1:]]),
+        growth=changed_growth_settings(settings),
     )
+
+
+def changed_growth_settings(settings: Settings) -> dict[str, str]:
+    """The growth settings ``settings`` holds off their defaults, by their variables."""
+    default = GrowthSettings.model_construct()
+    return {
+        f"SRG_{name.upper()}": str(value)
+        for name, value in settings.growth
+        if value != getattr(default, name)
+    }
 
 
 def with_provenance(result: Any, settings: Settings) -> dict[str, Any]:

@@ -151,6 +151,7 @@ def plan_epoch(
         count or refiner.config.batch_size,
         refiner.relink,
         hedge=ranked.hedge,
+        rank_error=refiner.config.rank_error,
     )
     if outcome.relinked:
         save_graph(session, graph_id, loaded.graph, loaded.bank, loaded.artifacts)

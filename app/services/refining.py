@@ -41,6 +41,7 @@ def refiner_config(
         prefilter_k=settings.growth.prefilter_k,
         batch_size=settings.growth.batch_size,
         player_model=player_model,
+        rank_error=settings.growth.rank_error,
     )
 
 

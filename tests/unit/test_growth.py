@@ -18,6 +18,7 @@ from app.core.growth import (
     select_for_expansion,
     simulate_clips,
 )
+from app.core.rank_error import RankError
 from app.core.toy import ToyDynamics
 
 DYN = ToyDynamics()
@@ -168,6 +169,22 @@ def test_selection_pops_by_priority_and_requeues_relinked_edges() -> None:
     outcome = select_for_expansion(graph, weights, 1, relink=relink_first_only)
     assert outcome.relinked == [int(top[0])]
     assert outcome.expanded == [int(top[1])]
+
+
+def test_a_squared_error_ranks_a_rare_large_blend_above_a_common_faint_one() -> None:
+    graph, _ = grown(10)
+    err = np.asarray(graph.edge_err)
+    blends = graph.blend_edges()
+    order = blends[np.argsort(-err[blends], kind="stable")]
+    large, faint = int(order[0]), int(order[-1])
+    graph.edge_err[faint] = err[large] / 4
+    # the faint one is played four times as often: the same expected error per step
+    weights = np.zeros(graph.n_edges)
+    weights[large], weights[faint] = 1.0, 4.0 * (1.0 + 1e-9)
+    mean = select_for_expansion(graph, weights, 1, lambda e: False)
+    squared = select_for_expansion(graph, weights, 1, lambda e: False, rank_error=RankError.SQUARED)
+    assert mean.expanded == [faint]
+    assert squared.expanded == [large]
 
 
 def test_a_hedged_selection_gives_each_ranking_its_share_of_the_expansions() -> None:
