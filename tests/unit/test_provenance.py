@@ -3,13 +3,20 @@
 from __future__ import annotations
 
 import subprocess
+from dataclasses import asdict
 from pathlib import Path
 
 import pytest
 
 from app.config import Settings
 from app.reports import provenance as module
-from app.reports.provenance import UNKNOWN, provenance, source_commit, with_provenance
+from app.reports.provenance import (
+    UNKNOWN,
+    Provenance,
+    provenance,
+    source_commit,
+    with_provenance,
+)
 
 
 def test_the_commit_is_this_checkouts_head() -> None:
@@ -39,3 +46,12 @@ def test_an_opencl_device_that_does_not_exist_is_named_as_missing() -> None:
     pytest.importorskip("pyopencl")
     settings = Settings().replace(opencl_device="no-such-device-anywhere")
     assert provenance(settings).opencl_device.startswith("none (")
+
+
+def test_growth_settings_off_their_defaults_are_written_and_older_results_still_read() -> None:
+    changed = provenance(Settings().replace(rank_error="squared", alpha=0.79))
+    assert changed.growth == {"SRG_ALPHA": "0.79", "SRG_RANK_ERROR": "squared"}
+    assert "off their defaults: `SRG_ALPHA=0.79`, `SRG_RANK_ERROR=squared`." in changed.markdown()
+    stored = asdict(provenance(Settings()))
+    assert stored.pop("growth") == {}
+    assert "growth settings" not in Provenance(**stored).markdown()
