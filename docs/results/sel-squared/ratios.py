@@ -1,0 +1,127 @@
+"""The `squared` selection read by the rule fixed before its runs (docs/experiment.md,
+"`squared`: growth ranking blends by their squared error").
+
+Reads sel-squared-tiny's result.json (both strategies grown with SRG_RANK_ERROR=squared
+on selection worlds 10-14) and the reference, `mixed-error` under the mean ranking on
+the same worlds and bots (sel-gd20k-mixed-error-tiny, sel-av20k-mixed-error-tiny for
+worlds 10-12, sel-w1314-mixed-error-tiny for 13, 14). Prints per crowd and checkpoint,
+per world and as a geometric mean over the five with its 95 % Student t interval:
+(1) what the traces add, sr-crowd / sr-heuristic, under each ranking; (2) what the
+players meet, squared's error over the reference's, sr-crowd and sr-heuristic; the
+visibly wrong shares; then the rule's verdict.
+
+    python docs/results/sel-squared/ratios.py
+"""
+
+from __future__ import annotations
+
+import json
+from pathlib import Path
+
+import numpy as np
+
+from app.core.seed_interval import seed_interval
+
+RESULTS = Path(__file__).resolve().parent.parent
+CANDIDATE = "sel-squared-tiny"
+REFERENCE = {
+    "goal-directed": ("sel-gd20k-mixed-error-tiny", "sel-w1314-mixed-error-tiny"),
+    "avoider": ("sel-av20k-mixed-error-tiny", "sel-w1314-mixed-error-tiny"),
+}
+WORLDS = ("10", "11", "12", "13", "14")
+CHECKPOINTS = (5000, 10000, 20000)
+#: twice the null's standard error of a five-world mean, per crowd and checkpoint, as
+#: fixed before this selection (docs/experiment.md, "How far one world's ratio moves")
+FACTORS = {
+    "goal-directed": {5000: 1.02, 10000: 1.24, 20000: 1.37},
+    "avoider": {5000: 1.99, 10000: 1.08, 20000: 2.32},
+}
+
+
+def stored(name: str) -> dict:
+    return json.loads((RESULTS / name / "result.json").read_text())
+
+
+def figure(
+    results: list[dict], crowd: str, strategy: str, key: str = "observed_mean_error"
+) -> dict[int, np.ndarray]:
+    """``key`` of ``strategy`` per checkpoint, one per world 10-14, from ``results``."""
+    per_world: dict[str, dict[int, float]] = {}
+    for result in results:
+        for seed, rows in result["crowds"][crowd]["results"][strategy].items():
+            per_world[seed] = {row["checkpoint_frames"]: row[key] for row in rows}
+    return {
+        frames: np.asarray([per_world[world][frames] for world in WORLDS]) for frames in CHECKPOINTS
+    }
+
+
+def geometric(ratios: np.ndarray) -> tuple[float, float, float]:
+    """Geometric mean of per-world ratios and its 95 % Student t interval on the logs."""
+    mean, low, high = (float(np.exp(v[0])) for v in seed_interval(np.log(ratios)[:, None])[:3])
+    return mean, low, high
+
+
+def line(ratios: np.ndarray) -> str:
+    mean, low, high = geometric(ratios)
+    return f"{mean:.2f} [{low:.2f}, {high:.2f}] ({', '.join(f'{r:.2f}' for r in ratios)})"
+
+
+def main() -> None:
+    candidate = [stored(CANDIDATE)]
+    worse, better = [], []
+    for crowd, names in REFERENCE.items():
+        reference = [stored(name) for name in names]
+        arms = {
+            (ranking, strategy): figure(results, crowd, strategy)
+            for ranking, results in (("squared", candidate), ("mean", reference))
+            for strategy in ("sr-heuristic", "sr-crowd")
+        }
+        wrong = {
+            (ranking, strategy): figure(results, crowd, strategy, "high_error_fraction")
+            for ranking, results in (("squared", candidate), ("mean", reference))
+            for strategy in ("sr-heuristic", "sr-crowd")
+        }
+        print(f"{crowd}, worlds {', '.join(WORLDS)}: geometric mean [95 % t] (per world)")
+        for frames in CHECKPOINTS:
+            factor = FACTORS[crowd][frames]
+            traces = {
+                ranking: arms[ranking, "sr-crowd"][frames] / arms[ranking, "sr-heuristic"][frames]
+                for ranking in ("squared", "mean")
+            }
+            crowd_gain = arms["squared", "sr-crowd"][frames] / arms["mean", "sr-crowd"][frames]
+            heuristic_gain = (
+                arms["squared", "sr-heuristic"][frames] / arms["mean", "sr-heuristic"][frames]
+            )
+            print(f"  {frames} (a difference counts beyond {factor:.2f}x)")
+            print(f"    sr-crowd / sr-heuristic, squared: {line(traces['squared'])}")
+            print(f"    sr-crowd / sr-heuristic, mean:    {line(traces['mean'])}")
+            print(f"    sr-crowd, squared / mean:         {line(crowd_gain)}")
+            print(f"    sr-heuristic, squared / mean:     {line(heuristic_gain)}")
+            print(
+                "    visibly wrong, mean over worlds: "
+                + "; ".join(
+                    f"{strategy} {ranking} {100 * wrong[ranking, strategy][frames].mean():.2f} %"
+                    for strategy in ("sr-heuristic", "sr-crowd")
+                    for ranking in ("squared", "mean")
+                )
+            )
+            for what, ratio in (
+                (
+                    "the traces' ratio",
+                    geometric(traces["squared"])[0] / geometric(traces["mean"])[0],
+                ),
+                ("sr-crowd's error", geometric(crowd_gain)[0]),
+            ):
+                where = f"{crowd} {frames}, {what} {ratio:.2f}x"
+                if ratio > factor:
+                    worse.append(where)
+                elif ratio < 1 / factor:
+                    better.append(where)
+    print("worse beyond the factor: " + ("; ".join(worse) or "none"))
+    print("better beyond the factor: " + ("; ".join(better) or "none"))
+    kept = not worse and bool(better)
+    print(f"rule: squared {'becomes' if kept else 'does not become'} the default")
+
+
+if __name__ == "__main__":
+    main()
