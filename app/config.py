@@ -8,8 +8,7 @@ default so that a fresh checkout runs with no configuration at all: a SQLite fil
 in-process) and PoCL on the CPU.
 
 Every value is checked where it is read, so a command or a server refuses a bad one in
-one line before it starts work: each number has both bounds, each choice its known
-values, each URL a scheme srg can use.
+one line before it starts: numbers have both bounds, choices their values, URLs a scheme.
 """
 
 from __future__ import annotations
@@ -74,18 +73,12 @@ class GrowthSettings(BaseSettings):
         0.0, ge=0.0, le=1e6, description="crowd model kernel radius r (0: per dynamics)"
     )
     crowd_eps: float = Field(1e-3, gt=0.0, le=1.0, description="crowd model prior weight epsilon")
-    rank_error: RankError = Field(
-        RankError.MEAN,
-        description="what a blend's error costs when growth ranks it: mean (the error, "
-        "the paper's) or squared (docs/design.md)",
-    )
+    rank_error: RankError = Field(RankError.MEAN, description="blend cost: err or err squared")
     high_error_threshold: float = Field(0.0, ge=0.0, le=1e6, description="0: per dynamics default")
     player_model: PlayerModelKind = Field(
         PlayerModelKind.MIXED_ERROR,
-        description="crowd model of new sr-crowd graphs: mixed-error (default: shrunk, ranked "
-        "with a share of heuristic players chosen where players met error; "
-        "docs/player-models.md), mixed (half), mixed-held, mixed-split, mixed-forward, "
-        "mixed-fresh, shrunk, knn, eq2 (the paper's) or logit",
+        description="crowd model of new sr-crowd graphs (docs/player-models.md): mixed-error, "
+        "mixed, mixed-held, mixed-split, mixed-forward, mixed-fresh, shrunk, knn, eq2, logit",
     )
     reuse_simulations: bool = Field(
         True,
