@@ -13,7 +13,7 @@ from cli_helpers import ok
 
 from app.reports.provenance import Provenance
 
-FIELDS = {"date", "srg_version", "commit", "cpu", "cpu_count", "opencl_device", "command"}
+FIELDS = {"date", "srg_version", "commit", "cpu", "cpu_count", "opencl_device", "command", "growth"}
 
 
 def test_a_fresh_result_json_and_report_say_where_they_came_from(tmp_path: Path) -> None:
