@@ -2,14 +2,18 @@
 
 from __future__ import annotations
 
+import dataclasses
+
 import numpy as np
 import pytest
 from trace_helpers import looping_trace
 
+from app.config import Settings
 from app.core.bots import LEVEL_CONTROL, AvoiderBot, BotKind, HesitantBot, play_sessions
 from app.core.clipbank import MemoryClipBank
 from app.core.growth import initial_tree
 from app.core.publication import Publication
+from app.core.rank_error import RankError
 from app.core.refinement import Refiner, RefinerConfig
 from app.core.strategies import (
     EdgeWeights,
@@ -19,6 +23,7 @@ from app.core.strategies import (
     parse_strategy,
 )
 from app.core.toy import ToyDynamics
+from app.services.refining import refiner_config
 
 DYN = ToyDynamics()
 
@@ -77,6 +82,19 @@ def test_grow_by_frames_meets_the_budget() -> None:
     assert r.graph.size_frames < start + 300 + DYN.n_controls * DYN.frames_per_clip
     with pytest.raises(ValueError, match="exactly one budget"):
         r.grow()
+
+
+def test_the_configured_rank_error_reaches_what_an_epoch_expands() -> None:
+    assert refiner_config(Settings().replace(rank_error="squared"), DYN).rank_error is (
+        RankError.SQUARED
+    )
+    plans = []
+    for rank_error in RankError:
+        r = refiner(Strategy.SR_HEURISTIC)
+        r.grow(expansions=10)  # the same graph: grown by the mean ranking
+        r.config = dataclasses.replace(r.config, rank_error=rank_error)
+        plans.append(r.plan_epoch(8).expanded)
+    assert plans[0] != plans[1]
 
 
 def test_sr_crowd_learns_from_traces_and_others_ignore_them(publication) -> None:  # type: ignore[no-untyped-def]
