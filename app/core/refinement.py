@@ -316,9 +316,12 @@ class Refiner:
             self.graph, self.bank, self.dynamics, edge, prefilter_k=self.config.prefilter_k
         )
 
-    def plan_epoch(self, count: int | None = None) -> EpochOutcome:
-        """Rank, then pop the top BLEND edges (relinking lazily) to expand next."""
-        ranked = self.weights()
+    def plan_epoch(
+        self, count: int | None = None, ranked: EdgeWeights | None = None
+    ) -> EpochOutcome:
+        """Rank (or take the weights ``ranked`` already), then pop the top BLEND edges
+        (relinking lazily) to expand next: the one place growth's settings pick them."""
+        ranked = self.weights() if ranked is None else ranked
         return select_for_expansion(
             self.graph,
             ranked.weights,

@@ -31,7 +31,7 @@ from sqlalchemy.orm import Session
 from app.config import Settings
 from app.core.graph import EdgeKind, edge_index
 from app.core.graph_entry import GraphEntry
-from app.core.growth import integrate_expansion, select_for_expansion
+from app.core.growth import integrate_expansion
 from app.core.strategies import Strategy
 from app.db.sessions import Scope
 from app.services.animations import blend_strip
@@ -145,14 +145,7 @@ def plan_epoch(
     loaded = loaded_graph(session, settings, entry)
     refiner = refiner_for(session, settings, loaded, strategy)
     ranked = rank_stored(session, loaded, refiner)
-    outcome = select_for_expansion(
-        loaded.graph,
-        ranked.weights,
-        count or refiner.config.batch_size,
-        refiner.relink,
-        hedge=ranked.hedge,
-        rank_error=refiner.config.rank_error,
-    )
+    outcome = refiner.plan_epoch(count, ranked)
     if outcome.relinked:
         save_graph(session, graph_id, loaded.graph, loaded.bank, loaded.artifacts)
     epoch_id = start_epoch(session, graph_id, refiner.strategy.value, renders=renders)
