@@ -71,16 +71,15 @@ def main() -> None:
     worse, better = [], []
     for crowd, names in REFERENCE.items():
         reference = [stored(name) for name in names]
-        arms = {
-            (ranking, strategy): figure(results, crowd, strategy)
-            for ranking, results in (("squared", candidate), ("mean", reference))
-            for strategy in ("sr-heuristic", "sr-crowd")
-        }
-        wrong = {
-            (ranking, strategy): figure(results, crowd, strategy, "high_error_fraction")
-            for ranking, results in (("squared", candidate), ("mean", reference))
-            for strategy in ("sr-heuristic", "sr-crowd")
-        }
+        runs = {"squared": candidate, "mean": reference}
+        arms, wrong = (
+            {
+                (ranking, strategy): figure(results, crowd, strategy, key)
+                for ranking, results in runs.items()
+                for strategy in ("sr-heuristic", "sr-crowd")
+            }
+            for key in ("observed_mean_error", "high_error_fraction")
+        )
         print(f"{crowd}, worlds {', '.join(WORLDS)}: geometric mean [95 % t] (per world)")
         for frames in CHECKPOINTS:
             factor = FACTORS[crowd][frames]
