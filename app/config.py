@@ -73,7 +73,7 @@ class GrowthSettings(BaseSettings):
         0.0, ge=0.0, le=1e6, description="crowd model kernel radius r (0: per dynamics)"
     )
     crowd_eps: float = Field(1e-3, gt=0.0, le=1.0, description="crowd model prior weight epsilon")
-    rank_error: RankError = Field(RankError.MEAN, description="blend cost: err or err squared")
+    rank_error: RankError = Field(RankError.MEAN, description="how a blend's err costs")
     high_error_threshold: float = Field(0.0, ge=0.0, le=1e6, description="0: per dynamics default")
     player_model: PlayerModelKind = Field(
         PlayerModelKind.MIXED_ERROR,

@@ -11,6 +11,7 @@ from __future__ import annotations
 import heapq
 from collections.abc import Callable, Sequence
 from dataclasses import dataclass, field
+from functools import partial
 
 import numpy as np
 
@@ -263,11 +264,13 @@ def select_for_expansion(
     *,
     hedge: tuple[np.ndarray, float] | None = None,
     rank_error: RankError = RankError.MEAN,
+    threshold: float = 0.0,
 ) -> EpochOutcome:
     """Pop BLEND edges by priority ``weights[e] * cost(err[e])``, relinking each lazily first.
 
     ``rank_error`` says what a blend's error costs: itself (the expected error per step,
-    the paper's) or its square (docs/design.md, "What a blend's error costs in growth").
+    the paper's), its square, or its square only above half the visibility ``threshold``
+    (docs/design.md, "What a blend's error costs in growth").
 
     A relinked edge goes back into the queue with its new priority instead of being
     simulated (paper 6.1); the outcome lists the edges to expand, best first.
@@ -282,7 +285,7 @@ def select_for_expansion(
     rankings = [(np.asarray(weights), 1.0 - share)]
     if hedge is not None:
         rankings.append((np.asarray(hedge[0]), share))
-    cost = rank_error.cost
+    cost = partial(rank_error.cost, threshold=threshold)
     err = graph.edge_err
     # an entry is stale once its edge was relinked after it was queued (through a queue)
     relinks: dict[int, int] = {}

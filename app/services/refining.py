@@ -42,6 +42,7 @@ def refiner_config(
         batch_size=settings.growth.batch_size,
         player_model=player_model,
         rank_error=settings.growth.rank_error,
+        high_error_threshold=settings.growth.high_error_threshold,
     )
 
 

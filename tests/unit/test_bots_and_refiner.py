@@ -88,13 +88,22 @@ def test_the_configured_rank_error_reaches_what_an_epoch_expands() -> None:
     assert refiner_config(Settings().replace(rank_error="squared"), DYN).rank_error is (
         RankError.SQUARED
     )
-    plans = []
-    for rank_error in RankError:
+    configured = refiner_config(Settings().replace(high_error_threshold=0.3), DYN)
+    assert configured.high_error_threshold == 0.3
+
+    def plan(rank_error: RankError, threshold: float = 0.0) -> list[int]:
         r = refiner(Strategy.SR_HEURISTIC)
         r.grow(expansions=10)  # the same graph: grown by the mean ranking
-        r.config = dataclasses.replace(r.config, rank_error=rank_error)
-        plans.append(r.plan_epoch(8).expanded)
-    assert plans[0] != plans[1]
+        r.config = dataclasses.replace(
+            r.config, rank_error=rank_error, high_error_threshold=threshold
+        )
+        return r.plan_epoch(8).expanded
+
+    mean, squared = plan(RankError.MEAN), plan(RankError.SQUARED)
+    assert mean != squared
+    # the configured threshold decides which side of the knee every blend is on
+    assert plan(RankError.SQUARED_LARGE, 1e6) == mean
+    assert plan(RankError.SQUARED_LARGE, 1e-9) == squared
 
 
 def test_sr_crowd_learns_from_traces_and_others_ignore_them(publication) -> None:  # type: ignore[no-untyped-def]

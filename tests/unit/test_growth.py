@@ -187,6 +187,38 @@ def test_a_squared_error_ranks_a_rare_large_blend_above_a_common_faint_one() -> 
     assert squared.expanded == [large]
 
 
+def test_squared_large_ranks_faint_blends_by_the_error_and_large_ones_by_its_square() -> None:
+    graph, _ = grown(10)
+    blends = graph.blend_edges()
+    threshold = 1.0
+    faint, faint_common, large, large_rare = (int(e) for e in blends[:4])
+    graph.edge_err[faint], graph.edge_err[faint_common] = 0.4, 0.1
+    graph.edge_err[large], graph.edge_err[large_rare] = 0.6, 2.4
+    weights = np.zeros(graph.n_edges)
+    # each pair has the same expected error per step, the more common one a little more
+    weights[faint], weights[faint_common] = 1.0, 4.0 * (1.0 + 1e-9)
+    weights[large], weights[large_rare] = 4.0 * (1.0 + 1e-9), 1.0
+    # the two sides meet at half the threshold
+    assert RankError.SQUARED_LARGE.cost(0.5, threshold) == 0.5
+
+    def first(pair: tuple[int, int], rank_error: RankError) -> int:
+        w = np.zeros(graph.n_edges)
+        w[list(pair)] = weights[list(pair)]
+        picked = select_for_expansion(
+            graph, w, 1, lambda e: False, rank_error=rank_error, threshold=threshold
+        )
+        return picked.expanded[0]
+
+    # below the knee it ranks as the mean does, not as the square
+    assert first((faint, faint_common), RankError.SQUARED_LARGE) == faint_common
+    assert first((faint, faint_common), RankError.SQUARED) == faint
+    # above it as the square does, not as the mean
+    assert first((large, large_rare), RankError.SQUARED_LARGE) == large_rare
+    assert first((large, large_rare), RankError.MEAN) == large
+    with pytest.raises(ValueError, match="positive visibility threshold"):
+        RankError.SQUARED_LARGE.cost(0.1, 0.0)
+
+
 def test_a_hedged_selection_gives_each_ranking_its_share_of_the_expansions() -> None:
     graph, _ = grown(10)
     err = np.asarray(graph.edge_err)

@@ -1,21 +1,23 @@
-"""The `squared` selection read by the rule fixed before its runs (docs/experiment.md,
-"`squared`: growth ranking blends by their squared error").
+"""A ranking's selection read by the rule fixed before its runs (docs/experiment.md,
+"`squared`: growth ranking blends by their squared error", and "`squared-large`").
 
-Reads sel-squared-tiny's result.json (both strategies grown with SRG_RANK_ERROR=squared
-on selection worlds 10-14) and the reference, `mixed-error` under the mean ranking on
-the same worlds and bots (sel-gd20k-mixed-error-tiny, sel-av20k-mixed-error-tiny for
-worlds 10-12, sel-w1314-mixed-error-tiny for 13, 14). Prints per crowd and checkpoint,
-per world and as a geometric mean over the five with its 95 % Student t interval:
+Reads the candidate's result.json (sel-squared-tiny unless named: both strategies grown
+with the SRG_RANK_ERROR its provenance names, on selection worlds 10-14) and the
+reference, `mixed-error` under the mean ranking on the same worlds and bots
+(sel-gd20k-mixed-error-tiny, sel-av20k-mixed-error-tiny for worlds 10-12,
+sel-w1314-mixed-error-tiny for 13, 14). Prints per crowd and checkpoint, per world and
+as a geometric mean over the five with its 95 % Student t interval:
 (1) what the traces add, sr-crowd / sr-heuristic, under each ranking; (2) what the
-players meet, squared's error over the reference's, sr-crowd and sr-heuristic; the
-visibly wrong shares; then the rule's verdict.
+players meet, the candidate's error over the reference's, sr-crowd and sr-heuristic;
+the visibly wrong shares; then the rule's verdict.
 
-    python docs/results/sel-squared/ratios.py
+    python docs/results/sel-squared/ratios.py [sel-squared-large-tiny]
 """
 
 from __future__ import annotations
 
 import json
+import sys
 from pathlib import Path
 
 import numpy as np
@@ -67,11 +69,13 @@ def line(ratios: np.ndarray) -> str:
 
 
 def main() -> None:
-    candidate = [stored(CANDIDATE)]
+    candidate = [stored(sys.argv[1] if len(sys.argv) > 1 else CANDIDATE)]
+    ranked = candidate[0]["provenance"]["growth"]["SRG_RANK_ERROR"]
+    width = len(ranked) + 1
     worse, better = [], []
     for crowd, names in REFERENCE.items():
         reference = [stored(name) for name in names]
-        runs = {"squared": candidate, "mean": reference}
+        runs = {ranked: candidate, "mean": reference}
         arms, wrong = (
             {
                 (ranking, strategy): figure(results, crowd, strategy, key)
@@ -85,29 +89,29 @@ def main() -> None:
             factor = FACTORS[crowd][frames]
             traces = {
                 ranking: arms[ranking, "sr-crowd"][frames] / arms[ranking, "sr-heuristic"][frames]
-                for ranking in ("squared", "mean")
+                for ranking in runs
             }
-            crowd_gain = arms["squared", "sr-crowd"][frames] / arms["mean", "sr-crowd"][frames]
+            crowd_gain = arms[ranked, "sr-crowd"][frames] / arms["mean", "sr-crowd"][frames]
             heuristic_gain = (
-                arms["squared", "sr-heuristic"][frames] / arms["mean", "sr-heuristic"][frames]
+                arms[ranked, "sr-heuristic"][frames] / arms["mean", "sr-heuristic"][frames]
             )
             print(f"  {frames} (a difference counts beyond {factor:.2f}x)")
-            print(f"    sr-crowd / sr-heuristic, squared: {line(traces['squared'])}")
-            print(f"    sr-crowd / sr-heuristic, mean:    {line(traces['mean'])}")
-            print(f"    sr-crowd, squared / mean:         {line(crowd_gain)}")
-            print(f"    sr-heuristic, squared / mean:     {line(heuristic_gain)}")
+            for ranking, ratios in traces.items():
+                print(f"    sr-crowd / sr-heuristic, {ranking + ':':{width}} {line(ratios)}")
+            print(f"    sr-crowd, {ranked} / mean:         {line(crowd_gain)}")
+            print(f"    sr-heuristic, {ranked} / mean:     {line(heuristic_gain)}")
             print(
                 "    visibly wrong, mean over worlds: "
                 + "; ".join(
                     f"{strategy} {ranking} {100 * wrong[ranking, strategy][frames].mean():.2f} %"
                     for strategy in ("sr-heuristic", "sr-crowd")
-                    for ranking in ("squared", "mean")
+                    for ranking in runs
                 )
             )
             for what, ratio in (
                 (
                     "the traces' ratio",
-                    geometric(traces["squared"])[0] / geometric(traces["mean"])[0],
+                    geometric(traces[ranked])[0] / geometric(traces["mean"])[0],
                 ),
                 ("sr-crowd's error", geometric(crowd_gain)[0]),
             ):
@@ -119,7 +123,7 @@ def main() -> None:
     print("worse beyond the factor: " + ("; ".join(worse) or "none"))
     print("better beyond the factor: " + ("; ".join(better) or "none"))
     kept = not worse and bool(better)
-    print(f"rule: squared {'becomes' if kept else 'does not become'} the default")
+    print(f"rule: {ranked} {'becomes' if kept else 'does not become'} the default")
 
 
 if __name__ == "__main__":
