@@ -388,7 +388,7 @@ def test_bad_settings_of_several_groups_are_named_in_the_same_line(tmp_path: Pat
         ("SRG_HIGH_ERROR_THRESHOLD", "nan", "finite number"),
         ("SRG_BEAT_INTERVAL", "inf", "finite number"),
         ("SRG_PUBLISH_EVERY", "-600", "greater than or equal to 0"),
-        ("SRG_RANK_ERROR", "cubed", "'mean' or 'squared'"),
+        ("SRG_RANK_ERROR", "cubed", "'mean', 'squared' or 'squared-large'"),
         (
             "SRG_PLAYER_MODEL",
             "bogus",
