@@ -1,7 +1,7 @@
 """Growth strategies: how much each BLEND edge matters (paper sections 3, 4 and 7).
 
 A strategy turns a player model P(c|v) into a weight per edge; the priority of a BLEND
-edge is ``weight * err`` (or the error's square, app.core.rank_error). ``max-error`` is
+edge is ``weight * err`` (or another cost of the error, app.core.rank_error). ``max-error`` is
 Kim et al. 2013 (err alone); ``baseline`` scales err by the local P_h(c|v); the two
 STATERANK strategies use the global edge probability P(e) = pi(v) P(c|v) under the
 heuristic or the learned crowd model.
