@@ -73,7 +73,7 @@ class RefinerConfig:
     player_model: PlayerModelKind = PlayerModelKind.EQ2
     #: what a blend's error costs in the ranking (app.core.rank_error)
     rank_error: RankError = RankError.MEAN
-    #: the visibility threshold that cost may turn at (0: the dynamics' own)
+    #: the visibility threshold in force, where that cost may turn (``squared-large``)
     high_error_threshold: float = 0.0
 
 
@@ -331,7 +331,7 @@ class Refiner:
             self.relink,
             hedge=ranked.hedge,
             rank_error=self.config.rank_error,
-            threshold=self.config.high_error_threshold or self.dynamics.high_error_threshold,
+            threshold=self.config.high_error_threshold,
         )
 
     def grow(

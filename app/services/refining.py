@@ -16,6 +16,7 @@ from app.core.player_models import PlayerModelKind, parse_player_model
 from app.core.players import PlayerSelection
 from app.core.refinement import Refiner, RefinerConfig
 from app.core.strategies import EdgeWeights, Strategy, parse_strategy
+from app.services.dynamics import threshold_in_force
 from app.services.loading import LoadedGraph
 from app.store.epochs import latest_warm_start
 from app.store.play_counts import graph_play_counts, publication_play_counts
@@ -42,7 +43,7 @@ def refiner_config(
         batch_size=settings.growth.batch_size,
         player_model=player_model,
         rank_error=settings.growth.rank_error,
-        high_error_threshold=settings.growth.high_error_threshold,
+        high_error_threshold=threshold_in_force(settings, dynamics),
     )
 
 

@@ -90,6 +90,7 @@ def test_the_configured_rank_error_reaches_what_an_epoch_expands() -> None:
     )
     configured = refiner_config(Settings().replace(high_error_threshold=0.3), DYN)
     assert configured.high_error_threshold == 0.3
+    assert refiner_config(Settings(), DYN).high_error_threshold == DYN.high_error_threshold
 
     def plan(rank_error: RankError, threshold: float = 0.0) -> list[int]:
         r = refiner(Strategy.SR_HEURISTIC)
