@@ -8,13 +8,15 @@ reference, `mixed-error` under the mean ranking on the same worlds and bots
 (sel-gd20k-mixed-error-tiny, sel-av20k-mixed-error-tiny for worlds 10-12,
 sel-w1314-mixed-error-tiny for 13, 14). With ``fresh`` it reads the confirmation on
 worlds 15-19 instead (fresh-squared-tiny against fresh-mean-tiny, to 10k, with its own
-factors). Prints per crowd and checkpoint, per world and as a geometric mean over the
-five with its 95 % Student t interval: (1) what the traces add, sr-crowd /
+factors); with ``eval``, the confirmed candidate on the evaluation seeds 0, 1, 2 beside
+the default's stored runs (no rule: the issue's targets judge it). Prints per crowd and
+checkpoint, per world and as a geometric mean over the worlds with its 95 % Student t
+interval: (1) what the traces add, sr-crowd /
 sr-heuristic, under each ranking; (2) what the players meet, the candidate's error over
 the reference's, sr-crowd and sr-heuristic; the visibly wrong shares; then the rule's
 verdict.
 
-    python docs/results/sel-squared/ratios.py [sel-squared-large-tiny | fresh]
+    python docs/results/sel-squared/ratios.py [sel-squared-large-tiny | fresh | eval]
 """
 
 from __future__ import annotations
@@ -41,8 +43,8 @@ class Selection:
     worlds: tuple[str, ...]
     checkpoints: tuple[int, ...]
     #: per crowd and checkpoint, beyond which ratio a difference counts: (1) the traces'
-    #: ratio, (2) sr-crowd's error
-    factors: dict[str, dict[int, tuple[float, float]]]
+    #: ratio, (2) sr-crowd's error; None for an evaluation, which no rule decides
+    factors: dict[str, dict[int, tuple[float, float]]] | None
     #: what the rule says when the candidate passes, and when it does not
     verdict: tuple[str, str] = ("becomes the default", "does not become the default")
 
@@ -74,6 +76,17 @@ FRESH = Selection(
         "avoider": {5000: (3.95, 1.99), 10000: (1.08, 1.08)},
     },
     verdict=("is confirmed", "is not confirmed"),
+)
+#: the confirmed candidate on the evaluation seeds, beside the default's stored runs
+EVALUATION = Selection(
+    candidate="eval-squared-low-tiny",
+    reference={
+        "goal-directed": ("gd-mixed-error-20k-tiny",),
+        "avoider": ("av-mixed-error-20k-tiny",),
+    },
+    worlds=("0", "1", "2"),
+    checkpoints=(5000, 10000, 20000),
+    factors=None,
 )
 
 
@@ -113,7 +126,8 @@ def line(ratios: np.ndarray) -> str:
 def chosen(argv: list[str]) -> Selection:
     if not argv:
         return FIRST
-    return FRESH if argv[0] == "fresh" else replace(FIRST, candidate=argv[0])
+    named = {"fresh": FRESH, "eval": EVALUATION}
+    return named[argv[0]] if argv[0] in named else replace(FIRST, candidate=argv[0])
 
 
 def main() -> None:
@@ -135,7 +149,8 @@ def main() -> None:
         )
         print(f"{crowd}, worlds {', '.join(selection.worlds)}: geometric mean [95 % t] (per world)")
         for frames in selection.checkpoints:
-            factors = selection.factors[crowd][frames]
+            factors = selection.factors[crowd][frames] if selection.factors else None
+            print(f"  {frames}{counted(factors)}")
             traces = {
                 ranking: arms[ranking, "sr-crowd"][frames] / arms[ranking, "sr-heuristic"][frames]
                 for ranking in runs
@@ -144,13 +159,6 @@ def main() -> None:
             heuristic_gain = (
                 arms[ranked, "sr-heuristic"][frames] / arms["mean", "sr-heuristic"][frames]
             )
-            beyond = (
-                f"{factors[0]:.2f}x"
-                if factors[0] == factors[1]
-                else f"{factors[0]:.2f}x for the traces' ratio, "
-                f"{factors[1]:.2f}x for sr-crowd's error"
-            )
-            print(f"  {frames} (a difference counts beyond {beyond})")
             for ranking, ratios in traces.items():
                 print(f"    sr-crowd / sr-heuristic, {ranking + ':':{width}} {line(ratios)}")
             print(f"    sr-crowd, {ranked} / mean:         {line(crowd_gain)}")
@@ -163,23 +171,52 @@ def main() -> None:
                     for ranking in runs
                 )
             )
-            for what, ratio, factor in (
-                (
-                    "the traces' ratio",
-                    geometric(traces[ranked])[0] / geometric(traces["mean"])[0],
-                    factors[0],
-                ),
-                ("sr-crowd's error", geometric(crowd_gain)[0], factors[1]),
-            ):
-                where = f"{crowd} {frames}, {what} {ratio:.2f}x"
-                if ratio > factor:
-                    worse.append(where)
-                elif ratio < 1 / factor:
-                    better.append(where)
+            if factors is not None:
+                judge(crowd, frames, factors, traces, ranked, crowd_gain, worse, better)
+    if selection.factors is None:
+        return
     print("worse beyond the factor: " + ("; ".join(worse) or "none"))
     print("better beyond the factor: " + ("; ".join(better) or "none"))
     kept = not worse and bool(better)
     print(f"rule: {ranked} {selection.verdict[0] if kept else selection.verdict[1]}")
+
+
+def counted(factors: tuple[float, float] | None) -> str:
+    """Where a difference counts, for the checkpoint's heading."""
+    if factors is None:
+        return ""
+    if factors[0] == factors[1]:
+        return f" (a difference counts beyond {factors[0]:.2f}x)"
+    return (
+        f" (a difference counts beyond {factors[0]:.2f}x for the traces' ratio, "
+        f"{factors[1]:.2f}x for sr-crowd's error)"
+    )
+
+
+def judge(
+    crowd: str,
+    frames: int,
+    factors: tuple[float, float],
+    traces: dict[str, np.ndarray],
+    ranked: str,
+    crowd_gain: np.ndarray,
+    worse: list[str],
+    better: list[str],
+) -> None:
+    """Adds the checkpoint's two readings to ``worse`` or ``better`` beyond their factor."""
+    for what, ratio, factor in (
+        (
+            "the traces' ratio",
+            geometric(traces[ranked])[0] / geometric(traces["mean"])[0],
+            factors[0],
+        ),
+        ("sr-crowd's error", geometric(crowd_gain)[0], factors[1]),
+    ):
+        where = f"{crowd} {frames}, {what} {ratio:.2f}x"
+        if ratio > factor:
+            worse.append(where)
+        elif ratio < 1 / factor:
+            better.append(where)
 
 
 if __name__ == "__main__":
