@@ -274,6 +274,13 @@ def test_the_plan_records_its_selection_seeds_and_role() -> None:
     assert ExperimentPlan.from_dict(chosen_elsewhere.to_dict()).role == "selection"
 
 
+def test_the_confirmation_worlds_are_selection_seeds_apart_from_the_evaluation_ones() -> None:
+    """Worlds 15-19 confirm a choice made on 10-14 (docs/experiment.md): still selection."""
+    assert ExperimentPlan(seeds=(15, 16, 17, 18, 19)).role == "selection"
+    assert ExperimentPlan(seeds=(10, 19)).role == "selection"
+    assert not set(SELECTION_SEEDS) & {0, 1, 2}
+
+
 def test_a_plan_mixing_selection_and_evaluation_seeds_is_refused_in_one_line() -> None:
     with pytest.raises(InvalidInput, match="seeds 10, 12 are selection seeds") as refused:
         ExperimentPlan(seeds=(0, 10, 1, 12))
