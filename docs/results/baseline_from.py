@@ -44,6 +44,19 @@ def checkpoints(run: str, crowd: str, strategies: tuple[str, ...]) -> dict:
     }
 
 
+def same_worlds(grown: dict, other: dict, seeds: list[str], frames: int) -> None:
+    """Exits, in one line, unless sr-heuristic met the same error in both runs at
+    ``frames`` on every seed: trace-blind growth of the same worlds is bit for bit."""
+    for seed in seeds:
+        ours = grown["sr-heuristic"][seed][frames]["observed_mean_error"]
+        theirs = other["sr-heuristic"][seed][frames]["observed_mean_error"]
+        if ours != theirs:
+            sys.exit(
+                f"seed {seed}, {frames} frames: sr-heuristic met {ours} here and "
+                f"{theirs} there: not the same worlds"
+            )
+
+
 def main(crowd_run: str, baseline_run: str, crowd: str) -> None:
     grown = checkpoints(crowd_run, crowd, ("sr-crowd", "sr-heuristic"))
     other = checkpoints(baseline_run, crowd, ("baseline", "sr-heuristic"))
@@ -54,14 +67,7 @@ def main(crowd_run: str, baseline_run: str, crowd: str) -> None:
         if any(frames not in other["baseline"][s] for s in seeds):
             print(f"{frames}: no baseline grown to it in {baseline_run}")
             continue
-        for seed in seeds:
-            ours = grown["sr-heuristic"][seed][frames]["observed_mean_error"]
-            theirs = other["sr-heuristic"][seed][frames]["observed_mean_error"]
-            if ours != theirs:
-                sys.exit(
-                    f"seed {seed}, {frames} frames: sr-heuristic met {ours} here and "
-                    f"{theirs} there: not the same worlds"
-                )
+        same_worlds(grown, other, seeds, frames)
         crowd_error = [grown["sr-crowd"][s][frames]["observed_mean_error"] for s in seeds]
         baseline = [other["baseline"][s][frames] for s in seeds]
         ratio = ratio_interval(crowd_error, [b["observed_mean_error"] for b in baseline])

@@ -26,13 +26,13 @@ import sys
 from dataclasses import dataclass
 
 import numpy as np
-from baseline_from import RESULTS, checkpoints
+from baseline_from import RESULTS, checkpoints, same_worlds
 from scipy import optimize, stats
 
-from app.core.comparison import LEVEL, compare_checkpoint, targets
+from app.core.comparison import LEVEL, Target, compare_checkpoint, targets
 
 sys.path.insert(0, str(RESULTS / "sel-squared-fresh"))
-from factors import crowd_null  # noqa: E402
+from factors import PAIRS, crowd_null  # noqa: E402
 
 
 @dataclass(frozen=True)
@@ -63,18 +63,15 @@ def points(claim: Claim) -> dict[str, dict[str, dict[int, dict]]]:
         return checkpoints(claim.run, claim.crowd, ("baseline", "sr-heuristic", "sr-crowd"))
     grown = checkpoints(claim.run, claim.crowd, ("sr-heuristic", "sr-crowd"))
     other = checkpoints(claim.baseline_run, claim.crowd, ("baseline", "sr-heuristic"))
-    for seed, by_size in grown["sr-heuristic"].items():
-        for size, point in by_size.items():
-            theirs = other["sr-heuristic"].get(seed, {}).get(size, {})
-            if point["observed_mean_error"] != theirs.get("observed_mean_error"):
-                sys.exit(
-                    f"seed {seed}, {size} frames: sr-heuristic differs in {claim.run} and "
-                    f"{claim.baseline_run}: not the same worlds"
-                )
+    seeds = sorted(grown["sr-crowd"], key=int)
+    for size in grown["sr-crowd"][seeds[0]]:
+        if any(size not in other["baseline"].get(seed, {}) for seed in seeds):
+            sys.exit(f"{claim.baseline_run} grew no baseline to {size} frames on every seed")
+        same_worlds(grown, other, seeds, size)
     return {**grown, "baseline": other["baseline"]}
 
 
-def judged(claim: Claim) -> list:
+def judged(claim: Claim) -> list[Target]:
     """The claim's targets over the checkpoints of its plan."""
     figures = points(claim)
     plan = json.loads((RESULTS / claim.run / "result.json").read_text())["plan"]
@@ -109,12 +106,10 @@ def mean_for_chance(chance: float, spread: float, worlds: int = 3) -> float:
 
 
 def main() -> None:
+    judgements = {claim: judged(claim) for claim in CLAIMS}
     print("| fluid | crowd | frames | target | value | bar | met |")
     print("|---|---|---|---|---|---|---|")
-    tally = []
-    for claim in CLAIMS:
-        bars = judged(claim)
-        tally.append(f"{claim.fluid} {claim.crowd}: {sum(t.met for t in bars)} of {len(bars)}")
+    for claim, bars in judgements.items():
         for t in bars:
             value = "not measured" if t.value is None else f"{t.value:.3f}"
             print(
@@ -122,11 +117,19 @@ def main() -> None:
                 f"| {t.relation} {t.bar:g} | {'met' if t.met else '**NOT met**'} |"
             )
     print()
-    print("met: " + "; ".join(tally))
+    print(
+        "met: "
+        + "; ".join(
+            f"{claim.fluid} {claim.crowd}: {sum(t.met for t in bars)} of {len(bars)}"
+            for claim, bars in judgements.items()
+        )
+    )
     print()
-    for claim in CLAIMS[:2]:
-        upper = next(t for t in judged(claim) if "upper end" in t.description)
-        mean = next(t for t in judged(claim) if t.description.endswith("error, mean"))
+    for claim, bars in judgements.items():
+        if claim.fluid != "low" or claim.crowd not in PAIRS:
+            continue
+        upper = next(t for t in bars if "upper end" in t.description)
+        mean = next(t for t in bars if t.description.endswith("error, mean"))
         _, ratio = crowd_null(claim.crowd)[upper.frames]
         spread = float(np.sqrt(np.mean(ratio**2)) / np.sqrt(2))
         print(
