@@ -58,6 +58,22 @@ def experiment(
         help="bots that play every run at every checkpoint and teach none (their traces are "
         "not stored); not among --bots",
     ),
+    shares: str | None = typer.Option(
+        None,
+        help="comma-separated share of --sessions each pooled crowd plays at every "
+        "checkpoint, in --bots' order (e.g. 0.5,0.3,0.2); whole sessions each",
+    ),
+    fresh_judges: bool = typer.Option(
+        False,
+        "--fresh-judges",
+        help="each crowd's kind also plays as many sessions on new seeds, never stored: "
+        "players the model never learned from",
+    ),
+    preregistration: Path | None = typer.Option(
+        None,
+        help="the study's pre-registered plan file: stored with its digest, and a resume "
+        "refuses it once changed",
+    ),
     fixed_graph_sessions: int | None = typer.Option(
         None,
         min=1,
@@ -100,12 +116,16 @@ def experiment(
     from app.reports.experiment import RATIO_LABELS, interval_text, write_report
     from app.reports.provenance import with_provenance
     from app.services.crowd_model_ablation import eq2_ingredients
-    from app.services.experiment.plan import create_experiment, stored_plan
+    from app.services.experiment.plan import (
+        check_preregistration,
+        create_experiment,
+        stored_plan,
+    )
     from app.services.experiment.runs import Grower, grow_in_process, run_experiment
     from app.services.loading import artifact_store
 
     options = (dynamics, preset, fluid, strategies, seeds, checkpoints, sessions)
-    model_options = (player_model, bots, judges, fixed_graph_sessions)
+    model_options = (player_model, bots, judges, shares, preregistration, fixed_graph_sessions)
     scene = (value_of(dynamics) or DynamicsName.TOY.value, value_of(preset), value_of(fluid))
     name = name or "-".join(x for x in ("experiment", *scene) if x)
     settings = get_settings()
@@ -115,12 +135,14 @@ def experiment(
         _require_makeable("--result", result_path, directory=False)
     require_intact(settings)
     if resume:
-        if quick or pooled or any(option is not None for option in (*options, *model_options)):
+        flags = (quick, pooled, fresh_judges)
+        if any(flags) or any(option is not None for option in (*options, *model_options)):
             raise InvalidInput(
                 "--resume runs the stored plan: give only --name, --jobs, --through, --json, "
                 "--result, --out"
             )
         plan = stored_plan(settings, name)
+        check_preregistration(plan)
     else:
         plan = _experiment_plan(
             scene[0],
@@ -135,6 +157,9 @@ def experiment(
             fixed_graph_sessions,
             pooled=pooled,
             judges=judges,
+            shares=shares,
+            fresh_judges=fresh_judges,
+            preregistration=preregistration,
         )
     last = plan.checkpoint_index(through)  # refused before the plan is stored
     if not settings.eager:
@@ -213,9 +238,16 @@ def _experiment_plan(
     *,
     pooled: bool = False,
     judges: Sequence[BotKind] | None = None,
+    shares: str | None = None,
+    fresh_judges: bool = False,
+    preregistration: Path | None = None,
 ) -> ExperimentPlan:
     from app.core.player_models import parse_player_model
-    from app.services.experiment.plan import ExperimentPlan, parse_checkpoints
+    from app.services.experiment.plan import (
+        ExperimentPlan,
+        parse_checkpoints,
+        preregistration_of,
+    )
 
     changes: dict[str, Any] = {"preset": preset, "fluid": fluid}
     if strategies is not None:
@@ -237,6 +269,15 @@ def _experiment_plan(
         changes["judges"] = tuple(judges)
     if pooled:
         changes["pooled"] = True
+    if shares is not None:
+        try:
+            changes["shares"] = tuple(float(s) for s in shares.split(","))
+        except ValueError:
+            raise InvalidInput(f"shares must be comma-separated numbers, got {shares!r}") from None
+    if fresh_judges:
+        changes["fresh_judges"] = True
+    if preregistration is not None:
+        changes["preregistration"] = preregistration_of(preregistration)
     if fixed_graph_sessions is not None:
         changes["fixed_graph_sessions"] = fixed_graph_sessions
     if quick:

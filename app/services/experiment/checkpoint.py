@@ -15,7 +15,7 @@ import numpy as np
 from sqlalchemy.orm import Session
 
 from app.config import Settings
-from app.core.bots import BotKind, play_sessions
+from app.core.bots import play_sessions
 from app.core.metrics import (
     evaluate_checkpoint,
     observed_edge_density,
@@ -34,7 +34,7 @@ from app.core.prediction import PlayedSessions
 from app.core.publication import Publication
 from app.core.refinement import Refiner
 from app.core.strategies import Strategy
-from app.services.experiment.plan import ExperimentPlan, Run
+from app.services.experiment.plan import ExperimentPlan, PlayerGroup, Run
 from app.services.loading import LoadedGraph, open_graph
 from app.services.play import bots_play
 from app.services.prediction import fixed_graph_prediction, model_fit
@@ -46,6 +46,8 @@ from app.store.publications import load_publication
 BOT_PLAYER = "bot-experiment"
 #: added to a run's seed for the bots of the fixed-graph setting (checkpoints use 0, 1, ...)
 FIXED_GRAPH_SEED = 5_000
+#: added to a run's seed, and the checkpoint's index, for a crowd's fresh judges
+FRESH_JUDGE_SEED = 7_000
 #: an edge the learned model predicts less than this fraction of the heuristic model's
 #: play on is one it does not expect players to take (docs/player-models.md)
 UNEXPECTED_FRACTION = 0.1
@@ -58,9 +60,10 @@ def checkpoint_figures(
     graph: str,
     run: Run,
     index: int,
-) -> list[tuple[tuple[int, BotKind], dict[str, Any], dict[str, np.ndarray]]]:
-    """Publish, predict, let the bots of each of the run's seeds and crowds play (traces
-    stored), measure: one checkpoint, as ((seed, crowd), figures, arrays) per pair.
+) -> list[tuple[tuple[int, str], dict[str, Any], dict[str, np.ndarray]]]:
+    """Publish, predict, let the bots of each of the run's seeds and player groups play
+    (a crowd's traces stored), measure: one checkpoint, as ((seed, label), figures,
+    arrays) per pair.
 
     The prediction is made once, before anyone plays; a run that several seeds or crowds
     play reads no traces, so what one of them stored changes nothing another measures.
@@ -87,14 +90,13 @@ def checkpoint_figures(
             settings,
             plan,
             predicted_on,
-            bot,
+            group,
             seed=seed,
             index=index,
-            fixed_graph=strategy is Strategy.BASELINE and last and bot in run.crowds,
-            teaches=bot in run.crowds,
+            fixed_graph=strategy is Strategy.BASELINE and last and group.stored,
         )
         for seed in run.seeds
-        for bot in (*run.crowds, *plan.judges)
+        for group in plan.groups(run)
     ]
 
 
@@ -118,19 +120,19 @@ def _crowd_figures(
     settings: Settings,
     plan: ExperimentPlan,
     on: _Predicted,
-    bot: BotKind,
+    group: PlayerGroup,
     *,
     seed: int,
     index: int,
     fixed_graph: bool,
-    teaches: bool,
-) -> tuple[tuple[int, BotKind], dict[str, Any], dict[str, np.ndarray]]:
-    """One seed's bots of one crowd play the publication and their figures are taken;
-    their traces are stored when they ``teach`` (a judge's are not)."""
+) -> tuple[tuple[int, str], dict[str, Any], dict[str, np.ndarray]]:
+    """One seed's bots of one group play the publication and their figures are taken;
+    a crowd's traces are stored (a judge's are not)."""
     published, publication, loaded = on.published, on.publication, on.loaded
     model, predicted = on.model, on.predicted
-    bot_seed = seed * 10_000 + index
-    if teaches:
+    bot, sessions = group.bot, group.sessions
+    bot_seed = seed * 10_000 + (FRESH_JUDGE_SEED if group.fresh else 0) + index
+    if group.stored:
         traces = bots_play(
             session,
             published.publication_id,
@@ -138,13 +140,13 @@ def _crowd_figures(
             bot,
             player=BOT_PLAYER,
             key=f"{published.publication_id}.{seed}.{bot.value}",
-            sessions=plan.sessions,
+            sessions=sessions,
             mean_steps=plan.mean_steps,
             seed=bot_seed,
         )
     else:
         traces = play_sessions(
-            publication, bot, sessions=plan.sessions, mean_steps=plan.mean_steps, seed=bot_seed
+            publication, bot, sessions=sessions, mean_steps=plan.mean_steps, seed=bot_seed
         )
     n = publication.n_controls
     report = evaluate_checkpoint(
@@ -198,7 +200,7 @@ def _crowd_figures(
         "edge_err": publication.edge_err,
         "vertex_descriptors": loaded.graph.vertex_descriptors().astype(np.float32),
     }
-    return (seed, bot), figures, arrays
+    return (seed, group.label), figures, arrays
 
 
 def _unexpected_edges(

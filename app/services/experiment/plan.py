@@ -14,8 +14,11 @@ over seeds samples the graphs' variability, trace-blind strategies' included
 
 from __future__ import annotations
 
+import hashlib
 from collections.abc import Sequence
 from dataclasses import asdict, dataclass, fields, replace
+from fractions import Fraction
+from pathlib import Path
 from typing import Any, Literal
 
 from sqlalchemy.orm import Session
@@ -49,6 +52,11 @@ SELECTION_SEEDS = tuple(range(10, 20))
 
 #: what an experiment's seeds are for: choosing models and settings, or judging them
 SeedRole = Literal["selection", "evaluation"]
+#: the label of a fresh judge of a crowd's kind is the kind's name after this
+FRESH = "fresh-"
+#: the label of a pooled crowd's sessions taken together (and, after :data:`FRESH`, of
+#: its fresh judges' sessions taken together)
+POPULATION = "population"
 
 
 class ExperimentExists(Conflict):
@@ -104,6 +112,15 @@ class ExperimentPlan:
     #: crowds that play every run at every checkpoint and teach none: their traces are
     #: not stored, so a learned model is judged by players it never saw
     judges: tuple[BotKind, ...] = ()
+    #: each crowd's share of ``sessions`` at every checkpoint, in ``bots``' order (pooled
+    #: crowds only; empty: every crowd plays ``sessions``)
+    shares: tuple[float, ...] = ()
+    #: every crowd's kind also judges: as many sessions as the crowd plays, on other
+    #: seeds, never stored (the paper's test players; docs/experiment.md, "Judges")
+    fresh_judges: bool = False
+    #: the pre-registered plan the experiment runs under, as (path, sha256 of its bytes):
+    #: a resume refuses a plan file that changed (docs/experiment.md, "Pre-registration")
+    preregistration: tuple[str, str] | None = None
     #: whether each seed is a world (its graphs start from ``initial_state(seed)``)
     worlds: bool = True
     #: the seeds models and settings are chosen on (:data:`SELECTION_SEEDS` when made)
@@ -143,6 +160,7 @@ class ExperimentPlan:
             raise InvalidInput(
                 "judges play one learning run per seed: give one crowd, or pool the crowds"
             )
+        self._check_shares()
         if min(self.sessions, self.batch_size, self.fixed_graph_sessions) < 1:
             raise InvalidInput("sessions and batch size must be positive")
         if self.mean_steps < 2:
@@ -167,15 +185,64 @@ class ExperimentPlan:
                 f"and {_listed(others)} are not: give only selection seeds or none of them"
             )
 
+    def _check_shares(self) -> None:
+        """Shares are given for pooled crowds, one each, positive, summing to one, and each
+        a whole number of the checkpoint's sessions, so the mix is kept exactly."""
+        if not self.shares:
+            return
+        if not self.pooled or len(self.shares) != len(self.bots):
+            raise InvalidInput("--shares gives one share per crowd of pooled crowds (--pooled)")
+        if min(self.shares) <= 0 or abs(sum(self.shares) - 1.0) > 1e-9:
+            raise InvalidInput(f"shares must be positive and sum to 1, got {_listed(self.shares)}")
+        for share in self.shares:
+            if Fraction(share).limit_denominator(10_000) * self.sessions % 1:
+                raise InvalidInput(
+                    f"a share of {share} of {self.sessions} sessions is not a whole number of "
+                    "sessions: choose shares and --sessions that give whole sessions"
+                )
+
+    def crowd_sessions(self, bot: BotKind) -> int:
+        """The sessions ``bot``'s crowd plays at each checkpoint of a run."""
+        if not self.shares:
+            return self.sessions
+        share = Fraction(self.shares[self.bots.index(bot)]).limit_denominator(10_000)
+        return int(share * self.sessions)
+
+    def groups(self, run: Run) -> list[PlayerGroup]:
+        """Who plays ``run`` at each checkpoint: its crowds (stored), their fresh judges
+        (when ``fresh_judges``), then the other judges."""
+        crowds = [PlayerGroup(b.value, b, self.crowd_sessions(b), True) for b in run.crowds]
+        fresh = [
+            PlayerGroup(FRESH + group.label, group.bot, group.sessions, False)
+            for group in crowds
+            if self.fresh_judges
+        ]
+        judges = [PlayerGroup(b.value, b, self.sessions, False) for b in self.judges]
+        return [*crowds, *fresh, *judges]
+
+    @property
+    def populations(self) -> dict[str, tuple[str, ...]]:
+        """The labels whose steps are also judged together: a pooled plan's crowds
+        (:data:`POPULATION`) and their fresh judges (``fresh-population``)."""
+        if not (self.pooled and len(self.bots) > 1):
+            return {}
+        crowds = tuple(b.value for b in self.bots)
+        together = {POPULATION: crowds}
+        if self.fresh_judges:
+            together[FRESH + POPULATION] = tuple(FRESH + c for c in crowds)
+        return together
+
     @classmethod
     def quick(cls, dynamics: str = "toy", **changes: Any) -> ExperimentPlan:
         """Minutes, not hours: three small checkpoints."""
         return cls(dynamics=dynamics, **{"checkpoints": (1_000, 3_000, 6_000), **changes})
 
     @property
-    def players(self) -> tuple[BotKind, ...]:
-        """Everyone whose play is measured: the crowds, then the judges."""
-        return self.bots + self.judges
+    def players(self) -> tuple[str, ...]:
+        """The label of everyone whose play is measured: the crowds, their fresh judges,
+        then the other judges."""
+        fresh = tuple(FRESH + b.value for b in self.bots) if self.fresh_judges else ()
+        return (*(b.value for b in self.bots), *fresh, *(b.value for b in self.judges))
 
     @property
     def runs(self) -> list[Run]:
@@ -221,6 +288,10 @@ class ExperimentPlan:
         data["bots"] = [b.value for b in self.bots]
         data["judges"] = [b.value for b in self.judges]
         data["selection_seeds"] = list(self.selection_seeds)
+        data["shares"] = list(self.shares)
+        data["preregistration"] = None if self.preregistration is None else list(
+            self.preregistration
+        )
         return data
 
     @classmethod
@@ -242,6 +313,10 @@ class ExperimentPlan:
         values["worlds"] = bool(data.get("worlds", False))
         if "selection_seeds" in values:
             values["selection_seeds"] = tuple(int(s) for s in values["selection_seeds"])
+        values["shares"] = tuple(float(s) for s in data.get("shares", ()))
+        if data.get("preregistration"):
+            path, digest = data["preregistration"]
+            values["preregistration"] = (str(path), str(digest))
         return cls(**values)
 
 
@@ -255,6 +330,27 @@ class Run:
     seeds: tuple[int, ...]
     crowds: tuple[BotKind, ...]
     world: int | None = None
+
+
+@dataclass(frozen=True)
+class PlayerGroup:
+    """Sessions of one bot kind measured at every checkpoint of a run, under ``label``:
+    a crowd's (``stored``: its traces teach a run that learns) or a judge's."""
+
+    label: str
+    bot: BotKind
+    sessions: int
+    stored: bool
+
+    @property
+    def fresh(self) -> bool:
+        """A crowd's fresh judges: its kind on other seeds."""
+        return self.label.startswith(FRESH)
+
+
+def kind_of(label: str) -> str:
+    """The bot kind of a player label (a fresh judge's is its crowd's)."""
+    return label.removeprefix(FRESH)
 
 
 def run_graph_name(
@@ -300,6 +396,31 @@ def stored_plan(settings: Settings, name: str) -> ExperimentPlan:
     return ExperimentPlan.from_dict(plan)
 
 
+def preregistration_of(path: Path) -> tuple[str, str]:
+    """``(path, sha256)`` of a pre-registered plan file (what a resume compares)."""
+    try:
+        data = path.read_bytes()
+    except OSError as error:
+        raise InvalidInput(f"--preregistration {path}: {error.strerror}") from None
+    return str(path), hashlib.sha256(data).hexdigest()
+
+
+def check_preregistration(plan: ExperimentPlan) -> None:
+    """Refuse to resume under a pre-registered plan that is missing or was edited: a
+    plan is never changed once its first run started; a change of course is written
+    beside it as a deviation (docs/experiment.md, "Pre-registration")."""
+    if plan.preregistration is None:
+        return
+    path, digest = plan.preregistration
+    if not Path(path).is_file():
+        raise InvalidInput(f"the pre-registered plan {path} is missing: resume where it is")
+    if preregistration_of(Path(path))[1] != digest:
+        raise InvalidInput(
+            f"the pre-registered plan {path} changed since the experiment started: restore it "
+            "and write the change as a deviation beside it"
+        )
+
+
 def stored_experiment_id(session: Session, name: str) -> int:
     """The id of a stored experiment; :class:`NothingToResume` if there is none."""
     found = experiment_id(session, name)
@@ -332,7 +453,7 @@ def _with_control(strategies: tuple[Strategy, ...]) -> tuple[Strategy, ...]:
     return (*strategies[:at], Strategy.SR_HEURISTIC, *strategies[at:])
 
 
-def _listed(values: Sequence[int]) -> str:
+def _listed(values: Sequence[float]) -> str:
     return ", ".join(str(v) for v in values)
 
 

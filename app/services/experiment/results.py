@@ -26,7 +26,12 @@ from app.core.comparison import (
 from app.core.error_origin import error_origin
 from app.core.metrics import relative_difference
 from app.db.sessions import transaction
-from app.services.experiment.plan import ExperimentPlan, stored_experiment_id, stored_plan
+from app.services.experiment.plan import (
+    ExperimentPlan,
+    kind_of,
+    stored_experiment_id,
+    stored_plan,
+)
 from app.services.loading import artifact_store
 from app.store.experiments import checkpoint_rows
 
@@ -78,7 +83,7 @@ def collect(
         rows = checkpoint_rows(session, stored_experiment_id(session, name))
     rows = [row for row in rows if row.checkpoint < len(plan.checkpoints)]
     crowds: dict[str, dict[str, dict[str, list[dict[str, Any]]]]] = {
-        bot.value: {s.value: {str(seed): [] for seed in plan.seeds} for s in plan.strategies}
+        bot: {s.value: {str(seed): [] for seed in plan.seeds} for s in plan.strategies}
         for bot in plan.players
     }
     samples: dict[tuple[str, str, str, int], tuple[np.ndarray, float]] = {}
@@ -165,18 +170,20 @@ def compare_strategies(
     intervals over seeds (:mod:`app.core.comparison`); each row holds the targets judged
     at its checkpoint, and the last row whether all of them are met.
 
-    ``samples``: one checkpoint's per-step errors and threshold per (crowd, strategy,
-    seed, checkpoint index). ``final_frames``: the stored plan's last checkpoint, where
-    ``plan`` stops earlier (a report ``--through``); its bars, unmeasured, go on the last
-    row. A comparison whose arms the plan lacks is left out; empty without two of the
-    three strategies.
+    ``samples``: one checkpoint's per-step errors and threshold per (player label,
+    strategy, seed, checkpoint index); a population of the plan
+    (:attr:`ExperimentPlan.populations`) is judged on its members' steps together.
+    ``final_frames``: the stored plan's last checkpoint, where ``plan`` stops earlier (a
+    report ``--through``); its bars, unmeasured, go on the last row. A comparison whose
+    arms the plan lacks is left out; empty without two of the three strategies.
     """
     planned = {s.value for s in plan.strategies}
     compared = [s for s in (BASELINE, HEURISTIC, CROWD) if s in planned]
     if len(compared) < 2:
         return {}
+    samples = {**samples, **_population_samples(plan, samples)}
     comparison: dict[str, list[dict[str, Any]]] = {}
-    for bot in (b.value for b in plan.players):
+    for bot in (*plan.players, *plan.populations):
         points = []
         for index, frames in enumerate(plan.checkpoints):
             played = {
@@ -190,7 +197,7 @@ def compare_strategies(
                     {s: [float(np.mean(e > t)) for e, t in runs] for s, runs in played.items()},
                 )
             )
-        judged = targets(bot, points, final_frames) if CROWD in compared else []
+        judged = targets(kind_of(bot), points, final_frames) if CROWD in compared else []
         rows = [_comparison_row(point, judged) for point in points]
         if unreached := [t.to_dict() for t in judged if t.frames > points[-1].frames]:
             rows[-1]["targets"] += unreached
@@ -198,6 +205,20 @@ def compare_strategies(
             rows[-1]["meets_targets"] = all(target.met for target in judged)
         comparison[bot] = rows
     return comparison
+
+
+def _population_samples(
+    plan: ExperimentPlan, samples: dict[tuple[str, str, str, int], tuple[np.ndarray, float]]
+) -> dict[tuple[str, str, str, int], tuple[np.ndarray, float]]:
+    """Each population's steps at each stored (strategy, seed, checkpoint): its members'
+    steps together, so that a kind weighs by the steps it played."""
+    together = {}
+    for label, members in plan.populations.items():
+        for _, strategy, seed, index in [k for k in samples if k[0] == members[0]]:
+            played = [samples[(m, strategy, seed, index)] for m in members]
+            errors = np.concatenate([errors for errors, _ in played])
+            together[(label, strategy, seed, index)] = (errors, played[0][1])
+    return together
 
 
 def _comparison_row(point: CheckpointComparison, judged: list[Target]) -> dict[str, Any]:

@@ -273,7 +273,7 @@ def run_one(
                     stored_id,
                     strategy=strategy.value,
                     seed=seed,
-                    bot=bot.value,
+                    bot=bot,
                     checkpoint=index,
                     graph_id=figures.pop("graph_id"),
                     publication_id=figures["publication_id"],
