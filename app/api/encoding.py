@@ -1,4 +1,5 @@
-"""Conditional and compressed responses: ETags, If-None-Match, gzip for the big JSON.
+"""Conditional and compressed responses: ETags, If-None-Match, gzip for the big JSON,
+and the ``Cache-Control`` of what never changes.
 
 The publication JSON is the one large body the API sends, and it never changes once
 rendered, so it is compressed once, when rendered, rather than per request; its ETag
@@ -13,6 +14,9 @@ import hashlib
 from dataclasses import dataclass
 
 GZIP_LEVEL = 6
+#: for a response whose URL names bytes that never change: a clip by its hash, a
+#: publication by its id
+IMMUTABLE = "public, max-age=31536000, immutable"
 
 
 @dataclass(frozen=True)

@@ -1,5 +1,5 @@
 """The bodies of the graph routes (:mod:`app.api.routes.graphs`): what clients download,
-the graph list and a publication.
+the graph list, a graph's publications and a publication.
 
 The rows come from :mod:`app.services.catalogue`; here they become the schemas, with
 the figures a player reads beside the game (the graph's size when published, how much
@@ -10,19 +10,35 @@ from __future__ import annotations
 
 from sqlalchemy.orm import Session
 
-from app.api.schemas import EdgeOut, GraphSummary, PublicationOut
+from app.api.schemas import EdgeOut, GraphSummary, PublicationListed, PublicationOut
 from app.core.graph import EdgeKind
 from app.services.catalogue import (
     GraphEntry,
     PublishedEdge,
     get_publication,
     graph_listings,
+    graph_publications,
     published_edges,
 )
 
 
 def list_graphs(session: Session) -> list[GraphSummary]:
     return [GraphSummary(**listing._asdict()) for listing in graph_listings(session)]
+
+
+def list_publications(session: Session, graph: GraphEntry) -> list[PublicationListed]:
+    """The graph's publications, oldest first."""
+    return [
+        PublicationListed(
+            publication_id=row.id,
+            number=row.number,
+            created_at=row.created_at,
+            size_frames=row.size_frames,
+            n_vertices=row.n_vertices,
+            n_edges=row.n_edges,
+        )
+        for row in graph_publications(session, graph.id)
+    ]
 
 
 def blend_figures(edges: list[PublishedEdge]) -> tuple[float, float]:

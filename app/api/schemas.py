@@ -91,6 +91,20 @@ class EdgeOut(BaseModel):
     poster: str | None
 
 
+class PublicationListed(BaseModel):
+    """One stored version of a graph: enough to pick one to play, by size or by age."""
+
+    #: GET /api/graphs/{name}/publications/{publication_id} serves it
+    publication_id: int
+    #: 1, 2, ... per graph, in publication order
+    number: int
+    created_at: datetime
+    #: simulated frames in the graph when this version was published
+    size_frames: int
+    n_vertices: int
+    n_edges: int
+
+
 class PublicationOut(BaseModel):
     graph: str
     publication_id: int

@@ -116,11 +116,8 @@ def experiment(
     from app.reports.experiment import RATIO_LABELS, interval_text, write_report
     from app.reports.provenance import with_provenance
     from app.services.crowd_model_ablation import eq2_ingredients
-    from app.services.experiment.plan import (
-        check_preregistration,
-        create_experiment,
-        stored_plan,
-    )
+    from app.services.experiment.plan import create_experiment, stored_plan
+    from app.services.experiment.preregistration import check_preregistration
     from app.services.experiment.runs import Grower, grow_in_process, run_experiment
     from app.services.loading import artifact_store
 
@@ -243,11 +240,8 @@ def _experiment_plan(
     preregistration: Path | None = None,
 ) -> ExperimentPlan:
     from app.core.player_models import parse_player_model
-    from app.services.experiment.plan import (
-        ExperimentPlan,
-        parse_checkpoints,
-        preregistration_of,
-    )
+    from app.services.experiment.plan import ExperimentPlan, parse_checkpoints
+    from app.services.experiment.preregistration import preregistration_of
 
     changes: dict[str, Any] = {"preset": preset, "fluid": fluid}
     if strategies is not None:

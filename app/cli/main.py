@@ -12,7 +12,18 @@ from importlib.metadata import version
 
 import typer
 
-from app.cli import analytics, bench, db, demo, experiment, graph, liquid, runtime, serve
+from app.cli import (
+    analytics,
+    bench,
+    db,
+    demo,
+    experiment,
+    graph,
+    liquid,
+    results,
+    runtime,
+    serve,
+)
 from app.cli.output import user_errors_in_one_line
 
 app = typer.Typer(
@@ -41,6 +52,7 @@ def root(
 
 app.add_typer(db.app, name="db")
 app.add_typer(bench.app, name="bench")
+app.add_typer(results.app, name="results")
 COMMANDS: dict[str, Callable[..., None]] = {
     "init": graph.init,
     "grow": graph.grow,

@@ -1,5 +1,5 @@
-"""The graph catalogue as the shells read it: the graphs, one graph's entry and size, and
-a publication's edges.
+"""The graph catalogue as the shells read it: the graphs, one graph's entry and size, its
+publications, and a publication's edges.
 
 Shells reach the store only through services (docs/design.md, "Layers"); this module is
 that door for reads of the catalogue. A graph is handed out as a
@@ -17,9 +17,12 @@ from app.store.graph_catalogue import MAX_ROW_ID, graph_ids, size_frames
 from app.store.graph_catalogue import graph_entry as find_graph
 from app.store.publications import (
     GraphListing,
+    PublicationSummary,
     PublishedEdge,
     get_publication,
     graph_listings,
+    graph_publication,
+    graph_publications,
     latest_publication_id,
     published_edges,
 )
@@ -28,11 +31,14 @@ __all__ = [
     "MAX_ROW_ID",
     "GraphEntry",
     "GraphListing",
+    "PublicationSummary",
     "PublishedEdge",
     "find_graph",
     "get_publication",
     "graph_ids",
     "graph_listings",
+    "graph_publication",
+    "graph_publications",
     "latest_publication_id",
     "missing_animations",
     "published_edges",

@@ -7,6 +7,7 @@ always be read against exactly the edges its player saw.
 
 from __future__ import annotations
 
+from datetime import datetime
 from typing import NamedTuple
 
 import numpy as np
@@ -117,10 +118,22 @@ class PublicationSummary(NamedTuple):
     number: int
     start: int
     size_frames: int
+    n_vertices: int
+    n_edges: int
+    created_at: datetime
 
 
 def _summary(row: PublicationRow) -> PublicationSummary:
-    return PublicationSummary(row.id, row.graph_id, row.number, row.start, row.size_frames)
+    return PublicationSummary(
+        row.id,
+        row.graph_id,
+        row.number,
+        row.start,
+        row.size_frames,
+        row.n_vertices,
+        row.n_edges,
+        row.created_at,
+    )
 
 
 def _publication_row(session: Session, publication_id: int) -> PublicationRow:
@@ -153,6 +166,29 @@ def load_publication(session: Session, publication_id: int) -> Publication:
         edge_err=columns[:, 2],
         edge_score=columns[:, 3],
     )
+
+
+def graph_publication(session: Session, graph_id: int, publication_id: int) -> PublicationSummary:
+    """The publication ``publication_id`` if it is one of the graph's.
+
+    :class:`PublicationNotFound` for another graph's too: ids count every graph's
+    publications, so a caller that names the graph must not be handed another's.
+    """
+    row = session.get(PublicationRow, publication_id)
+    if row is None or row.graph_id != graph_id:
+        name = get_graph_row(session, graph_id).name
+        raise PublicationNotFound(f"no publication {publication_id} of graph {name!r}")
+    return _summary(row)
+
+
+def graph_publications(session: Session, graph_id: int) -> list[PublicationSummary]:
+    """Every publication of the graph, oldest first (by number: publication order)."""
+    rows = session.scalars(
+        select(PublicationRow)
+        .where(PublicationRow.graph_id == graph_id)
+        .order_by(PublicationRow.number)
+    )
+    return [_summary(row) for row in rows]
 
 
 def latest_publication(session: Session, graph_id: int) -> PublicationSummary | None:

@@ -118,6 +118,7 @@ def test_every_get_route_answers_head_as_get_without_the_body(
     for path, methods in document["paths"].items():
         if "get" in methods:
             url = path.replace("{name}", published.name).replace("{digest}", published.animation)
+            url = url.replace("{publication_id}", str(published.publication_id))
             urls.append(f"{url}?frames=1")  # read by the poster and the phone clip only
     for url in urls:
         got, head = client.get(url, headers=ADMIN), client.head(url, headers=ADMIN)

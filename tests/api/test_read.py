@@ -274,6 +274,8 @@ def test_odd_graph_names_and_ids_are_404_not_500(
     """'²' and '٣' are str.isdigit() but no int; 10**20 overflows the database's integers."""
     requests = [
         ("GET", f"/api/graphs/{name}/publication", {}),
+        ("GET", f"/api/graphs/{name}/publications", {}),
+        ("GET", f"/api/graphs/{name}/publications/{published.publication_id}", {}),
         ("POST", f"/api/graphs/{name}/grow", {"headers": ADMIN}),
         ("POST", f"/api/graphs/{name}/publish", {"headers": ADMIN}),
         ("GET", f"/api/graphs/{name}/epochs", {"headers": ADMIN}),

@@ -228,6 +228,10 @@ def test_bad_experiment_names_are_refused_by_the_same_rule(
         (["--seeds", "0,10"], "selection seeds"),
         (["--seeds", "-1"], "non-negative"),
         (["--player-model", "mystery"], "'--player-model': 'mystery' is not one of"),
+        (["--shares", "0.5,0.5", "--bots", "goal-directed,hesitant"], "pooled crowds"),
+        (["--shares", "half", "--pooled"], "comma-separated numbers"),
+        (["--bots", "goal-directed,hesitant", "--pooled", "--shares", "0.7,0.7"], "sum to 1"),
+        (["--preregistration", "/nonexistent/plan.md"], "No such file or directory"),
     ],
 )
 def test_bad_experiment_plans_are_one_line_and_store_nothing(
@@ -236,6 +240,22 @@ def test_bad_experiment_plans_are_one_line_and_store_nothing(
     srg(tmp_path, "db", "upgrade")
     one_line_error(srg(tmp_path, "experiment", "--quick", *args), fragment)
     assert "experiment" not in srg(tmp_path, "status").stdout
+
+
+def test_a_scoreboard_of_nothing_or_of_a_bad_judge_file_is_one_line(tmp_path: Path) -> None:
+    srg(tmp_path, "db", "upgrade")
+    one_line_error(srg(tmp_path, "results", "scoreboard", "nothing"), "no experiment named")
+    ok(tmp_path, "experiment", "--quick", "--checkpoints", "200", "--seeds", "0,1")
+    name = "experiment-toy"
+    bad = tmp_path / "judge.jsonl"
+    bad.write_text('{"publication_id": 999999, "mean_error": 0.1, "high_share": 0}\n')
+    args = ("results", "scoreboard", name, "--outside")
+    one_line_error(srg(tmp_path, *args, str(bad)), "line 1: not a judged publication")
+    one_line_error(srg(tmp_path, *args, str(tmp_path / "none")), "No such file")
+    one_line_error(
+        srg(tmp_path, "results", "scoreboard", name, "--primary-players", "nobody"),
+        "no players 'nobody'",
+    )
 
 
 # ---- init options ----------------------------------------------------------------------

@@ -23,7 +23,7 @@ from sqlalchemy.orm import Session
 
 from app.api.cache import FrozenCache
 from app.api.deps import get_session
-from app.api.encoding import etag_matches
+from app.api.encoding import IMMUTABLE, etag_matches
 from app.api.errors import ApiError, error_responses
 from app.render.animation import (
     POSTER_MEDIA_TYPE,
@@ -37,7 +37,6 @@ from app.services.animations import animation_bytes
 router = APIRouter(prefix="/api/animations", tags=["animations"])
 
 SHA256_HEX = re.compile(r"[0-9a-f]{64}")
-IMMUTABLE = "public, max-age=31536000, immutable"
 CORRUPT = "the stored file no longer matches its hash: moved aside, not served"
 
 

@@ -34,7 +34,8 @@ from app.core.prediction import PlayedSessions
 from app.core.publication import Publication
 from app.core.refinement import Refiner
 from app.core.strategies import Strategy
-from app.services.experiment.plan import ExperimentPlan, PlayerGroup, Run
+from app.services.experiment.plan import ExperimentPlan, Run
+from app.services.experiment.players import PlayerGroup
 from app.services.loading import LoadedGraph, open_graph
 from app.services.play import bots_play
 from app.services.prediction import fixed_graph_prediction, model_fit

@@ -14,11 +14,8 @@ over seeds samples the graphs' variability, trace-blind strategies' included
 
 from __future__ import annotations
 
-import hashlib
 from collections.abc import Sequence
 from dataclasses import asdict, dataclass, fields, replace
-from fractions import Fraction
-from pathlib import Path
 from typing import Any, Literal
 
 from sqlalchemy.orm import Session
@@ -38,6 +35,13 @@ from app.services.dynamics import (
     make_dynamics,
     threshold_in_force,
 )
+from app.services.experiment.players import (
+    FRESH,
+    POPULATION,
+    PlayerGroup,
+    check_shares,
+    share_sessions,
+)
 from app.store.experiments import (
     add_experiment,
     existing_graph_names,
@@ -52,11 +56,6 @@ SELECTION_SEEDS = tuple(range(10, 20))
 
 #: what an experiment's seeds are for: choosing models and settings, or judging them
 SeedRole = Literal["selection", "evaluation"]
-#: the label of a fresh judge of a crowd's kind is the kind's name after this
-FRESH = "fresh-"
-#: the label of a pooled crowd's sessions taken together (and, after :data:`FRESH`, of
-#: its fresh judges' sessions taken together)
-POPULATION = "population"
 
 
 class ExperimentExists(Conflict):
@@ -160,7 +159,8 @@ class ExperimentPlan:
             raise InvalidInput(
                 "judges play one learning run per seed: give one crowd, or pool the crowds"
             )
-        self._check_shares()
+        if self.shares:
+            check_shares(self.shares, len(self.bots), self.sessions, pooled=self.pooled)
         if min(self.sessions, self.batch_size, self.fixed_graph_sessions) < 1:
             raise InvalidInput("sessions and batch size must be positive")
         if self.mean_steps < 2:
@@ -185,28 +185,11 @@ class ExperimentPlan:
                 f"and {_listed(others)} are not: give only selection seeds or none of them"
             )
 
-    def _check_shares(self) -> None:
-        """Shares are given for pooled crowds, one each, positive, summing to one, and each
-        a whole number of the checkpoint's sessions, so the mix is kept exactly."""
-        if not self.shares:
-            return
-        if not self.pooled or len(self.shares) != len(self.bots):
-            raise InvalidInput("--shares gives one share per crowd of pooled crowds (--pooled)")
-        if min(self.shares) <= 0 or abs(sum(self.shares) - 1.0) > 1e-9:
-            raise InvalidInput(f"shares must be positive and sum to 1, got {_listed(self.shares)}")
-        for share in self.shares:
-            if Fraction(share).limit_denominator(10_000) * self.sessions % 1:
-                raise InvalidInput(
-                    f"a share of {share} of {self.sessions} sessions is not a whole number of "
-                    "sessions: choose shares and --sessions that give whole sessions"
-                )
-
     def crowd_sessions(self, bot: BotKind) -> int:
         """The sessions ``bot``'s crowd plays at each checkpoint of a run."""
         if not self.shares:
             return self.sessions
-        share = Fraction(self.shares[self.bots.index(bot)]).limit_denominator(10_000)
-        return int(share * self.sessions)
+        return share_sessions(self.shares[self.bots.index(bot)], self.sessions)
 
     def groups(self, run: Run) -> list[PlayerGroup]:
         """Who plays ``run`` at each checkpoint: its crowds (stored), their fresh judges
@@ -289,8 +272,8 @@ class ExperimentPlan:
         data["judges"] = [b.value for b in self.judges]
         data["selection_seeds"] = list(self.selection_seeds)
         data["shares"] = list(self.shares)
-        data["preregistration"] = None if self.preregistration is None else list(
-            self.preregistration
+        data["preregistration"] = (
+            None if self.preregistration is None else list(self.preregistration)
         )
         return data
 
@@ -330,27 +313,6 @@ class Run:
     seeds: tuple[int, ...]
     crowds: tuple[BotKind, ...]
     world: int | None = None
-
-
-@dataclass(frozen=True)
-class PlayerGroup:
-    """Sessions of one bot kind measured at every checkpoint of a run, under ``label``:
-    a crowd's (``stored``: its traces teach a run that learns) or a judge's."""
-
-    label: str
-    bot: BotKind
-    sessions: int
-    stored: bool
-
-    @property
-    def fresh(self) -> bool:
-        """A crowd's fresh judges: its kind on other seeds."""
-        return self.label.startswith(FRESH)
-
-
-def kind_of(label: str) -> str:
-    """The bot kind of a player label (a fresh judge's is its crowd's)."""
-    return label.removeprefix(FRESH)
 
 
 def run_graph_name(
@@ -396,31 +358,6 @@ def stored_plan(settings: Settings, name: str) -> ExperimentPlan:
     return ExperimentPlan.from_dict(plan)
 
 
-def preregistration_of(path: Path) -> tuple[str, str]:
-    """``(path, sha256)`` of a pre-registered plan file (what a resume compares)."""
-    try:
-        data = path.read_bytes()
-    except OSError as error:
-        raise InvalidInput(f"--preregistration {path}: {error.strerror}") from None
-    return str(path), hashlib.sha256(data).hexdigest()
-
-
-def check_preregistration(plan: ExperimentPlan) -> None:
-    """Refuse to resume under a pre-registered plan that is missing or was edited: a
-    plan is never changed once its first run started; a change of course is written
-    beside it as a deviation (docs/experiment.md, "Pre-registration")."""
-    if plan.preregistration is None:
-        return
-    path, digest = plan.preregistration
-    if not Path(path).is_file():
-        raise InvalidInput(f"the pre-registered plan {path} is missing: resume where it is")
-    if preregistration_of(Path(path))[1] != digest:
-        raise InvalidInput(
-            f"the pre-registered plan {path} changed since the experiment started: restore it "
-            "and write the change as a deviation beside it"
-        )
-
-
 def stored_experiment_id(session: Session, name: str) -> int:
     """The id of a stored experiment; :class:`NothingToResume` if there is none."""
     found = experiment_id(session, name)
@@ -453,7 +390,7 @@ def _with_control(strategies: tuple[Strategy, ...]) -> tuple[Strategy, ...]:
     return (*strategies[:at], Strategy.SR_HEURISTIC, *strategies[at:])
 
 
-def _listed(values: Sequence[float]) -> str:
+def _listed(values: Sequence[int]) -> str:
     return ", ".join(str(v) for v in values)
 
 

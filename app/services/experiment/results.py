@@ -26,12 +26,8 @@ from app.core.comparison import (
 from app.core.error_origin import error_origin
 from app.core.metrics import relative_difference
 from app.db.sessions import transaction
-from app.services.experiment.plan import (
-    ExperimentPlan,
-    kind_of,
-    stored_experiment_id,
-    stored_plan,
-)
+from app.services.experiment.plan import ExperimentPlan, stored_experiment_id, stored_plan
+from app.services.experiment.players import kind_of
 from app.services.loading import artifact_store
 from app.store.experiments import checkpoint_rows
 

@@ -1,0 +1,80 @@
+"""``srg results``: a stored experiment judged, from its database alone."""
+
+from __future__ import annotations
+
+from pathlib import Path
+from typing import TYPE_CHECKING
+
+import typer
+
+from app.cli.output import JSON_HELP, emit
+
+if TYPE_CHECKING:
+    from app.core.scoreboard import Bar
+
+app = typer.Typer(help="A stored experiment judged from its database.", no_args_is_help=True)
+
+
+@app.command("scoreboard")
+def scoreboard(
+    name: str = typer.Argument(..., help="the stored experiment"),
+    primary_players: str | None = typer.Option(
+        None,
+        help="whose error the primary endpoint is (default: the fresh population, else "
+        "the population, else the first crowd)",
+    ),
+    outside: Path | None = typer.Option(
+        None,
+        help="an outside judge's JSON lines on the experiment's publications (one per "
+        "world, strategy and publication: publication_id, mean_error, high_share)",
+    ),
+    json_output: bool = typer.Option(False, "--json", help=JSON_HELP),
+) -> None:
+    """The primary endpoint, every bar with its interval and verdict, and frames to a
+    clean game (docs/experiment.md, "Scoreboard").
+
+    Bars that cannot fail (no error or no visibly wrong step in any world, every arm clean
+    at the first checkpoint) are listed and left out of the count.
+    """
+    from app.config import get_settings
+    from app.services.experiment.scoreboard import scoreboard as judge
+
+    board = judge(get_settings(), name, primary_players=primary_players, outside=outside)
+    if json_output:
+        emit(board.to_dict(), as_json=True)
+        return
+    typer.echo(f"{name}: {len(board.seeds)} worlds ({_listed(board.seeds)})")
+    if board.missing:
+        typer.echo(f"not reached by every run: {_listed(board.missing)} frames")
+    for bar in (board.primary, *board.bars):
+        typer.echo(_bar_line(bar))
+    for clean in board.clean:
+        spread = "; ".join(
+            f"{strategy} {_frames(s['median'])} ({_frames(s['min'])}-{_frames(s['max'])}, "
+            f"{s['reached']} of {len(board.seeds)} worlds)"
+            for strategy, s in clean.summary().items()
+        )
+        typer.echo(f"frames to under {clean.bar:.1%} visibly wrong, median (range): {spread}")
+    met, judged = board.counted()
+    typer.echo(f"{met} of {judged} bars that can fail met")
+
+
+def _bar_line(bar: Bar) -> str:
+    where = f"{bar.players} at {bar.frames}" if bar.frames else "over worlds"
+    if bar.low is None or bar.high is None:
+        estimate = "n/a" if bar.mean is None else f"{bar.mean:.3g}"
+    else:
+        estimate = f"{bar.mean:.3g} [{bar.low:.3g}, {bar.high:.3g}]"
+    verdict = "met" if bar.met else "NOT met"
+    if not bar.can_fail:
+        verdict = "cannot fail, not counted"
+    head = "PRIMARY " if bar.primary else ""
+    return f"{head}{bar.endpoint}, {where}: {estimate} ({bar.rule}: {verdict})"
+
+
+def _frames(value: float | int | None) -> str:
+    return "beyond" if value is None else f"{value:,.0f}"
+
+
+def _listed(values: tuple[int, ...]) -> str:
+    return ", ".join(str(v) for v in values)
