@@ -25,7 +25,14 @@ from typing import TYPE_CHECKING, Any
 import typer
 from rich import box
 from rich.console import Console
-from rich.progress import BarColumn, MofNCompleteColumn, Progress, TextColumn, TimeElapsedColumn
+from rich.progress import (
+    BarColumn,
+    MofNCompleteColumn,
+    Progress,
+    TextColumn,
+    TimeElapsedColumn,
+    TimeRemainingColumn,
+)
 from rich.table import Table
 from rich.text import Text
 
@@ -44,11 +51,20 @@ def progress_bar(total: int, label: str) -> Iterator[Callable[[int], None]]:
     """A progress bar on stderr; yields the ``advance(n)`` callback services take.
 
     What it shows stays within 0 and ``total`` (itself at least 0): a service may count
-    past its estimate (a frame budget is grown in whole expansions), never below 0.
+    past its estimate (a frame budget is grown in whole expansions), never below 0. The
+    time left is rich's estimate from the recent rate: long runs (an experiment takes
+    hours) say when they will end.
     """
     total = max(total, 0)
     done = 0
-    columns = (TextColumn(label), BarColumn(), MofNCompleteColumn(), TimeElapsedColumn())
+    columns = (
+        TextColumn(label),
+        BarColumn(),
+        MofNCompleteColumn(),
+        TimeElapsedColumn(),
+        TextColumn("left"),
+        TimeRemainingColumn(),
+    )
     with Progress(*columns, console=Console(stderr=True), transient=False) as bar:
         task = bar.add_task(label, total=total)
 

@@ -81,6 +81,20 @@ def test_an_interrupted_run_reports_the_epochs_it_grew(tmp_path: Path) -> None:
     assert result["frames"] > 120  # the toy's tree (120 frames) and two epochs more
 
 
+def _epochs_planned(database: str) -> int:
+    """Growth epochs in the bench's scratch database (0 before its schema exists)."""
+    url = make_url(Settings().scratch_postgres_url).set(database=database)
+    engine = make_engine(url.render_as_string(False))
+    try:
+        with engine.connect() as connection:
+            exists = connection.scalar(text("SELECT to_regclass('growth_epochs') IS NOT NULL"))
+            return (
+                int(connection.scalar(text("SELECT count(*) FROM growth_epochs"))) if exists else 0
+            )
+    finally:
+        engine.dispose()
+
+
 def _scratch_databases() -> set[str]:
     server = make_url(Settings().scratch_postgres_url).set(database="postgres")
     admin = make_engine(server.render_as_string(False), isolation_level="AUTOCOMMIT")
@@ -105,7 +119,10 @@ def test_a_killed_run_reports_what_it_grew_and_drops_its_database(tmp_path: Path
     while not (new := _scratch_databases() - before):
         assert process.poll() is None and time.monotonic() < deadline
         time.sleep(0.2)
-    time.sleep(3)  # a few epochs
+    # a state, not a clock: the second epoch is planned only once the first is grown
+    while _epochs_planned(*new) < 2:
+        assert process.poll() is None and time.monotonic() < deadline
+        time.sleep(0.2)
     process.send_signal(signal.SIGTERM)
     out, err = process.communicate(timeout=120)
     assert process.returncode == 0, err.decode()

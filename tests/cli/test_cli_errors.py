@@ -328,6 +328,7 @@ def test_the_progress_bar_stays_within_zero_and_its_total(
     err = capsys.readouterr().err
     assert "0/0" in err and "27/27" in err and "0/10" in err
     assert "-5" not in err and "40/27" not in err and "-4/10" not in err
+    assert err.count(" left ") == 3  # every bar says how long it has to go
 
 
 # ---- growth after huge traces (STATERANK's non-convergence) ---------------------------
