@@ -29,7 +29,7 @@ from app.db.migrations import alembic_config
 
 ROOT = Path(__file__).resolve().parents[2]
 #: what the distribution is built from: the package, its migrations, their metadata
-SOURCES = ("pyproject.toml", "README.md", "app", "alembic")
+SOURCES = ("pyproject.toml", "README.md", "LICENSE", "app", "alembic")
 IGNORED = shutil.ignore_patterns("__pycache__", "*.pyc")
 
 
@@ -52,8 +52,19 @@ def wheel(sources: Path, tmp_path_factory: pytest.TempPathFactory) -> Path:
     build = [*pip_wheel, "--no-build-isolation", "--check-build-dependencies", "-w", str(out)]
     done = subprocess.run([*build, str(sources)], capture_output=True, text=True)
     assert done.returncode == 0, done.stdout + done.stderr
+    assert "Warning" not in done.stdout + done.stderr, done.stdout + done.stderr
     (built,) = out.glob("srg-*.whl")
     return built
+
+
+@pytest.mark.slow
+def test_the_wheel_says_its_licence_and_what_it_is(wheel: Path) -> None:
+    with zipfile.ZipFile(wheel) as archive:
+        (name,) = [n for n in archive.namelist() if n.endswith(".dist-info/METADATA")]
+        metadata = archive.read(name).decode()
+        assert any(n.endswith("licenses/LICENSE") for n in archive.namelist())
+    assert "License-Expression: Apache-2.0" in metadata
+    assert "Classifier: Programming Language :: Python :: 3.11" in metadata
 
 
 @pytest.mark.slow
