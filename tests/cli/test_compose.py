@@ -109,6 +109,29 @@ def test_the_api_healthcheck_asks_the_health_route_on_the_served_port(
     assert f"{port}:{port}" in api["ports"]
 
 
+def test_every_long_running_service_has_a_healthcheck_of_its_own(
+    services: dict[str, Any],
+) -> None:
+    """Compose restarts and orders by health: a worker, beat or Flower that hangs must
+    show as unhealthy. Each check asks what its own command serves or writes."""
+    import app.tasks
+
+    for name, service in services.items():
+        if name != "migrate":
+            assert "healthcheck" in service, name
+    worker = " ".join(services["worker"]["healthcheck"]["test"])
+    module, attribute = re.search(r"-A (\S+)", worker).group(1).split(":")  # type: ignore[union-attr]
+    assert module == "app.tasks" and hasattr(app.tasks, attribute)
+    assert "inspect ping -d celery@$$HOSTNAME" in worker  # its own node, not any worker
+    beat = services["beat"]
+    schedule = parse_srg(beat["command"][1:]).params["schedule"]
+    assert f"glob.glob('{schedule}*')" in " ".join(beat["healthcheck"]["test"])
+    flower = services["flower"]
+    port = parse_srg(flower["command"][1:]).params["port"]
+    check = " ".join(flower["healthcheck"]["test"])
+    assert f"http://127.0.0.1:{port}/healthcheck" in check
+
+
 def test_the_image_is_a_normal_pinned_install_as_a_user_with_libllvm_and_pocl() -> None:
     text = DOCKERFILE.read_text()
     installs = [line for line in text.splitlines() if "pip install" in line]
