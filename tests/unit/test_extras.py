@@ -84,3 +84,11 @@ def test_all_gathers_every_extra_of_the_product() -> None:
     (everything,) = EXTRAS["all"]
     match = re.fullmatch(r"srg\[([a-z,]+)\]", everything)
     assert match and set(match.group(1).split(",")) == PRODUCT_EXTRAS
+
+
+def test_the_quick_starts_extras_serve_the_docs_site() -> None:
+    """The README sends a reader to `mkdocs serve` after the quick start, which installs
+    ``all``: the site's engine and theme must come with it, not only with ``test``."""
+    gathered = re.search(r"\[(.*)\]", EXTRAS["all"][0])
+    assert gathered is not None and "docs" in gathered.group(1).split(",")
+    assert {"mkdocs", "mkdocs-material"} <= {_name(r) for r in EXTRAS["docs"]}
