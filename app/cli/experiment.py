@@ -202,9 +202,14 @@ def experiment(
                 err=json_output,
             )
         judged = [target for row in rows for target in row.get("targets", [])]
+        measured = [target for target in judged if target["value"] is not None]
         if judged:
-            met = sum(target["met"] for target in judged)
-            typer.echo(f"{bot}: {met} of {len(judged)} targets met", err=json_output)
+            met = sum(target["met"] for target in measured)
+            waiting = len(judged) - len(measured)
+            unmeasured = f", {waiting} not measured" if waiting else ""
+            if len(plan.seeds) < 2 and waiting:
+                unmeasured = f", {waiting} need an interval over worlds"
+            typer.echo(f"{bot}: {met} of {len(judged)} targets met{unmeasured}", err=json_output)
     typer.echo(f"report: {report}", err=True)
 
 

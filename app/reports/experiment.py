@@ -255,7 +255,7 @@ def comparison_section(result: dict[str, Any]) -> list[str]:
                 + f" | {_interval_cell(row.get('high_error_difference'), 3)} |"
             )
     lines += ["", f"Intervals: {'; '.join(f'{k}, {m}' for k, m in methods.items())}."]
-    lines += _targets_table(comparison)
+    lines += _targets_table(comparison, seeds)
     return lines
 
 
@@ -274,8 +274,12 @@ def _interval_cell(compared: dict[str, Any] | None, digits: int = 2) -> str:
     return "" if compared is None else interval_text(compared, digits)
 
 
-def _targets_table(comparison: dict[str, Any]) -> list[str]:
-    """Each crowd's targets (app.core.comparison.targets): the number, the bar, met or not."""
+def _targets_table(comparison: dict[str, Any], seeds: int) -> list[str]:
+    """Each crowd's targets (app.core.comparison.targets): the number, the bar, met or not.
+
+    One world (the demo) gives no interval: the targets that need one are not judged
+    there but named as needing more worlds, so a one-world run reports what it can say
+    instead of a verdict it cannot reach."""
     judged = [
         (bot, t) for bot, rows in comparison.items() for r in rows for t in r.get("targets", [])
     ]
@@ -297,9 +301,11 @@ def _targets_table(comparison: dict[str, Any]) -> list[str]:
     ]
     lines += [
         f"| {bot} | {t['frames']} | {t['target']} | {_number(t['value'], 3)} "
-        f"| {t['relation']} {t['bar']:g} | {_verdict(t)} |"
+        f"| {t['relation']} {t['bar']:g} | {_verdict(t, seeds)} |"
         for bot, t in judged
     ]
+    if seeds < 2:
+        return lines + ["", _one_world(judged)]
     verdicts = [
         f"{bot}: {'all met' if rows[-1]['meets_targets'] else 'NOT all met'}"
         for bot, rows in comparison.items()
@@ -308,12 +314,28 @@ def _targets_table(comparison: dict[str, Any]) -> list[str]:
     return lines + ["", "; ".join(verdicts) + "."]
 
 
-def _verdict(target: dict[str, Any]) -> str:
-    """A target without its number (a strategy the run did not grow) is not met, and the
-    report says why."""
+def _one_world(judged: list[tuple[str, dict[str, Any]]]) -> str:
+    """What one world can say of its targets: those with a number, and how many wait for
+    an interval over worlds (``srg experiment --seeds 0,1,2``)."""
+    parts = []
+    for bot in dict.fromkeys(b for b, _ in judged):
+        mine = [t for b, t in judged if b == bot]
+        measured = [t for t in mine if t["value"] is not None]
+        parts.append(
+            f"{bot}: {sum(t['met'] for t in measured)} of the {len(measured)} targets one "
+            f"world measures met, {len(mine) - len(measured)} need an interval over worlds"
+        )
+    return "One world: " + "; ".join(parts) + " (`srg experiment --seeds 0,1,2` judges them all)."
+
+
+def _verdict(target: dict[str, Any], seeds: int) -> str:
+    """A target without its number is not met, and the report says why: one world gives
+    no interval; otherwise the run did not grow a strategy the target compares."""
     if target["met"]:
         return "met"
-    return "NOT met" if target["value"] is not None else "NOT met: not measured"
+    if target["value"] is not None:
+        return "NOT met"
+    return "needs more worlds" if seeds < 2 else "NOT met: not measured"
 
 
 def interval_text(compared: dict[str, Any], digits: int = 2) -> str:

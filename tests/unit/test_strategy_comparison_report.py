@@ -105,3 +105,21 @@ def test_a_target_on_a_strategy_not_grown_is_reported_not_met_and_not_measured()
         in lines
     )
     assert rows[-1]["meets_targets"] is False
+
+
+def test_one_world_names_the_targets_it_cannot_judge_instead_of_failing_them() -> None:
+    """The demo grows one world: a target that needs an interval over worlds is not
+    "NOT met" there but waits for more worlds, and no verdict line is printed."""
+    one = ExperimentPlan(
+        strategies=(Strategy.BASELINE, Strategy.SR_HEURISTIC, Strategy.SR_CROWD),
+        seeds=(0,),
+        checkpoints=(2_000, 5_000),
+    )
+    rows = compare_strategies(one, samples(one))["goal-directed"]
+    lines = comparison_section({"plan": one.to_dict(), "comparison": {"goal-directed": rows}})
+    text = "\n".join(lines)
+    assert "| needs more worlds |" in text and "NOT met: not measured" not in text
+    assert not any("NOT all met" in line for line in lines)
+    (summary,) = [line for line in lines if line.startswith("One world: ")]
+    waiting = sum("needs more worlds" in line for line in lines)
+    assert f"{waiting} need an interval over worlds" in summary
