@@ -16,6 +16,7 @@ from sqlalchemy import text
 from sqlalchemy.engine import make_url
 
 from alembic import command
+from app.db.data_loss import DROP_DATA
 from app.db.engines import make_engine
 
 ROOT = Path(__file__).resolve().parents[1]
@@ -26,18 +27,24 @@ def postgres_base_url() -> str:
     return os.environ.get("SRG_TEST_POSTGRES_URL", DEFAULT_POSTGRES_URL)
 
 
-def alembic_config(connection: object | None = None) -> Config:
+def alembic_config(connection: object | None = None, *, drop_data: bool = False) -> Config:
+    """Alembic's Config of this checkout's ``alembic.ini``, optionally bound to an open
+    connection (on SQLite, one in a transaction needs ``foreign_keys_off`` entered before
+    it began); ``drop_data`` lets a run lose stored data (app.db.data_loss)."""
     config = Config(str(ROOT / "alembic.ini"))
     config.attributes["configure_logger"] = False
+    config.attributes[DROP_DATA] = drop_data
     if connection is not None:
         config.attributes["connection"] = connection
     return config
 
 
 def migrate(url: str, revision: str = "head") -> None:
+    """Upgrade ``url`` to ``revision`` in one transaction (Alembic's own, on a connection
+    handed over outside one: env.py turns SQLite's foreign keys off before it begins)."""
     engine = make_engine(url)
     try:
-        with engine.begin() as connection:
+        with engine.connect() as connection:
             command.upgrade(alembic_config(connection), revision)
     finally:
         engine.dispose()

@@ -34,6 +34,10 @@ depends_on: str | Sequence[str] | None = None
 
 EDGE_KINDS = [(0, 'sim'), (1, 'blend')]
 
+#: tables of rows this migration writes itself: its downgrade drops them, losing nothing
+#: of the user's (app.db.data_loss)
+OWN_ROWS = ('edge_kinds',)
+
 ANALYTICS_SESSIONS = """
 CREATE VIEW analytics_sessions AS
 SELECT t.id AS trace_id,

@@ -39,6 +39,7 @@ from app.db.errors import (
     shown_database,
     unavailable_raised,
 )
+from app.db.foreign_keys import foreign_keys_off
 from app.db.migrations import alembic_config
 
 #: how long a SQLite writer waits for another's transaction: embedded runs share one file,
@@ -178,13 +179,14 @@ def create_embedded_schema(engine: Engine) -> bool:
     A database with tables is left alone, whatever their revision (``srg db upgrade``
     moves it). The check and the migration share one writer's transaction (BEGIN
     IMMEDIATE on SQLite), so two commands started at once on a fresh checkout migrate
-    it once.
+    it once; SQLite's foreign keys go off before it begins, as every migration needs
+    (:mod:`app.db.foreign_keys`).
     """
     from alembic import command
 
     with unavailable_raised(engine):
         writer = engine.connect().execution_options(**{SQLITE_BEGIN: "IMMEDIATE"})
-        with writer as connection, connection.begin():
+        with writer as connection, foreign_keys_off(connection), connection.begin():
             if inspect(connection).get_table_names():
                 return False
             command.upgrade(alembic_config(connection), "head")

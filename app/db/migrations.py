@@ -11,6 +11,7 @@ from typing import Any
 
 from sqlalchemy import Engine
 
+from app.db.data_loss import DROP_DATA
 from app.db.errors import UPGRADE_HINT, DatabaseNotReady, shown_database, unavailable_raised
 
 ROOT = Path(__file__).resolve().parents[2]
@@ -28,16 +29,20 @@ def migrations_dir() -> Path:
     return installed if installed.is_dir() else ROOT / "alembic"
 
 
-def alembic_config(connection: Any = None) -> Any:
-    """Alembic's Config of srg's migrations, optionally bound to an open ``connection``.
+def alembic_config(connection: Any = None, *, drop_data: bool = False) -> Any:
+    """Alembic's Config of srg's migrations, optionally bound to an open ``connection``;
+    with ``drop_data``, a run may lose stored rows and values (:mod:`app.db.data_loss`).
 
     Built here, not read from ``alembic.ini``, so that an installed srg (no checkout, no
-    ini) migrates too; the database URL comes from Settings in ``env.py`` either way.
+    ini) migrates too; the database URL comes from Settings in ``env.py`` either way. On
+    SQLite an open connection in a transaction must have its foreign keys off
+    (:func:`app.db.foreign_keys.foreign_keys_off`, entered before the transaction began).
     """
     from alembic.config import Config
 
     config = Config()
     config.set_main_option("script_location", str(migrations_dir()))
+    config.attributes[DROP_DATA] = drop_data
     if connection is not None:
         config.attributes["connection"] = connection
     return config

@@ -3,6 +3,7 @@
 from __future__ import annotations
 
 from collections.abc import Callable
+from pathlib import Path
 
 import pytest
 from alembic.autogenerate import compare_metadata
@@ -14,6 +15,7 @@ from sqlalchemy.exc import IntegrityError
 
 from alembic import command
 from app.db.engines import make_engine
+from app.db.foreign_keys import foreign_keys_off
 from app.models import Base
 
 
@@ -26,7 +28,7 @@ def test_upgrade_downgrade_upgrade_matches_models(
 ) -> None:
     engine = make_engine(empty_db_url)
     try:
-        with engine.begin() as connection:
+        with engine.connect() as connection, foreign_keys_off(connection), connection.begin():
             config = make_alembic_config(connection)
             command.upgrade(config, "head")
             assert set(Base.metadata.tables) <= set(inspect(connection).get_table_names())
@@ -47,7 +49,7 @@ def test_0007_renames_human_players_to_people_and_back(
     kinds = text("SELECT name, kind FROM players ORDER BY name")
     engine = make_engine(empty_db_url)
     try:
-        with engine.begin() as connection:
+        with engine.connect() as connection, foreign_keys_off(connection), connection.begin():
             config = make_alembic_config(connection)
             command.upgrade(config, "0006")
             for name, kind in (("a-browser", "human"), ("bot-random", "bot")):
@@ -66,5 +68,26 @@ def test_0007_renames_human_players_to_people_and_back(
                 ("a-browser", "human"),
                 ("bot-random", "bot"),
             ]
+    finally:
+        engine.dispose()
+
+
+def test_foreign_keys_go_off_only_outside_a_sqlite_transaction(tmp_path: Path) -> None:
+    """SQLite ignores PRAGMA foreign_keys inside a transaction, where a migration with them
+    on would cascade through batch mode's table copies: refused before anything runs.
+    Outside one they go off for the block and on again after."""
+    engine = make_engine(f"sqlite:///{tmp_path / 'srg.sqlite3'}")
+    enforced = text("PRAGMA foreign_keys")
+    try:
+        with (
+            engine.begin() as connection,
+            pytest.raises(RuntimeError, match="before beginning one"),
+            foreign_keys_off(connection),
+        ):
+            pass
+        with engine.connect() as connection:
+            with foreign_keys_off(connection), connection.begin():
+                assert connection.execute(enforced).scalar() == 0
+            assert connection.execute(enforced).scalar() == 1
     finally:
         engine.dispose()
