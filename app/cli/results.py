@@ -47,7 +47,7 @@ def scoreboard(
     if board.missing:
         typer.echo(f"not reached by every run: {_listed(board.missing)} frames")
     for bar in (board.primary, *board.bars):
-        typer.echo(_bar_line(bar))
+        typer.echo(_bar_line(bar, reached=bar.frames not in board.missing))
     for clean in board.clean:
         spread = "; ".join(
             f"{strategy} {_frames(s['median'])} ({_frames(s['min'])}-{_frames(s['max'])}, "
@@ -59,14 +59,16 @@ def scoreboard(
     typer.echo(f"{met} of {judged} bars that can fail met")
 
 
-def _bar_line(bar: Bar) -> str:
-    where = f"{bar.players} at {bar.frames}" if bar.frames else "over worlds"
+def _bar_line(bar: Bar, *, reached: bool) -> str:
+    where = f"{bar.players} at {bar.frames}" if bar.players else f"over worlds, to {bar.frames}"
     if bar.low is None or bar.high is None:
         estimate = "n/a" if bar.mean is None else f"{bar.mean:.3g}"
     else:
         estimate = f"{bar.mean:.3g} [{bar.low:.3g}, {bar.high:.3g}]"
     verdict = "met" if bar.met else "NOT met"
-    if not bar.can_fail:
+    if not reached:
+        verdict = "not reached by every run yet, not counted"
+    elif not bar.can_fail:
         verdict = "cannot fail, not counted"
     head = "PRIMARY " if bar.primary else ""
     return f"{head}{bar.endpoint}, {where}: {estimate} ({bar.rule}: {verdict})"

@@ -124,10 +124,11 @@ class CleanGame:
             for strategy, values in self.per_world.items()
         }
 
-    def judged(self, crowd: str, others: Sequence[str], first_frames: int) -> Bar:
+    def judged(self, crowd: str, others: Sequence[str], frames: Sequence[int]) -> Bar:
         """sr-crowd's median at most every other arm's, and fewer frames than the first
-        other arm (the control) in more worlds than the reverse. Every arm clean at the
-        first checkpoint in every world cannot fail."""
+        other arm (the control) in more worlds than the reverse, over the checkpoints
+        ``frames``: the bar belongs to the last of them, since "stays clean" needs them
+        all. Every arm clean at the first checkpoint in every world cannot fail."""
         mine = np.asarray(self.per_world[crowd])
         control = np.asarray(self.per_world[others[0]])
         medians = {s: float(np.median(v)) for s, v in self.per_world.items()}
@@ -137,7 +138,7 @@ class CleanGame:
         return Bar(
             f"frames to under {self.bar:.1%} visibly wrong, {crowd} against " + ", ".join(others),
             "",
-            0,
+            frames[-1],
             _frames(medians[crowd]),
             None,
             None,
@@ -145,7 +146,7 @@ class CleanGame:
             f"median <= the others', fewer frames than {others[0]} in more worlds than "
             f"not ({fewer} against {more})",
             met,
-            not bool(np.all(everyone <= first_frames)),
+            not bool(np.all(everyone <= frames[0])),
         )
 
 

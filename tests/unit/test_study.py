@@ -211,13 +211,14 @@ def test_clean_game_bar_needs_the_median_and_more_worlds_won() -> None:
             "baseline": [5_000, inf, inf],
         },
     )
-    bar = game.judged("sr-crowd", ("sr-heuristic", "baseline"), 1_000)
-    assert bar.met and bar.can_fail and bar.mean == 3_000
+    frames = (1_000, 2_000, 3_000, 5_000)
+    bar = game.judged("sr-crowd", ("sr-heuristic", "baseline"), frames)
+    assert bar.met and bar.can_fail and bar.mean == 3_000 and bar.frames == 5_000
     assert game.summary()["baseline"] == {"median": None, "min": 5_000, "max": None, "reached": 1}
     tied = CleanGame(0.01, {s: [2_000, 3_000] for s in ("sr-crowd", "sr-heuristic", "baseline")})
-    assert not tied.judged("sr-crowd", ("sr-heuristic", "baseline"), 1_000).met
+    assert not tied.judged("sr-crowd", ("sr-heuristic", "baseline"), frames).met
     clean = CleanGame(0.01, {s: [1_000, 1_000] for s in ("sr-crowd", "sr-heuristic", "baseline")})
-    assert not clean.judged("sr-crowd", ("sr-heuristic", "baseline"), 1_000).can_fail
+    assert not clean.judged("sr-crowd", ("sr-heuristic", "baseline"), frames).can_fail
 
 
 def test_a_bar_with_nothing_in_it_cannot_fail_and_a_missing_world_is_not_met() -> None:

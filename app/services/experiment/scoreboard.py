@@ -142,7 +142,7 @@ def scoreboard(
             )
         )
     clean = [clean_game(figures, plan, primary_players, bar, reached) for bar in CLEAN_BARS]
-    bars += [game.judged(CROWD, (HEURISTIC, BASELINE), plan.checkpoints[0]) for game in clean]
+    bars += [game.judged(CROWD, (HEURISTIC, BASELINE), plan.checkpoints) for game in clean]
     missing = tuple(c for i, c in enumerate(plan.checkpoints) if i not in reached)
     return Scoreboard(name, plan.checkpoints, plan.seeds, primary, bars, clean, missing)
 
