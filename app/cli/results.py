@@ -28,6 +28,11 @@ def scoreboard(
         help="an outside judge's JSON lines on the experiment's publications (one per "
         "world, strategy and publication: publication_id, mean_error, high_share)",
     ),
+    figures: Path | None = typer.Option(
+        None,
+        help="also draw the visibly-wrong share against frames and the error histograms "
+        "(the paper's Figs. 6 and 7) into this directory",
+    ),
     json_output: bool = typer.Option(False, "--json", help=JSON_HELP),
 ) -> None:
     """The primary endpoint, every bar with its interval and verdict, and frames to a
@@ -38,8 +43,13 @@ def scoreboard(
     """
     from app.config import get_settings
     from app.services.experiment.scoreboard import scoreboard as judge
+    from app.services.experiment.scoreboard import scoreboard_figures
 
-    board = judge(get_settings(), name, primary_players=primary_players, outside=outside)
+    settings = get_settings()
+    board = judge(settings, name, primary_players=primary_players, outside=outside)
+    if figures is not None:
+        for drawn in scoreboard_figures(settings, name, figures, primary_players=primary_players):
+            typer.echo(f"figure: {drawn}", err=True)
     if json_output:
         emit(board.to_dict(), as_json=True)
         return

@@ -78,13 +78,13 @@ def high_error_threshold(result: dict[str, Any]) -> float:
     return float(rows[-1]["high_error_threshold"])
 
 
-def _save(fig: Figure, path: Path) -> Path:
+def save_figure(fig: Figure, path: Path) -> Path:
     fig.savefig(path, dpi=110)
     plt.close(fig)
     return path
 
 
-def _tick_at_checkpoints(ax: Any, checkpoints: list[int]) -> None:
+def tick_at_checkpoints(ax: Any, checkpoints: list[int]) -> None:
     """Log x ticks at the checkpoints alone, written out: a log axis's own ticks within
     one decade are minor ones labelled 3x10^2, 4x10^2, which no checkpoint is."""
     ax.set_xticks(checkpoints, labels=[f"{c:,}" for c in checkpoints])
@@ -110,7 +110,7 @@ def plot_metric(result: dict[str, Any], key: str, title: str, ylabel: str, path:
             banded = max(banded, values.shape[0])
         n_points = max(n_points, sizes.size)
     ax.set_xscale("log")
-    _tick_at_checkpoints(ax, list(result["plan"]["checkpoints"][:n_points]))
+    tick_at_checkpoints(ax, list(result["plan"]["checkpoints"][:n_points]))
     ax.set_xlabel("graph size (simulated frames; ticks at the checkpoints)")
     ax.set_ylabel(ylabel.format(unit=error_unit(result)))
     seeds = len(result["plan"]["seeds"])
@@ -121,7 +121,7 @@ def plot_metric(result: dict[str, Any], key: str, title: str, ylabel: str, path:
         label = f"{round(100 * BAND_LEVEL)} % interval over {banded} seeds"
         handles.append(Patch(color="grey", alpha=0.3, label=label))
     fig.legend(handles=handles, loc="outside lower center", ncols=3, fontsize=8)
-    return _save(fig, path)
+    return save_figure(fig, path)
 
 
 def _last_arrays(
@@ -153,7 +153,7 @@ def plot_histograms(result: dict[str, Any], load_arrays: ArraysLoader, path: Pat
     ax.set_title(f"Errors players saw at {size:,} frames (Fig. 7)")
     ax.grid(alpha=0.3)
     fig.legend(loc="outside lower center", ncols=3, fontsize=8)
-    return _save(fig, path)
+    return save_figure(fig, path)
 
 
 def plot_density_scatter(result: dict[str, Any], load_arrays: ArraysLoader, path: Path) -> Path:
@@ -183,7 +183,7 @@ def plot_density_scatter(result: dict[str, Any], load_arrays: ArraysLoader, path
         "(Figs. 8/9; on the bottom edge: edges no bot took)",
         fontsize=10,
     )
-    return _save(fig, path)
+    return save_figure(fig, path)
 
 
 def _layout(descriptors: np.ndarray) -> np.ndarray:
@@ -243,4 +243,4 @@ def plot_density_graph(
     fig.suptitle(
         f"Edge-visit densities on the {strategy} graph ({size} vertices, SIM edges)", fontsize=10
     )
-    return _save(fig, path)
+    return save_figure(fig, path)

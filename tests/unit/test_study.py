@@ -23,7 +23,7 @@ from app.models import Trace
 from app.services.experiment.plan import ExperimentPlan, create_experiment, stored_plan
 from app.services.experiment.preregistration import check_preregistration, preregistration_of
 from app.services.experiment.runs import grow_in_process, run_experiment
-from app.services.experiment.scoreboard import scoreboard, stored_figures
+from app.services.experiment.scoreboard import scoreboard, scoreboard_figures, stored_figures
 from app.services.loading import artifact_store
 from app.store.experiments import checkpoint_rows
 
@@ -160,6 +160,14 @@ def test_the_primary_is_the_fresh_populations_pooled_steps(mixed_runs: dict[str,
     assert board.primary.high == pytest.approx(expected.high)
     figures = stored_figures(settings, "judged", stored_plan(settings, "judged"))
     assert ("fresh-population", "baseline", 21, 0) in figures
+
+
+def test_the_scoreboard_draws_figs_6_and_7_of_the_primarys_players(
+    mixed_runs: dict[str, Any], tmp_path: Path
+) -> None:
+    drawn = scoreboard_figures(mixed_runs["settings"], "judged", tmp_path / "figures")
+    assert [p.name for p in drawn] == ["visibly-wrong.png", "error-histograms.png"]
+    assert all(p.read_bytes().startswith(b"\x89PNG") for p in drawn)
 
 
 def _experiment_id(session: Any, name: str) -> int:

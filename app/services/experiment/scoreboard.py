@@ -147,6 +147,43 @@ def scoreboard(
     return Scoreboard(name, plan.checkpoints, plan.seeds, primary, bars, clean, missing)
 
 
+def scoreboard_figures(
+    settings: Settings, name: str, out: Path, *, primary_players: str | None = None
+) -> list[Path]:
+    """The paper's Figs. 6 and 7 for the primary's players at every checkpoint every run
+    reached: the visibly-wrong share against frames, and the errors met per checkpoint,
+    the three strategies beside each other (:mod:`app.reports.scoreboard`)."""
+    from app.reports.scoreboard import plot_error_histograms, plot_visibly_wrong
+
+    board = scoreboard(settings, name, primary_players=primary_players)
+    plan = stored_plan(settings, name)
+    steps, threshold = stored_steps(settings, name, plan)
+    players = board.primary.players
+    reached = [i for i, c in enumerate(plan.checkpoints) if c not in board.missing]
+    if not reached:
+        raise InvalidInput(f"{name} has no checkpoint every run reached: no figure yet")
+    frames = [plan.checkpoints[i] for i in reached]
+    strategies = (BASELINE, HEURISTIC, CROWD)
+    shares = {
+        s: np.array(
+            [
+                [np.mean(steps[(players, s, seed, i)] > threshold) for i in reached]
+                for seed in plan.seeds
+            ]
+        )
+        for s in strategies
+    }
+    errors = {
+        s: [np.concatenate([steps[(players, s, seed, i)] for seed in plan.seeds]) for i in reached]
+        for s in strategies
+    }
+    out.mkdir(parents=True, exist_ok=True)
+    return [
+        plot_visibly_wrong(shares, frames, players, out / "visibly-wrong.png"),
+        plot_error_histograms(errors, frames, threshold, players, out / "error-histograms.png"),
+    ]
+
+
 def clean_game(
     figures: Figures, plan: ExperimentPlan, players: str, bar: float, reached: list[int]
 ) -> CleanGame:
@@ -164,22 +201,33 @@ def clean_game(
 def stored_figures(settings: Settings, name: str, plan: ExperimentPlan) -> Figures:
     """Each stored row's mean error per step and visibly-wrong share, and each
     population's, from its members' steps together."""
+    steps, threshold = stored_steps(settings, name, plan)
+    return {key: _figures(errors, threshold) for key, errors in steps.items()}
+
+
+def stored_steps(
+    settings: Settings, name: str, plan: ExperimentPlan
+) -> tuple[dict[tuple[str, str, int, int], np.ndarray], float]:
+    """Each stored row's per-step errors (and each population's: its members' steps
+    together) by (players, strategy, seed, checkpoint index), and the visibility
+    threshold the plan fixed."""
     with transaction(settings) as session:
         rows = checkpoint_rows(session, stored_experiment_id(session, name))
     artifacts = artifact_store(settings)
-    steps: dict[tuple[str, str, int, int], np.ndarray] = {}
-    thresholds: dict[tuple[str, str, int, int], float] = {}
-    for row in rows:
-        key = (row.bot, row.strategy, row.seed, row.checkpoint)
-        steps[key] = artifacts.get_arrays(row.arrays, ("step_errors",))["step_errors"]
-        thresholds[key] = float(row.figures["high_error_threshold"])
+    steps = {
+        (row.bot, row.strategy, row.seed, row.checkpoint): artifacts.get_arrays(
+            row.arrays, ("step_errors",)
+        )["step_errors"]
+        for row in rows
+    }
     for label, members in plan.populations.items():
         for _, strategy, seed, index in [k for k in list(steps) if k[0] == members[0]]:
             keys = [(m, strategy, seed, index) for m in members]
             if all(k in steps for k in keys):
                 steps[(label, strategy, seed, index)] = np.concatenate([steps[k] for k in keys])
-                thresholds[(label, strategy, seed, index)] = thresholds[keys[0]]
-    return {key: _figures(errors, thresholds[key]) for key, errors in steps.items()}
+    # one threshold, fixed in the plan when the experiment was made, on every row
+    threshold = float(rows[0].figures["high_error_threshold"]) if rows else 0.0
+    return steps, threshold
 
 
 def outside_figures(settings: Settings, name: str, path: Path) -> Figures:
