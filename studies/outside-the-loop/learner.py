@@ -45,8 +45,9 @@ keys made of round, publication, seed, graph position and session, so a rerun on
 publication stores nothing twice.
 
 Per graph it fetches the latest publication (``GET /api/graphs/{name}/publication``),
-plays ``--sessions`` sessions (30) on ``np.random.default_rng([seed, round, position])``,
-``position`` the graph's place on the command line, uploads each session as a trace, and
+plays ``--sessions`` sessions (30) on ``np.random.default_rng([seed, round])``, the same
+stream on every graph of the round (so the strategies are compared on the same draws, as
+the tilt-holder's are), uploads each session as a trace, and
 prints one JSON line::
 
     {"graph", "round", "publication_id", "size_frames", "mean_error", "high_share",
@@ -200,7 +201,7 @@ def play_graph(
     session's score and steps to ``added`` (per hold length); the graph's report line."""
     _, publication = request(f"{url}/api/graphs/{quote(graph, safe='')}/publication")
     vertices = publication["vertices"]
-    rng = np.random.default_rng([seed, round_, position])
+    rng = np.random.default_rng([seed, round_])
     errors: list[float] = []
     blends: list[bool] = []
     holds = {h: 0 for h in HOLDS}
@@ -251,7 +252,7 @@ def main(argv: list[str] | None = None) -> None:
         "state", type=Path, help="the learner's JSON state file (created if absent)"
     )
     parser.add_argument("round", type=int, help="the round, 0 first: temperature 1 / (1 + round)")
-    parser.add_argument("seed", type=int, help="seed of the sessions (with the round and position)")
+    parser.add_argument("seed", type=int, help="seed of the sessions (with the round)")
     parser.add_argument("threshold", type=float, help="high-error threshold of the dynamics")
     parser.add_argument("graphs", nargs="+", help="the graphs of this round, in a fixed order")
     parser.add_argument("--sessions", type=int, default=SESSIONS, help="sessions per graph")
