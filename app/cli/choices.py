@@ -113,6 +113,6 @@ def choice_list(kind: type[E], *, what: str, help: str) -> Any:  # noqa: A002 (t
         None,
         parser=parser.parse,
         autocompletion=parser.complete,
-        metavar=f"<{'|'.join(values)}>,...",
+        metavar=f"{what.upper()},...",  # the help lists the values: no fold mid-word
         help=f"{help} (comma-separated: {', '.join(values)})",
     )

@@ -9,6 +9,7 @@ from __future__ import annotations
 import sys
 from collections.abc import Callable
 from importlib.metadata import version
+from typing import Any
 
 import typer
 
@@ -77,10 +78,47 @@ for name, command in COMMANDS.items():
     app.command(name)(command)
 
 
+def click_command() -> Any:
+    """``srg`` as the console script runs it: Typer's click command, its help made for a
+    terminal of any width (:func:`_tidy_help`)."""
+    command = typer.main.get_command(app)
+    _tidy_help(command)
+    return command
+
+
+def _tidy_help(command: Any) -> None:
+    """No metavar on a flag (click 8.5 writes ``<bool>``, but a flag takes no value);
+    spaces in a choice list, so that a narrow help table wraps it between choices, not
+    mid-word; each summary on one line, so that it wraps at the table's width instead of
+    at the docstring's line breaks, mid-sentence."""
+    for param in command.params:
+        if getattr(param, "is_flag", False):
+            param.metavar = ""
+        elif choices := getattr(param.type_descriptor, "choices", None):
+            param.metavar = "[" + " | ".join(str(getattr(c, "value", c)) for c in choices) + "]"
+    command.get_help_option = _without_metavar(command.get_help_option)
+    if command.help and not command.short_help:
+        command.short_help = " ".join(command.help.split("\n\n")[0].split())
+    for sub in getattr(command, "commands", {}).values():
+        _tidy_help(sub)
+
+
+def _without_metavar(make_option: Callable[[Any], Any]) -> Callable[[Any], Any]:
+    """``--help``, made per context, without the metavar of a value it does not take."""
+
+    def made(ctx: Any) -> Any:
+        option = make_option(ctx)
+        if option is not None:
+            option.metavar = ""
+        return option
+
+    return made
+
+
 def main() -> None:
     """The console script: run a command; a user's error, usage included, ends it in one
     line, exit 2 (click's own handling, ``standalone_mode``, would print usage boxes)."""
-    command = typer.main.get_command(app)
+    command = click_command()
     with user_errors_in_one_line():
         code = command.main(prog_name="srg", standalone_mode=False)
     sys.exit(code if isinstance(code, int) else 0)

@@ -15,12 +15,11 @@ from collections.abc import Iterator
 from typing import Any
 
 import annotated_types
-import typer
 from pydantic.fields import FieldInfo
 from pydantic_core import PydanticUndefined
 from pydantic_settings import BaseSettings
 
-from app.cli.main import app
+from app.cli.main import click_command
 from app.config import Settings
 
 #: the pages this module writes, by their path under docs/
@@ -30,7 +29,7 @@ COMMANDS_PAGE, CONFIGURATION_PAGE = "commands.md", "configuration.md"
 def root_command() -> Any:
     """The click command of ``srg``, as the console script builds it (Typer's own click
     classes, hence ``Any``: Typer ships its own copy of click)."""
-    return typer.main.get_command(app)
+    return click_command()
 
 
 def walk_commands(command: Any, path: tuple[str, ...] = ("srg",)) -> Iterator[tuple[str, Any]]:
