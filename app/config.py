@@ -31,6 +31,7 @@ from app.config_types import (
     DAY,
     GIB,
     MIB_PER_TIB,
+    BrokerURL,
     DatabaseURL,
     PostgresURL,
     RateLimits,
@@ -39,7 +40,6 @@ from app.config_types import (
 )
 from app.core.errors import InvalidInput
 from app.core.player_models import PlayerModelKind
-from app.core.rank_error import RankError
 
 _SOURCES = SettingsConfigDict(
     env_prefix="SRG_",
@@ -73,12 +73,10 @@ class GrowthSettings(BaseSettings):
         0.0, ge=0.0, le=1e6, description="crowd model kernel radius r (0: per dynamics)"
     )
     crowd_eps: float = Field(1e-3, gt=0.0, le=1.0, description="crowd model prior weight epsilon")
-    rank_error: RankError = Field(RankError.MEAN, description="how a blend's err costs")
     high_error_threshold: float = Field(0.0, ge=0.0, le=1e6, description="0: per dynamics default")
     player_model: PlayerModelKind = Field(
         PlayerModelKind.MIXED_ERROR,
-        description="crowd model of new sr-crowd graphs (docs/player-models.md): mixed-error, "
-        "mixed, mixed-held, mixed-split, mixed-forward, mixed-fresh, shrunk, knn, eq2, logit",
+        description="crowd model of new sr-crowd graphs (docs/player-models.md)",
     )
     reuse_simulations: bool = Field(
         True,
@@ -296,7 +294,7 @@ class Settings(BaseSettings):
         description="content-addressed clip bundles and animations, the same directory on "
         "every machine; unset: var_dir/data",
     )
-    broker_url: str = Field(
+    broker_url: BrokerURL = Field(
         "", description="Celery's broker (redis://...); '': tasks run eagerly, in-process"
     )
     result_backend: str = Field("", description="Celery's result backend; '': the broker")

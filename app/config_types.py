@@ -24,6 +24,14 @@ GIB, MIB_PER_TIB = 1 << 30, 1 << 20
 POSTGRESQL_SCHEMES = frozenset(["postgresql", "postgresql+psycopg"])
 DATABASE_SCHEMES = POSTGRESQL_SCHEMES | {"sqlite", "sqlite+pysqlite"}
 REDIS_SCHEMES = frozenset(["redis", "rediss", "unix"])
+#: the brokers Celery can use here: kombu's transports whose client library srg installs,
+#: Redis (``redis+socket``: on a Unix socket; ``sentinel``: through Redis Sentinel) and
+#: RabbitMQ's AMQP. Any other URL is refused: kombu reads ``notaurl`` as the name of an
+#: AMQP host, ``http://`` fails at the first task sent, and ``memory://`` (Celery's own
+#: broker of eager runs) is one process's queue, which no worker reads
+BROKER_SCHEMES = frozenset(
+    ["redis", "rediss", "redis+socket", "sentinel", "amqp", "amqps", "pyamqp"]
+)
 #: one limit of the ``limits`` notation (its parser's grammar) with a count of at least 1
 #: and the optional multiple of the period at least 1: ``limits`` itself takes "0/minute",
 #: a limit that refuses every request
@@ -83,6 +91,8 @@ def _is_web_origin(origin: str) -> bool:
 #: a database URL, or '' for the embedded SQLite file
 DatabaseURL = Annotated[str, AfterValidator(_url_of(DATABASE_SCHEMES, optional=True))]
 PostgresURL = Annotated[str, AfterValidator(_url_of(POSTGRESQL_SCHEMES, optional=False))]
+#: a Celery broker URL, or '' for none (tasks then run eagerly)
+BrokerURL = Annotated[str, AfterValidator(_url_of(BROKER_SCHEMES, optional=True))]
 #: a Redis URL, or '' for none
 RedisURL = Annotated[str, AfterValidator(_url_of(REDIS_SCHEMES, optional=True))]
 #: limits in the ``limits`` notation, each of at least one request per period

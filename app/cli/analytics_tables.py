@@ -122,23 +122,14 @@ PREDICTION: Figures = (
     ),
     (shares, (("predicted_mass_unvisited", "predicted play on vertices never visited"),)),
 )
-#: what cross-validation chose for a learned model (app.services.prediction.model_fit)
+#: what the fit chose for a learned model (app.services.prediction.model_fit, each fitted
+#: crowd model's ``figures``)
 MODEL_FIT = {
-    "neighbours": "neighbours",
-    "cv_scores": "held-out log-likelihood per step by candidate",
-    "eq2_cv_score": "eq. 2's held-out log-likelihood per step",
-    "horizon": "horizon",
-    "discount": "discount",
-    "penalty": "penalty",
     "radius": "kernel radius",
     "prior_weight": "prior weight",
-    "weights": "weights",
-    "stale_discount": "weight of steps where the graph changed since",
-    "stale_depth": "steps on a change counts",
-    "stale_scores": "latest publication's log-likelihood per step by weight/depth",
+    "cv_scores": "held-out log-likelihood per step by candidate",
     "unseen_share": "share of heuristic players ranked for",
     "share_scores": "latest publication's error-weighted log score by share",
-    "share_before": "share chosen the time before, applied only if it held",
 }
 
 

@@ -124,17 +124,6 @@ class StateGraph:
             out[v] = self.clip_descriptor[source]
         return out
 
-    def vertex_parents(self) -> np.ndarray:
-        """The vertex each vertex was simulated from (its clip's source); the start's is itself.
-
-        Vertices are only appended, so this lineage never changes as the graph grows.
-        """
-        parents = np.arange(self.n_vertices)
-        clips = np.asarray(self.vertex_clip, dtype=np.int64)
-        made = clips >= 0
-        parents[made] = np.asarray(self.clip_source, dtype=np.int64)[clips[made]]
-        return parents
-
     def edge_arrays(self) -> tuple[np.ndarray, np.ndarray, np.ndarray]:
         """(source, control, destination) of every edge, as int64 arrays."""
         source, control = edge_vertex_control(np.arange(self.n_edges), self.n_controls)

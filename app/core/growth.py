@@ -11,7 +11,6 @@ from __future__ import annotations
 import heapq
 from collections.abc import Callable, Sequence
 from dataclasses import dataclass, field
-from functools import partial
 
 import numpy as np
 
@@ -19,7 +18,6 @@ from app.core.clipbank import ClipBank
 from app.core.dynamics import ClipFeatures, Dynamics, SimClip
 from app.core.errors import InvalidInput
 from app.core.graph import EdgeKind, StateGraph
-from app.core.rank_error import RankError
 
 
 @dataclass(frozen=True)
@@ -261,58 +259,27 @@ def select_for_expansion(
     weights: np.ndarray,
     count: int,
     relink: Callable[[int], bool],
-    *,
-    hedge: tuple[np.ndarray, float] | None = None,
-    rank_error: RankError = RankError.MEAN,
-    threshold: float = 0.0,
 ) -> EpochOutcome:
-    """Pop BLEND edges by priority ``weights[e] * cost(err[e])``, relinking each lazily first.
-
-    ``rank_error`` says what a blend's error costs: itself (the expected error per step,
-    the paper's), its square, or its square only above half the visibility ``threshold``
-    (docs/design.md, "What a blend's error costs in growth").
+    """Pop BLEND edges by priority ``weights[e] * err[e]``, relinking each lazily first:
+    growth minimises the expected error per step (the paper's).
 
     A relinked edge goes back into the queue with its new priority instead of being
     simulated (paper 6.1); the outcome lists the edges to expand, best first.
-
-    ``hedge`` = (other weights, share) gives that share of the expansions to a second
-    queue ranked by the other weights (``mixed-split``, docs/player-models.md): each
-    expansion comes from the queue furthest behind its share so far, the first queue on
-    a tie; an edge one queue took is skipped by the other, one it relinked re-ranked in
-    both.
     """
-    share = 0.0 if hedge is None else hedge[1]
-    rankings = [(np.asarray(weights), 1.0 - share)]
-    if hedge is not None:
-        rankings.append((np.asarray(hedge[0]), share))
-    cost = partial(rank_error.cost, threshold=threshold)
-    err = graph.edge_err
-    # an entry is stale once its edge was relinked after it was queued (through a queue)
+    w, err = np.asarray(weights), graph.edge_err
+    # an entry is stale once its edge was relinked after it was queued
     relinks: dict[int, int] = {}
-    queues = [
-        [(-float(w[e] * cost(err[e])), int(e), 0) for e in graph.blend_edges()] for w, _ in rankings
-    ]
-    for queue in queues:
-        heapq.heapify(queue)
-    taken = [0] * len(rankings)
+    queue = [(-float(w[e] * err[e]), int(e), 0) for e in graph.blend_edges()]
+    heapq.heapify(queue)
     outcome = EpochOutcome()
-    chosen: set[int] = set()
-    while len(outcome.expanded) < count and any(queues):
-        due = len(outcome.expanded) + 1
-        k = max(
-            (k for k, queue in enumerate(queues) if queue),
-            key=lambda k: (rankings[k][1] * due - taken[k], -k),
-        )
-        _, edge, stamp = heapq.heappop(queues[k])
-        if edge in chosen or stamp != relinks.get(edge, 0):
+    while len(outcome.expanded) < count and queue:
+        _, edge, stamp = heapq.heappop(queue)
+        if stamp != relinks.get(edge, 0):
             continue
         if relink(edge):
             outcome.relinked.append(edge)
             relinks[edge] = stamp + 1
-            for (w, _), queue in zip(rankings, queues, strict=True):
-                heapq.heappush(queue, (-float(w[edge] * cost(err[edge])), edge, stamp + 1))
+            heapq.heappush(queue, (-float(w[edge] * err[edge]), edge, stamp + 1))
         else:
             outcome.expanded.append(edge)
-            chosen.add(edge)
-            taken[k] += 1
     return outcome

@@ -1,7 +1,7 @@
 """Lookahead values over a published graph: what the aiming bots weigh (``app.core.bots``).
 
 Only the bots read them: a player model judged by these bots must not contain their
-policy, so the logit model's goal feature is computed apart (``app.core.choice_model``).
+policy (the import contract on ``app.core.crowd_models``, pyproject.toml).
 """
 
 from __future__ import annotations

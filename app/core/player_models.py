@@ -3,44 +3,32 @@ of a dense (V, N) array. The heuristic one bootstraps a graph; the crowd ones le
 
 from __future__ import annotations
 
-from collections.abc import Iterable, Iterator, Sequence
+from collections.abc import Iterable, Sequence
 from enum import StrEnum
 
 import numpy as np
-import scipy.sparse as sp
-from scipy.spatial import cKDTree
 
 from app.core.choices import parse_choice
 from app.core.graph import edge_index
-from app.core.model_checks import check_counts, check_distributions
+from app.core.model_checks import check_counts, checked_controls
 
 #: One step of a trace: the vertex the player was at and the control they took there.
 Trace = Sequence[tuple[int, int]] | np.ndarray
 
 
 class PlayerModelKind(StrEnum):
-    """The crowd model sr-crowd learns (docs/player-models.md)."""
+    """The crowd model sr-crowd learns: the product's choices (docs/player-models.md), each
+    an estimator in app.core.crowd_models. Candidates that lost their selection left it."""
 
-    #: the paper's kernel density estimate, with its eps prior (:func:`crowd_player_model`)
+    #: the paper's kernel density estimate, with its eps prior (crowd_models.eq2)
     EQ2 = "eq2"
-    #: eq. 2's kernel counts under a logit prior over goal features (app.core.choice_model)
-    LOGIT = "logit"
-    #: eq. 2, its radius the k-th nearest visited vertex's distance (app.core.neighbour_model)
-    KNN = "knn"
-    #: eq. 2's kernel counts over the heuristic model as a prior (app.core.shrunk_model)
+    #: eq. 2's kernel counts over the heuristic model as a prior (crowd_models.shrunk)
     SHRUNK = "shrunk"
-    #: ``shrunk``'s P(c|v) with heuristic players mixed in (app.core.strategies.mixed_weights)
+    #: ``shrunk``'s P(c|v) with heuristic players mixed in (crowd_models.mixed)
     MIXED = "mixed"
-    #: ``mixed``, radius and prior weight scored on the latest publication (shrunk_model)
-    MIXED_FORWARD = "mixed-forward"
-    #: ``mixed``, steps counted less where the graph has changed since (fresh_evidence)
-    MIXED_FRESH = "mixed-fresh"
-    #: ``mixed``, its share of heuristic players chosen where players met error (error_share)
+    #: ``mixed``, its share of heuristic players chosen where players met error
+    #: (crowd_models.mixed_error)
     MIXED_ERROR = "mixed-error"
-    #: ``mixed``'s two kinds of player, each ranking its own share of growth (strategies)
-    MIXED_SPLIT = "mixed-split"
-    #: ``mixed-error``, its share applied once the one chosen before held (error_share)
-    MIXED_HELD = "mixed-held"
 
 
 def parse_player_model(name: str) -> PlayerModelKind:
@@ -70,160 +58,12 @@ def heuristic_player_model(vertex_control: np.ndarray, n_controls: int, alpha: f
     -------
     ndarray, shape (V, N)
     """
-    vertex_control = _validated_controls(vertex_control, n_controls)
+    vertex_control = checked_controls(vertex_control, n_controls)
     if not 0.0 <= alpha <= 1.0:
         raise ValueError(f"alpha must lie in [0, 1], got {alpha}")
     model = np.full((vertex_control.size, n_controls), (1.0 - alpha) / n_controls)
     model[np.arange(vertex_control.size), vertex_control] += alpha
     return model
-
-
-def crowd_player_model(
-    descriptors: np.ndarray,
-    vertex_control: np.ndarray,
-    control_counts: np.ndarray,
-    radius: float,
-    eps: float,
-    *,
-    fallback: np.ndarray,
-) -> np.ndarray:
-    r"""Player model learned from traces by kernel density estimation (paper eq. 2).
-
-    .. math::
-
-        P(c|v) \propto \sum_{u \in V,\ c_u = c_v} w_u\, P_{obs}(c|u)\, P_{obs}(u),
-        \qquad w_u = k_{tri}(r, \lVert d_u - d_v \rVert_2) + \epsilon,
-        \qquad k_{tri}(r, x) = \max(0, 1 - x/r).
-
-    :math:`P_{obs}(c|u)` normalises the control counts at :math:`u` and :math:`P_{obs}(u)`
-    is :math:`u`'s share of all visits, so their product is ``counts[u, c] / total`` and
-    only visited vertices contribute. Players are assumed to act alike in states that look
-    alike (descriptor distance, eq. 7), separately for each control :math:`c_v` they were
-    holding; the :math:`\epsilon` term is a prior that lets the model answer for vertices
-    far from every visited one, by the control frequencies of their whole control group.
-
-    Evaluated for all vertices at once: per control group, one KD-tree ball query (its
-    vertices against its visited ones) gives the kernel part, one sum of its counts the prior.
-
-    Parameters
-    ----------
-    descriptors : ndarray, shape (V, D)
-        Shape descriptor :math:`d_v` of every vertex.
-    vertex_control : ndarray of int, shape (V,)
-        :math:`c_v` of every vertex.
-    control_counts : ndarray, shape (V, N)
-        How often control c was taken at vertex v (:func:`observed_control_counts`).
-    radius : float
-        Kernel radius r > 0 in descriptor space.
-    eps : float
-        Prior weight :math:`\epsilon \ge 0`.
-    fallback : ndarray, shape (V, N)
-        Model for rows without support, typically :func:`heuristic_player_model`.
-
-    Returns
-    -------
-    ndarray, shape (V, N)
-        Row v is :math:`P(\cdot|v)`. A row without support (no visited vertex shares
-        :math:`c_v`, or ``eps`` is 0 and none lies within ``radius``) is ``fallback[v]``.
-
-    References
-    ----------
-    M. Stanton et al. Self-refining games using player analytics. ACM Trans. Graph. 33(4),
-    2014, section 4.2.
-    """
-    descriptors = np.asarray(descriptors, dtype=np.float64)
-    counts = np.asarray(control_counts, dtype=np.float64)
-    fallback = np.asarray(fallback, dtype=np.float64)
-    if descriptors.ndim != 2:
-        raise ValueError(f"descriptors must be 2-D (V, D), got shape {descriptors.shape}")
-    n_vertices = descriptors.shape[0]
-    if counts.ndim != 2 or counts.shape[0] != n_vertices:
-        raise ValueError(f"control_counts must be ({n_vertices}, N), got shape {counts.shape}")
-    n_controls = counts.shape[1]
-    vertex_control = _validated_controls(vertex_control, n_controls)
-    if vertex_control.size != n_vertices:
-        raise ValueError(f"vertex_control has {vertex_control.size} entries, expected {n_vertices}")
-    if fallback.shape != counts.shape:
-        raise ValueError(f"fallback must have shape {counts.shape}, got {fallback.shape}")
-    check_distributions(fallback, "fallback")
-    check_counts(counts)
-    if radius <= 0.0:
-        raise ValueError(f"radius must be positive, got {radius}")
-    if eps < 0.0:
-        raise ValueError(f"eps must be non-negative, got {eps}")
-
-    scores = kernel_counts(descriptors, vertex_control, counts, radius)
-    return with_group_prior(scores, vertex_control, counts, eps, fallback=fallback)
-
-
-def with_group_prior(
-    evidence: np.ndarray,
-    vertex_control: np.ndarray,
-    control_counts: np.ndarray,
-    eps: float,
-    *,
-    fallback: np.ndarray,
-) -> np.ndarray:
-    """Kernel evidence (V, N) plus eq. 2's eps prior, the control counts of each vertex's
-    whole control group, normalised per row; ``fallback[v]`` where a row has no support."""
-    scores = np.array(evidence, dtype=np.float64, copy=True)
-    counts = np.asarray(control_counts, dtype=np.float64)
-    for group in range(counts.shape[1]):
-        in_group = vertex_control == group
-        group_counts = counts[in_group].sum(axis=0)
-        if group_counts.sum() > 0.0:
-            scores[in_group] += eps * group_counts
-    totals = scores.sum(axis=1)
-    supported = totals > 0.0
-    model = np.array(fallback, dtype=np.float64, copy=True)
-    model[supported] = scores[supported] / totals[supported, None]
-    return model
-
-
-def control_groups(
-    vertex_control: np.ndarray, visited: np.ndarray, n_groups: int
-) -> Iterator[tuple[np.ndarray, np.ndarray]]:
-    """Per control group (eq. 2 compares a vertex only with vertices reached by the same
-    control): the group's vertices, and those of them that were visited."""
-    for group in range(n_groups):
-        in_group = vertex_control == group
-        yield np.flatnonzero(in_group), np.flatnonzero(in_group & visited)
-
-
-def visited_groups(
-    vertex_control: np.ndarray, counts: np.ndarray
-) -> Iterator[tuple[np.ndarray, np.ndarray]]:
-    """:func:`control_groups` where a vertex was visited when its row of the (V, N)
-    control ``counts`` is not all zero."""
-    return control_groups(vertex_control, counts.sum(axis=1) > 0.0, counts.shape[1])
-
-
-def kernel_counts(
-    descriptors: np.ndarray, vertex_control: np.ndarray, control_counts: np.ndarray, radius: float
-) -> np.ndarray:
-    r"""Eq. 2's evidence without its prior: :math:`\sum_{u,\ c_u = c_v} k_{tri}(r, \lVert
-    d_u - d_v \rVert) \, n(u, c)` for every vertex v and control c, shape (V, N).
-
-    Per control group, one KD-tree ball query between the group's vertices and its visited
-    vertices. A vertex's own visits count fully (distance 0); a row of zeros means no
-    visited vertex of its group lies within ``radius``.
-    """
-    descriptors = np.asarray(descriptors, dtype=np.float64)
-    counts = np.asarray(control_counts, dtype=np.float64)
-    vertex_control = np.asarray(vertex_control)
-    scores = np.zeros_like(counts)
-    for members, sources in visited_groups(vertex_control, counts):
-        if sources.size == 0:
-            continue
-        pairs = cKDTree(descriptors[members]).sparse_distance_matrix(
-            cKDTree(descriptors[sources]), radius, output_type="ndarray"
-        )
-        kernel = sp.csr_array(
-            (1.0 - pairs["v"] / radius, (pairs["i"], pairs["j"])),
-            shape=(members.size, sources.size),
-        )
-        scores[members] = kernel @ counts[sources]
-    return scores
 
 
 def observed_player_model(control_counts: np.ndarray, *, fallback: np.ndarray) -> np.ndarray:
@@ -254,37 +94,6 @@ def observed_player_model(control_counts: np.ndarray, *, fallback: np.ndarray) -
     model = fallback.copy()
     model[visited] = counts[visited] / visits[visited, None]
     return model
-
-
-def kernel_support(
-    descriptors: np.ndarray, vertex_control: np.ndarray, visited: np.ndarray, radius: float
-) -> np.ndarray:
-    """Whether eq. 2's kernel reaches each vertex: a visited u with c_u = c_v nearer than r.
-
-    A vertex without support gets the control frequencies of its whole control group
-    (the eps prior of :func:`crowd_player_model`) whatever its state, so the share of
-    predicted play on such vertices says how much of a prediction is the prior's guess.
-
-    Returns
-    -------
-    ndarray of bool, shape (V,)
-    """
-    descriptors = np.asarray(descriptors, dtype=np.float64)
-    visited = np.asarray(visited, dtype=bool)
-    if descriptors.ndim != 2 or visited.shape != (descriptors.shape[0],):
-        raise ValueError(
-            f"descriptors {descriptors.shape} must be (V, D) and visited {visited.shape} (V,)"
-        )
-    if radius <= 0.0:
-        raise ValueError(f"radius must be positive, got {radius}")
-    vertex_control = np.asarray(vertex_control)
-    if vertex_control.shape != visited.shape:
-        raise ValueError(f"vertex_control {vertex_control.shape} and visited differ in shape")
-    # eq. 2's evidence of one visit at every visited vertex, in every control's column;
-    # the kernel max(0, 1 - x/r) is 0 at x = r, so support needs x strictly below r
-    groups = int(vertex_control.max()) + 1 if vertex_control.size else 1
-    one_visit = np.repeat(visited[:, None].astype(np.float64), groups, axis=1)
-    return kernel_counts(descriptors, vertex_control, one_visit, radius).sum(axis=1) > 0.0
 
 
 def trace_edges(traces: Iterable[Trace], n_vertices: int, n_controls: int) -> np.ndarray:
@@ -385,16 +194,3 @@ def session_length_of_median(
     # 1 / (1 - 2^(-1/m)), without cancellation
     estimate = default if median is None else 1.0 / -np.expm1(-np.log(2.0) / median)
     return float(np.clip(estimate, floor, ceiling))
-
-
-def _validated_controls(vertex_control: np.ndarray, n_controls: int) -> np.ndarray:
-    if n_controls < 1:
-        raise ValueError(f"n_controls must be at least 1, got {n_controls}")
-    vertex_control = np.asarray(vertex_control)
-    if vertex_control.ndim != 1:
-        raise ValueError(f"vertex_control must be 1-D, got shape {vertex_control.shape}")
-    if vertex_control.size and not np.issubdtype(vertex_control.dtype, np.integer):
-        raise ValueError(f"vertex_control must hold integers, got dtype {vertex_control.dtype}")
-    if vertex_control.size and not 0 <= vertex_control.min() <= vertex_control.max() < n_controls:
-        raise ValueError(f"vertex_control holds controls outside 0..{n_controls - 1}")
-    return vertex_control.astype(np.int64, copy=False)

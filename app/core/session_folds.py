@@ -47,14 +47,5 @@ class SessionFolds:
         return total_ll / float(self.total.sum())
 
 
-def held_out_score(learned: LearnedModel, learnt: np.ndarray, held: np.ndarray) -> float:
-    """Mean log-likelihood per step of the ``held`` control counts under the model learnt
-    from the ``learnt`` ones. Raises ValueError when ``held`` has no step."""
-    steps = float(np.sum(held))
-    if steps <= 0.0:
-        raise ValueError("the held-out sessions have no step: nothing to score")
-    return _log_likelihood(learned(learnt), held) / steps
-
-
 def _log_likelihood(model: np.ndarray, counts: np.ndarray) -> float:
     return float(np.sum(counts * np.log(np.maximum(model, 1e-300))))

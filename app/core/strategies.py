@@ -1,10 +1,9 @@
 """Growth strategies: how much each BLEND edge matters (paper sections 3, 4 and 7).
 
 A strategy turns a player model P(c|v) into a weight per edge; the priority of a BLEND
-edge is ``weight * err`` (or another cost of the error, app.core.rank_error). ``max-error`` is
-Kim et al. 2013 (err alone); ``baseline`` scales err by the local P_h(c|v); the two
-STATERANK strategies use the global edge probability P(e) = pi(v) P(c|v) under the
-heuristic or the learned crowd model.
+edge is ``weight * err``. ``max-error`` is Kim et al. 2013 (err alone); ``baseline``
+scales err by the local P_h(c|v); the two STATERANK strategies use the global edge
+probability P(e) = pi(v) P(c|v) under the heuristic or the learned crowd model.
 """
 
 from __future__ import annotations
@@ -50,9 +49,6 @@ class EdgeWeights:
     #: why the weights are not the strategy's own (STATERANK failed) and what they are
     #: instead; None when they are the strategy's
     fallback: str | None = None
-    #: a second population's weights and the share of growth ranked by them
-    #: (:func:`split_weights`); None when growth follows ``weights`` alone
-    hedge: tuple[np.ndarray, float] | None = None
 
 
 def edge_weights(
@@ -98,13 +94,6 @@ def edge_weights(
     return EdgeWeights(rank.pi[src] * local, rank)
 
 
-#: the share of the population ``mixed`` ranks for as heuristic players: players the
-#: traces have not seen. Fixed beforehand as half (docs/player-models.md, "`mixed`");
-#: ``mixed-error`` chooses it per world instead (app.core.error_share), from this one
-#: until its players have met error on two publications
-UNSEEN_SHARE = 0.5
-
-
 def mixed_weights(crowd: EdgeWeights, heuristic: EdgeWeights, share: float) -> EdgeWeights:
     """The edge weights of a population mixed from two: ``1 - share`` of players as the
     crowd model predicts, ``share`` as the heuristic model does.
@@ -115,31 +104,8 @@ def mixed_weights(crowd: EdgeWeights, heuristic: EdgeWeights, share: float) -> E
     STATERANK fell back, the two are not distributions to mix: the crowd's weights stand,
     with the fallback's reason.
     """
-    return _fallen_back(crowd, heuristic, share) or EdgeWeights(
-        (1.0 - share) * crowd.weights + share * heuristic.weights, crowd.rank
-    )
-
-
-def split_weights(crowd: EdgeWeights, heuristic: EdgeWeights, share: float) -> EdgeWeights:
-    """The population of :func:`mixed_weights`, each kind of player served by its own
-    share of growth instead: ``share`` of the expansions go to the blends the heuristic
-    model ranks first, the rest to the crowd's (app.core.growth.select_for_expansion).
-
-    A mix ranks every blend by the population's density, where a crowd that walks one
-    route outweighs players spread over the graph, so blends off the route wait however
-    large they are (docs/player-models.md, "`mixed-split`"). Where either STATERANK fell
-    back, the crowd's weights stand alone, with the fallback's reason.
-    """
-    return _fallen_back(crowd, heuristic, share) or EdgeWeights(
-        crowd.weights, crowd.rank, hedge=(heuristic.weights, share)
-    )
-
-
-def _fallen_back(crowd: EdgeWeights, heuristic: EdgeWeights, share: float) -> EdgeWeights | None:
-    """The crowd's weights with the fallback's reason where either STATERANK fell back,
-    else None; ValueError for a share outside [0, 1]."""
     if not 0.0 <= share <= 1.0:
         raise ValueError(f"a share is in [0, 1], not {share}")
     if crowd.fallback or heuristic.fallback:
         return EdgeWeights(crowd.weights, crowd.rank, crowd.fallback or heuristic.fallback)
-    return None
+    return EdgeWeights((1.0 - share) * crowd.weights + share * heuristic.weights, crowd.rank)

@@ -16,9 +16,9 @@ from typing import Any
 import numpy as np
 
 from app.config import Settings
+from app.core.crowd_models.eq2 import crowd_player_model
 from app.core.crowd_play import PlayCounts
 from app.core.player_models import (
-    crowd_player_model,
     heuristic_player_model,
     mean_session_length,
     observed_control_counts,

@@ -15,13 +15,11 @@ from sqlalchemy.orm import Session
 
 from app.config import Settings
 from app.core.bots import BotKind, play_sessions
-from app.core.error_share import ERROR_SHARE_KINDS
 from app.core.player_models import PlayerModelKind, parse_player_model
 from app.core.players import PlayerSelection
 from app.core.prediction import PlayedSessions, prediction_figures, split_half_correlation
 from app.core.publication import Publication
 from app.core.refinement import Refiner
-from app.core.shrunk_model import SHRUNK_KINDS
 from app.core.strategies import Strategy
 from app.services.loading import LoadedGraph, open_graph
 from app.services.refining import learn_play, refiner_config
@@ -37,52 +35,12 @@ def crowd_refiner(settings: Settings, loaded: LoadedGraph, model: PlayerModelKin
 
 
 def model_fit(refiner: Refiner) -> dict[str, Any] | None:
-    """What cross-validation chose for the learned model (None for eq. 2 and before any
-    trace): the neighbour count with every candidate's held-out log-likelihood per step,
-    the shrunk models' radius and prior weight (and, scored on the latest publication,
-    ``mixed-fresh``'s discount and depth, ``mixed-error``'s share of heuristic players),
-    or the logit-prior model's hyper-parameters and weights."""
-    kind = refiner.config.player_model
-    if kind is PlayerModelKind.EQ2 or not refiner.play.sessions:
+    """What the fit chose for the learned model, with every candidate's score (None
+    before any trace, and for eq. 2, which chooses nothing): the shrunk models' radius
+    and prior weight, ``mixed-error``'s share of heuristic players."""
+    if not refiner.play.sessions:
         return None
-    if kind is PlayerModelKind.KNN:
-        fit = refiner.neighbour_fit()
-        return {
-            "neighbours": fit.neighbours,
-            "cv_scores": {str(k): round(v, 6) for k, v in fit.cv_scores.items()},
-            "eq2_cv_score": fit.reference_score,
-        }
-    if kind in SHRUNK_KINDS:
-        shrunk = refiner.shrunk_fit()
-        chosen: dict[str, Any] = {
-            "radius": shrunk.radius,
-            "prior_weight": shrunk.prior_weight,
-            "cv_scores": {f"{r:.6g}/{m:g}": round(v, 6) for (r, m), v in shrunk.cv_scores.items()},
-        }
-        if kind is PlayerModelKind.MIXED_FRESH:
-            fresh = refiner.fresh_fit()
-            chosen |= {
-                "stale_discount": fresh.discount,
-                "stale_depth": fresh.depth,
-                "stale_scores": {f"{w:g}/{d}": round(v, 6) for (w, d), v in fresh.scores.items()},
-            }
-        if kind in ERROR_SHARE_KINDS:
-            share = refiner.share_fit()
-            chosen |= {
-                "unseen_share": share.share,
-                "share_scores": {f"{s:g}": round(v, 6) for s, v in share.scores.items()},
-            }
-            if kind is PlayerModelKind.MIXED_HELD:
-                chosen["share_before"] = share.before
-        return chosen
-    fitted = refiner.choice_model()
-    return {
-        "horizon": fitted.horizon,
-        "discount": fitted.discount,
-        "penalty": fitted.penalty,
-        "prior_weight": fitted.prior_weight,
-        "weights": [round(float(w), 6) for w in fitted.weights],
-    }
+    return refiner.crowd_model().figures()
 
 
 def fixed_graph_prediction(

@@ -10,24 +10,16 @@ import numpy as np
 from sqlalchemy.orm import Session
 
 from app.config import Settings
+from app.core.crowd_models.registry import CROWD_MODELS
 from app.core.dynamics import Dynamics
-from app.core.error_share import ERROR_SHARE_KINDS
 from app.core.player_models import PlayerModelKind, parse_player_model
 from app.core.players import PlayerSelection
 from app.core.refinement import Refiner, RefinerConfig
 from app.core.strategies import EdgeWeights, Strategy, parse_strategy
-from app.services.dynamics import threshold_in_force
 from app.services.loading import LoadedGraph
 from app.store.epochs import latest_warm_start
 from app.store.play_counts import graph_play_counts, publication_play_counts
 from app.store.publications import load_publication
-
-#: the crowd models that read the publications their sessions were played on, and those
-#: that learn each publication's sessions apart (those and ``mixed-forward``)
-_WITH_PUBLICATION = frozenset(
-    {PlayerModelKind.LOGIT, PlayerModelKind.MIXED_FRESH, *ERROR_SHARE_KINDS}
-)
-_BY_PUBLICATION = _WITH_PUBLICATION | {PlayerModelKind.MIXED_FORWARD}
 
 
 def refiner_config(
@@ -42,8 +34,6 @@ def refiner_config(
         prefilter_k=settings.growth.prefilter_k,
         batch_size=settings.growth.batch_size,
         player_model=player_model,
-        rank_error=settings.growth.rank_error,
-        high_error_threshold=threshold_in_force(settings, dynamics),
     )
 
 
@@ -76,19 +66,14 @@ def learn_play(
 ) -> None:
     """Teach ``refiner`` the sums of the sessions ``players`` played on the graph's
     publications (those older than publication ``before`` only, when given): per
-    publication for the models that tell publications apart, oldest first (with it for
-    the models that read the graph players saw: ``logit`` its goals, ``mixed-fresh`` what
-    has changed since, ``mixed-error`` its errors; ``mixed-forward`` scores the latest);
-    one sum over them for the others."""
-    kind = refiner.config.player_model
-    if kind in _BY_PUBLICATION:
+    publication, oldest first and each with it, for a crowd model that reads the graph
+    its players saw (``reads_publications``: ``mixed-error`` reads its errors); one sum
+    over them for the others."""
+    if CROWD_MODELS[refiner.config.player_model].reads_publications:
         for publication_id, play in publication_play_counts(
             session, graph_id, players, before=before
         ):
-            publication = (
-                load_publication(session, publication_id) if kind in _WITH_PUBLICATION else None
-            )
-            refiner.learn_counts(play, publication)
+            refiner.learn_counts(play, load_publication(session, publication_id))
     else:
         refiner.learn_counts(graph_play_counts(session, graph_id, players, before=before))
 

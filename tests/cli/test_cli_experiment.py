@@ -256,7 +256,7 @@ def test_baseline_shared_by_crowds_gives_the_numbers_of_baseline_grown_per_crowd
         (("--jobs", "0"), "'--jobs': Input should be greater than or equal to 1"),
         (("--resume", "--name", "never-ran"), "no experiment named 'never-ran' to resume"),
         (("--resume", "--seeds", "1"), "--resume runs the stored plan"),
-        (("--resume", "--player-model", "logit"), "--resume runs the stored plan"),
+        (("--resume", "--player-model", "shrunk"), "--resume runs the stored plan"),
         (("--resume", "--bots", "random"), "--resume runs the stored plan"),
         (("--resume", "--fixed-graph-sessions", "5"), "--resume runs the stored plan"),
         (("--name", "a/b"), "no '/'"),

@@ -53,19 +53,21 @@ def graph_count(var: Path) -> int:
 def test_init_stores_the_player_model_chosen_else_the_setting(tmp_path: Path) -> None:
     ok(tmp_path, "db", "upgrade")
     assert json.loads(ok(tmp_path, "init", "plain", "--json"))["player_model"] == "mixed-error"
-    chosen = json.loads(ok(tmp_path, "init", "chosen", "--player-model", "logit", "--json"))
-    assert chosen["player_model"] == "logit"
-    done = srg(tmp_path, "init", "configured", "--json", SRG_PLAYER_MODEL="logit")
+    chosen = json.loads(ok(tmp_path, "init", "chosen", "--player-model", "shrunk", "--json"))
+    assert chosen["player_model"] == "shrunk"
+    done = srg(tmp_path, "init", "configured", "--json", SRG_PLAYER_MODEL="shrunk")
     assert done.returncode == 0, done.stderr
-    assert json.loads(done.stdout)["player_model"] == "logit"
+    assert json.loads(done.stdout)["player_model"] == "shrunk"
     status = json.loads(ok(tmp_path, "status", "chosen", "--json"))
-    assert status["player_model"] == "logit"
+    assert status["player_model"] == "shrunk"
 
 
 @pytest.mark.parametrize(
     ("model", "env", "fragment"),
     [
-        ("softmax", {}, "'--player-model': 'softmax' is not one of 'eq2', 'logit'"),
+        ("softmax", {}, "'--player-model': 'softmax' is not one of 'eq2', 'shrunk'"),
+        # a candidate that lost its selection is no choice of the product
+        ("logit", {}, "'--player-model': 'logit' is not one of 'eq2', 'shrunk'"),
         ("", {}, "'--player-model': '' is not one of"),
         (None, {"SRG_PLAYER_MODEL": "softmax"}, "SRG_PLAYER_MODEL: Input should be"),
     ],
@@ -95,38 +97,21 @@ def test_analytics_says_how_well_the_model_predicted_the_latest_play(var: Path) 
 
 def test_analytics_evaluates_another_model_when_asked(var: Path) -> None:
     eq2 = analytics(var, "twice")["prediction"]
-    logit = analytics(var, "twice", "--player-model", "logit")["prediction"]
-    assert logit["player_model"] == "logit" and logit["model_fit"] is not None
-    assert all(math.isfinite(logit[key]) for key in PREDICTION_FIGURES)
-    assert logit["observed_mean_error"] == eq2["observed_mean_error"]  # the same play
-    assert logit["predicted_expected_error"] != eq2["predicted_expected_error"]
-    text = ok(var, "analytics", "twice", "--player-model", "logit")
-    assert "prediction of the latest publication's play" in text
-    assert "predicted expected error" in text and "model fit:" in text
-    knn = analytics(var, "twice", "--player-model", "knn")["prediction"]
-    assert knn["player_model"] == "knn" and knn["model_fit"]["neighbours"] >= 1
-    assert knn["model_fit"]["eq2_cv_score"] < 0.0  # a log-likelihood per step
-    assert knn["predicted_expected_error"] != eq2["predicted_expected_error"]
     shrunk = analytics(var, "twice", "--player-model", "shrunk")["prediction"]
     assert shrunk["player_model"] == "shrunk" and shrunk["model_fit"]["prior_weight"] > 0.0
-    assert shrunk["predicted_expected_error"] != knn["predicted_expected_error"]
-    fresh = analytics(var, "twice", "--player-model", "mixed-fresh")["prediction"]
-    # learnt from one publication: every step counts, as in mixed
-    assert fresh["model_fit"]["stale_discount"] == 1.0
-    assert fresh["predicted_expected_error"] == shrunk["predicted_expected_error"]
-    text = ok(var, "analytics", "twice", "--player-model", "mixed-fresh")
-    assert "kernel radius" in text and "weight of steps where the graph changed since 1" in text
-    # the default model's fit prints too (it named a radius the table did not know)
+    assert all(math.isfinite(shrunk[key]) for key in PREDICTION_FIGURES)
+    assert shrunk["observed_mean_error"] == eq2["observed_mean_error"]  # the same play
+    assert shrunk["predicted_expected_error"] != eq2["predicted_expected_error"]
+    text = ok(var, "analytics", "twice", "--player-model", "shrunk")
+    assert "prediction of the latest publication's play" in text
+    assert "predicted expected error" in text and "model fit:" in text
+    # every model's fit prints (the mixed one named a radius the table once did not know)
     assert "kernel radius" in ok(var, "analytics", "twice", "--player-model", "mixed")
-    # learnt from one publication: nothing chosen, nothing chosen before it
-    held = analytics(var, "twice", "--player-model", "mixed-held")["prediction"]["model_fit"]
-    assert held["unseen_share"] == 0.5 and held["share_before"] is None
-    text = ok(var, "analytics", "twice", "--player-model", "mixed-held")
+    # learnt from one publication: nothing chosen, mixed's share
+    error = analytics(var, "twice", "--player-model", "mixed-error")["prediction"]["model_fit"]
+    assert error["unseen_share"] == 0.5 and error["share_scores"] == {}
+    text = ok(var, "analytics", "twice", "--player-model", "mixed-error")
     assert "share of heuristic players ranked for 0.5" in text
-    assert "share chosen the time before, applied only if it held none" in text
-    error = ok(var, "analytics", "twice", "--player-model", "mixed-error")
-    assert "share of heuristic players ranked for 0.5" in error
-    assert "share chosen the time before" not in error
 
 
 def test_analytics_before_two_played_publications_says_so_in_one_line(var: Path) -> None:
@@ -148,12 +133,12 @@ def test_an_experiment_plans_the_player_model_bot_and_fixed_graph_sessions(
 ) -> None:
     ok(tmp_path, "db", "upgrade")
     args = ("--seeds", "0", "--checkpoints", "300", "--sessions", "3", "--strategies", "baseline")
-    chosen = ("--player-model", "logit", "--bots", "hesitant", "--fixed-graph-sessions", "4")
+    chosen = ("--player-model", "shrunk", "--bots", "hesitant", "--fixed-graph-sessions", "4")
     ok(tmp_path, "experiment", *args, *chosen, "--result", str(tmp_path / "result.json"))
     result = json.loads((tmp_path / "result.json").read_text())
     plan = result["plan"]
     assert (plan["player_model"], plan["bots"], plan["fixed_graph_sessions"]) == (
-        "logit",
+        "shrunk",
         ["hesitant"],
         4,
     )

@@ -20,20 +20,18 @@ from sqlalchemy.orm import Session
 from alembic import command
 from app.config import Settings
 from app.core.bots import BotKind, play_sessions
+from app.core.crowd_models.mixed_error import FittedMixedError, fit_error_share
+from app.core.crowd_models.shrunk import FittedShrunk, ShrunkFit, shrunk_player_model
 from app.core.crowd_play import PlayCounts
-from app.core.error_share import fit_error_share
-from app.core.growth import select_for_expansion
 from app.core.player_models import PlayerModelKind, observed_control_counts
 from app.core.prediction import PlayedSessions, prediction_figures
 from app.core.refinement import Refiner
 from app.core.session_folds import FOLDS, SessionFolds
-from app.core.shrunk_model import fit_shrunk_model, shrunk_player_model
-from app.core.strategies import UNSEEN_SHARE, Strategy, parse_strategy
+from app.core.strategies import Strategy, parse_strategy
 from app.db.engines import make_engine
 from app.db.foreign_keys import foreign_keys_off
 from app.models import GraphSessions, Player
 from app.services.creation import init_graph
-from app.services.epochs import plan_epoch
 from app.services.graph_cache import graph_cache
 from app.services.loading import LoadedGraph, open_graph
 from app.services.prediction import crowd_refiner, latest_play_prediction
@@ -91,7 +89,7 @@ def played_refiner(
     return settings, loaded, refiner_for(session, settings, loaded)
 
 
-@pytest.mark.parametrize("model", ["shrunk", "knn", "eq2"])
+@pytest.mark.parametrize("model", ["shrunk", "eq2"])
 def test_growth_from_the_sums_is_growth_from_every_step(
     session: Session, db_url: str, tmp_path: Path, model: str
 ) -> None:
@@ -109,8 +107,8 @@ def test_growth_from_the_sums_is_growth_from_every_step(
     np.testing.assert_array_equal(summed.player_model(), stepped.player_model())
     np.testing.assert_array_equal(summed.weights().weights, stepped.weights().weights)
     if model == "shrunk":
-        fit = summed.shrunk_fit()
-        assert fit == stepped.shrunk_fit()
+        fit = shrunk_fit(summed)
+        assert fit == shrunk_fit(stepped)
         # the chosen candidate's score under folds dealt as they were: session i to i % 5
         dealt = [observed_control_counts(traces[i::FOLDS], *config_shape(loaded)) for i in range(5)]
         folds = SessionFolds(tuple(dealt), np.sum(dealt, axis=0))
@@ -126,8 +124,13 @@ def test_growth_from_the_sums_is_growth_from_every_step(
             )
         )
         assert score == fit.cv_scores[(fit.radius, fit.prior_weight)]
-    if model == "knn":
-        assert summed.neighbour_fit() == stepped.neighbour_fit()
+
+
+def shrunk_fit(refiner: Refiner) -> ShrunkFit:
+    """The radius and prior weight ``refiner``'s shrunk model chose."""
+    fitted = refiner.crowd_model()
+    assert isinstance(fitted, FittedShrunk)
+    return fitted.chosen
 
 
 def config_shape(loaded: LoadedGraph) -> tuple[int, int]:
@@ -255,91 +258,30 @@ def test_the_latest_publications_prediction_reads_sums_not_steps(
     assert latest_play_prediction(session, settings, loaded.entry.id) == summed
 
 
-def test_mixed_forward_learns_publication_by_publication_and_scores_the_latest(
-    session: Session, db_url: str, tmp_path: Path
-) -> None:
-    _, loaded, refiner = played_refiner(session, db_url, tmp_path, "mixed-forward")
-    first, second = sorted(played_publications(session, loaded.entry.id))
-    assert [play.sessions for _, play in refiner.played] == [18, 18]
-    graph = loaded.graph
-    expected = fit_shrunk_model(
-        graph.vertex_descriptors(),
-        np.asarray(graph.vertex_control),
-        PlayCounts.of_traces(load_traces(session, [first])),
-        refiner.heuristic_model(),
-        refiner.config.crowd_radius,
-        latest=PlayCounts.of_traces(load_traces(session, [second])),
-    )
-    assert refiner.shrunk_fit() == expected
-
-
-def test_mixed_fresh_learns_each_publication_with_the_graph_its_players_saw(
-    session: Session, db_url: str, tmp_path: Path
-) -> None:
-    _, loaded, refiner = played_refiner(session, db_url, tmp_path, "mixed-fresh")
-    published = [
-        load_publication(session, i) for i in played_publications(session, loaded.entry.id)
-    ]
-    assert [play.sessions for _, play in refiner.played] == [18, 18]
-    for (seen, _), stored in zip(
-        refiner.played, sorted(published, key=lambda p: p.n_vertices), strict=True
-    ):
-        assert seen is not None
-        np.testing.assert_array_equal(seen.edge_dst, stored.edge_dst)
-    # eight expansions lie between the two: the discount was chosen on the newer one's players
-    fit = refiner.fresh_fit()
-    assert len(fit.scores) == 13
-    assert fit.scores[(fit.discount, fit.depth)] == max(fit.scores.values())
-
-
 def test_mixed_error_chooses_its_share_on_the_latest_publications_errors(
     session: Session, db_url: str, tmp_path: Path
 ) -> None:
     _, loaded, refiner = played_refiner(session, db_url, tmp_path, "mixed-error")
     first, second = sorted(played_publications(session, loaded.entry.id))
     assert [play.sessions for _, play in refiner.played] == [18, 18]
-    # the sums the store keeps choose as the stored steps themselves would
+    # each publication's sessions are learnt with the graph their players saw
     played = [
         (load_publication(session, i), PlayCounts.of_traces(load_traces(session, [i])))
         for i in (first, second)
     ]
+    for (seen, _), (stored, _) in zip(refiner.played, played, strict=True):
+        assert seen is not None
+        np.testing.assert_array_equal(seen.edge_dst, stored.edge_dst)
+    # the sums the store keeps choose as the stored steps themselves would
+    fitted = refiner.crowd_model()
+    assert isinstance(fitted, FittedMixedError)
+    graph = refiner.crowd_graph()
     expected = fit_error_share(
         played,
-        refiner.shrunk_model,
+        lambda counts: fitted.shrunk.of_counts(graph, counts),
         refiner.heuristic_model(),
         loaded.graph.n_vertices,
         refiner.restart,
     )
-    assert refiner.share_fit() == expected
+    assert fitted.share == expected
     assert expected.scores and expected.share == max(expected.scores, key=expected.scores.get)
-
-
-def test_mixed_held_checks_its_share_on_the_stored_sums_as_on_the_steps(
-    session: Session, db_url: str, tmp_path: Path
-) -> None:
-    _, loaded, refiner = played_refiner(session, db_url, tmp_path, "mixed-held")
-    played = [
-        (load_publication(session, i), PlayCounts.of_traces(load_traces(session, [i])))
-        for i in sorted(played_publications(session, loaded.entry.id))
-    ]
-    args = (refiner.shrunk_model, refiner.heuristic_model(), loaded.graph.n_vertices)
-    expected = fit_error_share(played, *args, refiner.restart, held=True)
-    # two publications played: no choice was made before the latest, the share is one half
-    assert len(played) == 2 and expected.before is None and expected.share == UNSEEN_SHARE
-    assert refiner.share_fit() == expected and expected.scores
-
-
-def test_mixed_split_plans_an_epoch_on_the_workers_path_as_its_refiner_does(
-    session: Session, db_url: str, tmp_path: Path
-) -> None:
-    settings, loaded, refiner = played_refiner(session, db_url, tmp_path, "mixed-split")
-    ranked = refiner.weights()
-    assert ranked.hedge is not None and ranked.fallback is None
-    expected = refiner.plan_epoch().expanded
-    crowd_only = select_for_expansion(
-        loaded.graph, ranked.weights, len(expected), lambda edge: False
-    ).expanded
-    # half of the epoch is the heuristic ranking's: not the crowd's first blends alone
-    assert len(expected) == refiner.config.batch_size and expected != crowd_only
-    plan = plan_epoch(session, settings, loaded.entry.id, renders=False)
-    assert plan is not None and [edge for edge, _ in plan.expansions] == expected

@@ -2,18 +2,14 @@
 
 from __future__ import annotations
 
-import dataclasses
-
 import numpy as np
 import pytest
 from trace_helpers import looping_trace
 
-from app.config import Settings
 from app.core.bots import LEVEL_CONTROL, AvoiderBot, BotKind, HesitantBot, play_sessions
 from app.core.clipbank import MemoryClipBank
 from app.core.growth import initial_tree
 from app.core.publication import Publication
-from app.core.rank_error import RankError
 from app.core.refinement import Refiner, RefinerConfig
 from app.core.strategies import (
     EdgeWeights,
@@ -23,7 +19,6 @@ from app.core.strategies import (
     parse_strategy,
 )
 from app.core.toy import ToyDynamics
-from app.services.refining import refiner_config
 
 DYN = ToyDynamics()
 
@@ -82,29 +77,6 @@ def test_grow_by_frames_meets_the_budget() -> None:
     assert r.graph.size_frames < start + 300 + DYN.n_controls * DYN.frames_per_clip
     with pytest.raises(ValueError, match="exactly one budget"):
         r.grow()
-
-
-def test_the_configured_rank_error_reaches_what_an_epoch_expands() -> None:
-    assert refiner_config(Settings().replace(rank_error="squared"), DYN).rank_error is (
-        RankError.SQUARED
-    )
-    configured = refiner_config(Settings().replace(high_error_threshold=0.3), DYN)
-    assert configured.high_error_threshold == 0.3
-    assert refiner_config(Settings(), DYN).high_error_threshold == DYN.high_error_threshold
-
-    def plan(rank_error: RankError, threshold: float = 0.0) -> list[int]:
-        r = refiner(Strategy.SR_HEURISTIC)
-        r.grow(expansions=10)  # the same graph: grown by the mean ranking
-        r.config = dataclasses.replace(
-            r.config, rank_error=rank_error, high_error_threshold=threshold
-        )
-        return r.plan_epoch(8).expanded
-
-    mean, squared = plan(RankError.MEAN), plan(RankError.SQUARED)
-    assert mean != squared
-    # the configured threshold decides which side of the knee every blend is on
-    assert plan(RankError.SQUARED_LARGE, 1e6) == mean
-    assert plan(RankError.SQUARED_LARGE, 1e-9) == squared
 
 
 def test_sr_crowd_learns_from_traces_and_others_ignore_them(publication) -> None:  # type: ignore[no-untyped-def]

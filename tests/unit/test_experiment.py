@@ -142,13 +142,13 @@ def test_plan_round_trips_through_its_stored_dict() -> None:
         strategies=(Strategy.BASELINE, Strategy.SR_CROWD),
         seeds=(3, 1),
         checkpoints=(500, 900),
-        player_model=PlayerModelKind.LOGIT,
+        player_model=PlayerModelKind.SHRUNK,
         bots=(BotKind.HESITANT, BotKind.AVOIDER),
         fixed_graph_sessions=7,
         high_error_threshold=0.25,
     )
     stored = plan.to_dict()
-    assert stored["player_model"] == "logit" and stored["bots"] == ["hesitant", "avoider"]
+    assert stored["player_model"] == "shrunk" and stored["bots"] == ["hesitant", "avoider"]
     assert stored["fixed_graph_sessions"] == 7
     assert json.loads(json.dumps(stored)) == stored  # plain JSON, as the database keeps it
     assert ExperimentPlan.from_dict(json.loads(json.dumps(stored))) == plan
@@ -179,7 +179,7 @@ def test_fixed_graph_sessions_must_be_positive(sessions: int) -> None:
 @pytest.mark.parametrize(
     ("key", "value", "message"),
     [
-        ("player_model", "best", "eq2, logit"),
+        ("player_model", "best", "eq2, shrunk"),
         ("bots", ["avoider", "cheater"], "cheater"),
         ("bot", "cheater", "cheater"),
     ],

@@ -18,7 +18,6 @@ from app.core.growth import (
     select_for_expansion,
     simulate_clips,
 )
-from app.core.rank_error import RankError
 from app.core.toy import ToyDynamics
 
 DYN = ToyDynamics()
@@ -169,99 +168,3 @@ def test_selection_pops_by_priority_and_requeues_relinked_edges() -> None:
     outcome = select_for_expansion(graph, weights, 1, relink=relink_first_only)
     assert outcome.relinked == [int(top[0])]
     assert outcome.expanded == [int(top[1])]
-
-
-def test_a_squared_error_ranks_a_rare_large_blend_above_a_common_faint_one() -> None:
-    graph, _ = grown(10)
-    err = np.asarray(graph.edge_err)
-    blends = graph.blend_edges()
-    order = blends[np.argsort(-err[blends], kind="stable")]
-    large, faint = int(order[0]), int(order[-1])
-    graph.edge_err[faint] = err[large] / 4
-    # the faint one is played four times as often: the same expected error per step
-    weights = np.zeros(graph.n_edges)
-    weights[large], weights[faint] = 1.0, 4.0 * (1.0 + 1e-9)
-    mean = select_for_expansion(graph, weights, 1, lambda e: False)
-    squared = select_for_expansion(graph, weights, 1, lambda e: False, rank_error=RankError.SQUARED)
-    assert mean.expanded == [faint]
-    assert squared.expanded == [large]
-
-
-def test_squared_large_ranks_faint_blends_by_the_error_and_large_ones_by_its_square() -> None:
-    graph, _ = grown(10)
-    blends = graph.blend_edges()
-    threshold = 1.0
-    faint, faint_common, large, large_rare = (int(e) for e in blends[:4])
-    graph.edge_err[faint], graph.edge_err[faint_common] = 0.4, 0.1
-    graph.edge_err[large], graph.edge_err[large_rare] = 0.6, 2.4
-    weights = np.zeros(graph.n_edges)
-    # each pair has the same expected error per step, the more common one a little more
-    weights[faint], weights[faint_common] = 1.0, 4.0 * (1.0 + 1e-9)
-    weights[large], weights[large_rare] = 4.0 * (1.0 + 1e-9), 1.0
-    # the two sides meet at half the threshold
-    assert RankError.SQUARED_LARGE.cost(0.5, threshold) == 0.5
-
-    def first(pair: tuple[int, int], rank_error: RankError) -> int:
-        w = np.zeros(graph.n_edges)
-        w[list(pair)] = weights[list(pair)]
-        picked = select_for_expansion(
-            graph, w, 1, lambda e: False, rank_error=rank_error, threshold=threshold
-        )
-        return picked.expanded[0]
-
-    # below the knee it ranks as the mean does, not as the square
-    assert first((faint, faint_common), RankError.SQUARED_LARGE) == faint_common
-    assert first((faint, faint_common), RankError.SQUARED) == faint
-    # above it as the square does, not as the mean
-    assert first((large, large_rare), RankError.SQUARED_LARGE) == large_rare
-    assert first((large, large_rare), RankError.MEAN) == large
-    with pytest.raises(ValueError, match="positive visibility threshold"):
-        RankError.SQUARED_LARGE.cost(0.1, 0.0)
-
-
-def test_a_hedged_selection_gives_each_ranking_its_share_of_the_expansions() -> None:
-    graph, _ = grown(10)
-    err = np.asarray(graph.edge_err)
-    blends = graph.blend_edges()
-    order = blends[np.argsort(-err[blends], kind="stable")]
-    order = order[err[order] > 0]
-    # the first ranking likes the largest errors, the second the smallest
-    first = np.ones(graph.n_edges)
-    second = np.zeros(graph.n_edges)
-    second[order] = np.arange(1, len(order) + 1) / err[order]
-    outcome = select_for_expansion(graph, first, 4, lambda e: False, hedge=(second, 0.5))
-    # alternately, the first ranking on a tie: largest, smallest, next largest, next smallest
-    assert outcome.expanded == [int(order[0]), int(order[-1]), int(order[1]), int(order[-2])]
-    # a quarter for the second ranking: owed 0.75 of the third expansion against the
-    # first's 0.25, it takes that one
-    outcome = select_for_expansion(graph, first, 4, lambda e: False, hedge=(second, 0.25))
-    assert outcome.expanded == [int(order[0]), int(order[1]), int(order[-1]), int(order[2])]
-    # with no share the hedge changes nothing
-    plain = select_for_expansion(graph, first, 4, lambda e: False)
-    assert select_for_expansion(graph, first, 4, lambda e: False, hedge=(second, 0.0)) == plain
-
-
-def test_a_hedged_selection_skips_what_the_other_ranking_took_and_reranks_what_it_relinked() -> (
-    None
-):
-    graph, _ = grown(10)
-    err = np.asarray(graph.edge_err)
-    blends = graph.blend_edges()
-    order = [int(e) for e in blends[np.argsort(-err[blends], kind="stable")]]
-    weights = np.ones(graph.n_edges)
-    # both rankings alike: each takes the best the other has not
-    outcome = select_for_expansion(graph, weights, 3, lambda e: False, hedge=(weights, 0.5))
-    assert outcome.expanded == order[:3]
-
-    def relink_the_best_once(edge: int) -> bool:
-        if edge == order[0] and not outcome_relinked:
-            outcome_relinked.append(edge)
-            graph.edge_err[edge] = 0.0  # a much better target was found
-            return True
-        return False
-
-    outcome_relinked: list[int] = []
-    outcome = select_for_expansion(graph, weights, 3, relink_the_best_once, hedge=(weights, 0.5))
-    assert outcome.relinked == [order[0]]
-    # the edge relinked to no error falls to the back of both queues
-    assert outcome.expanded == order[1:4]

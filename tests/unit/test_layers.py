@@ -1,7 +1,8 @@
 """The layers of ``app`` (docs/design.md, "Runtime"), held by import-linter's contracts.
 
 The contracts live in ``pyproject.toml`` (``[tool.importlinter]``): the core imports
-nothing of ``app``, the learned player models import no bot's policy, nothing imports the
+nothing of ``app``, the learned player models import no bot's policy (every model the
+registry holds, checked here), nothing imports the
 CLI, services import neither the shells nor the benchmarks, the API, the tasks and the CLI
 reach the store only through services, no import circles at any depth, and the layers
 from the CLI down to the core.
@@ -17,11 +18,16 @@ import ast
 import shutil
 import subprocess
 import sys
+import tomllib
 from pathlib import Path
+
+from app.core.crowd_models.registry import CROWD_MODELS
 
 ROOT = Path(__file__).resolve().parents[2]
 LINT_IMPORTS = Path(sys.executable).with_name("lint-imports")
 CONTRACTS = 7
+#: the contract that keeps every crowd model from the bots' policies
+LEARNED_MODELS = "the learned player models import no bot's policy"
 #: where SQL may be written: the store, the tables, the engines, and the benchmarks'
 #: throwaway databases (``CREATE DATABASE`` on a scratch server)
 SQL_HOMES = ("app/store/", "app/models/", "app/db/", "app/bench/scratch.py")
@@ -64,7 +70,7 @@ def test_an_arrow_back_up_breaks_the_contracts(tmp_path: Path) -> None:
     )
     (tmp_path / "app" / "core" / "upward.py").write_text("import app.cli.main\n")
     (tmp_path / "app" / "services" / "upward.py").write_text("import app.tasks\n")
-    model = tmp_path / "app" / "core" / "neighbour_model.py"
+    model = tmp_path / "app" / "core" / "crowd_models" / "shrunk.py"
     model.write_text(model.read_text() + "\nimport app.core.bots\n")
     (tmp_path / "app" / "api" / "routes" / "upward.py").write_text("import app.store.traces\n")
     done = lint_imports(tmp_path)
@@ -72,8 +78,29 @@ def test_an_arrow_back_up_breaks_the_contracts(tmp_path: Path) -> None:
     assert f"Contracts: 0 kept, {CONTRACTS} broken." in done.stdout, done.stdout
     assert "app.core.upward -> app.cli.main" in done.stdout
     assert "app.services.upward -> app.tasks" in done.stdout
-    assert "app.core.neighbour_model -> app.core.bots" in done.stdout
+    assert "app.core.crowd_models.shrunk -> app.core.bots" in done.stdout
     assert "app.api.routes.upward -> app.store.traces" in done.stdout
+
+
+def contract(name: str) -> dict[str, object]:
+    """The import-linter contract called ``name`` in ``pyproject.toml``."""
+    config = tomllib.loads((ROOT / "pyproject.toml").read_text())
+    (found,) = (c for c in config["tool"]["importlinter"]["contracts"] if c["name"] == name)
+    return dict(found)
+
+
+def held_by(module: str, sources: list[str]) -> bool:
+    """Whether ``module`` is one of ``sources`` or lies in one (import-linter's packages)."""
+    return any(module == source or module.startswith(f"{source}.") for source in sources)
+
+
+def test_the_contract_on_the_bots_holds_every_registered_crowd_model() -> None:
+    """The models the contract holds are the registry's, wherever a model's module is: one
+    registered from outside the contract's packages is not judged fairly by the bots."""
+    sources = contract(LEARNED_MODELS)["source_modules"]
+    assert isinstance(sources, list)
+    outside = [m.__module__ for m in CROWD_MODELS.values() if not held_by(m.__module__, sources)]
+    assert outside == []
 
 
 def sql_outside_the_store(root: Path) -> list[str]:

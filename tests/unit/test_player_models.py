@@ -1,18 +1,21 @@
-"""Player models: the heuristic eq. 1, the crowd eq. 2 against a literal loop, trace counts."""
+"""Player models: the heuristic eq. 1, the crowd eq. 2 against a literal loop and its kernel,
+trace counts, session lengths, the names of the models."""
 
 from __future__ import annotations
 
 import numpy as np
 import pytest
 
+from app.core.crowd_models.eq2 import crowd_player_model
+from app.core.crowd_models.kernel import kernel_counts, kernel_support, nearest_visited_distance
 from app.core.player_models import (
+    PlayerModelKind,
     Trace,
-    crowd_player_model,
     heuristic_player_model,
-    kernel_support,
     mean_session_length,
     observed_control_counts,
     observed_player_model,
+    parse_player_model,
     robust_session_length,
     trace_edges,
 )
@@ -251,3 +254,53 @@ def test_kernel_support_needs_a_visit_strictly_inside_the_radius() -> None:
     )
     # vertex 1 sits exactly at r (kernel 0); vertex 2 holds another control
     np.testing.assert_array_equal(supported, [True, False, False, True])
+
+
+@pytest.mark.parametrize("seed", range(3))
+def test_crowd_model_is_the_normalised_kernel_counts_plus_the_eps_prior(seed: int) -> None:
+    rng = np.random.default_rng(seed)
+    descriptors = rng.random((80, 3))
+    vertex_control = rng.integers(0, 3, size=80)
+    counts = rng.integers(0, 5, size=(80, 3))
+    counts[rng.random(80) < 0.6] = 0
+    counts[vertex_control == 2] = 0  # a control group nobody visited: the fallback
+    fallback = heuristic_player_model(vertex_control, 3, 0.8)
+    radius, eps = 0.35, 1e-2
+    k = kernel_counts(descriptors, vertex_control, counts, radius)
+    group_totals = np.array([counts[vertex_control == c].sum(axis=0) for c in range(3)])
+    scores = k + eps * group_totals[vertex_control]
+    expected = fallback.copy()
+    supported = scores.sum(axis=1) > 0
+    expected[supported] = scores[supported] / scores[supported].sum(axis=1, keepdims=True)
+    model = crowd_player_model(descriptors, vertex_control, counts, radius, eps, fallback=fallback)
+    np.testing.assert_allclose(model, expected, rtol=1e-12, atol=1e-15)
+    assert np.array_equal(model[vertex_control == 2], fallback[vertex_control == 2])
+
+
+def test_kernel_counts_weigh_own_visits_fully_and_neighbours_by_the_triangle() -> None:
+    descriptors = np.array([[0.0, 0.0], [0.3, 0.4], [0.0, 0.1], [5.0, 5.0]])
+    vertex_control = np.array([1, 1, 0, 1])
+    counts = np.array([[2, 6, 0], [1, 0, 1], [9, 0, 0], [0, 3, 0]])
+    k = kernel_counts(descriptors, vertex_control, counts, radius=1.0)
+    # 0 and 1 are 0.5 apart in group 1: weight 0.5 each way; 2 is alone in group 0; 3 is far
+    np.testing.assert_allclose(k[0], [2 + 0.5, 6, 0.5])
+    np.testing.assert_allclose(k[1], [1 + 1, 3, 1])
+    np.testing.assert_array_equal(k[2], [9, 0, 0])
+    np.testing.assert_array_equal(k[3], [0, 3, 0])
+    # a radius that reaches nobody else leaves each vertex its own counts
+    np.testing.assert_array_equal(kernel_counts(descriptors, vertex_control, counts, 0.05), counts)
+
+
+def test_the_distance_to_the_nearest_visited_vertex_of_the_group() -> None:
+    descriptors = np.array([[0.0], [3.0], [1.0], [7.0]])
+    distance = nearest_visited_distance(
+        descriptors, np.array([0, 0, 1, 1]), np.array([True, False, False, False])
+    )
+    np.testing.assert_array_equal(distance, [0.0, 3.0, np.inf, np.inf])
+
+
+def test_player_model_names_parse_and_unknown_ones_name_the_known() -> None:
+    assert parse_player_model("eq2") is PlayerModelKind.EQ2
+    assert parse_player_model("mixed-error") is PlayerModelKind.MIXED_ERROR
+    with pytest.raises(ValueError, match="eq2, shrunk, mixed, mixed-error"):
+        parse_player_model("logit")

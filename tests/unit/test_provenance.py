@@ -49,9 +49,9 @@ def test_an_opencl_device_that_does_not_exist_is_named_as_missing() -> None:
 
 
 def test_growth_settings_off_their_defaults_are_written_and_older_results_still_read() -> None:
-    changed = provenance(Settings().replace(rank_error="squared", alpha=0.79))
-    assert changed.growth == {"SRG_ALPHA": "0.79", "SRG_RANK_ERROR": "squared"}
-    assert "off their defaults: `SRG_ALPHA=0.79`, `SRG_RANK_ERROR=squared`." in changed.markdown()
+    changed = provenance(Settings().replace(crowd_eps=0.01, alpha=0.79))
+    assert changed.growth == {"SRG_ALPHA": "0.79", "SRG_CROWD_EPS": "0.01"}
+    assert "off their defaults: `SRG_ALPHA=0.79`, `SRG_CROWD_EPS=0.01`." in changed.markdown()
     stored = asdict(provenance(Settings()))
     assert stored.pop("growth") == {}
     assert "growth settings" not in Provenance(**stored).markdown()

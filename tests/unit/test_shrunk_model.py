@@ -8,12 +8,12 @@ import pytest
 from refiner_helpers import toy_refiners
 
 from app.core.clipbank import MemoryClipBank
+from app.core.crowd_models.shrunk import FittedShrunk, fit_shrunk_model, shrunk_player_model
 from app.core.crowd_play import PlayCounts
 from app.core.growth import initial_tree
 from app.core.player_models import PlayerModelKind, heuristic_player_model
 from app.core.refinement import Refiner, RefinerConfig
-from app.core.session_folds import SessionFolds, held_out_score
-from app.core.shrunk_model import fit_shrunk_model, shrunk_player_model
+from app.core.session_folds import SessionFolds
 from app.core.strategies import Strategy
 from app.core.toy import ToyDynamics
 
@@ -101,7 +101,9 @@ def test_the_refiner_learns_the_shrunk_model_and_keeps_the_heuristic_before_trac
     model = refiner.player_model()
     np.testing.assert_allclose(model.sum(axis=1), 1.0)
     assert model[0, 1] > refiner.heuristic_model()[0, 1]
-    assert refiner.shrunk_fit().prior_weight > 0.0
+    fitted = refiner.crowd_model()
+    assert isinstance(fitted, FittedShrunk) and fitted.chosen.prior_weight > 0.0
+    assert fitted.unseen_share is None  # it ranks for its crowd alone
 
 
 def test_mixed_ranks_half_the_mass_as_the_heuristic_model_once_traces_exist() -> None:
@@ -117,72 +119,3 @@ def test_mixed_ranks_half_the_mass_as_the_heuristic_model_once_traces_exist() ->
     assert not np.allclose(crowd, unseen)
     np.testing.assert_allclose(mixed.weights().weights, 0.5 * crowd + 0.5 * unseen, rtol=1e-9)
     assert mixed.weights().weights.sum() == pytest.approx(1.0)
-
-
-def _two_publications() -> tuple[np.ndarray, np.ndarray, np.ndarray, PlayCounts, PlayCounts]:
-    """Players who held control 1 on the first publication and switched to 0 on the
-    next, at states near the first ones but not the same."""
-    descriptors = np.array([[0.0], [0.2], [0.4], [3.0], [3.2]])
-    control = np.zeros(5, dtype=np.int64)
-    prior = heuristic_player_model(control, 2, 0.5)
-    first = PlayCounts.of_traces([np.array([[0, 1], [1, 1], [0, 1]]), np.array([[1, 1], [0, 1]])])
-    later = PlayCounts.of_traces([np.array([[2, 0], [3, 0], [4, 0]])], first=first.sessions)
-    return descriptors, control, prior, first, later
-
-
-def test_forward_choice_is_the_pair_that_best_predicts_the_latest_publication_by_hand() -> None:
-    descriptors, control, prior, first, later = _two_publications()
-    fit = fit_shrunk_model(descriptors, control, first, prior, 0.5, latest=later)
-    learnt, held = first.control_counts(5, 2), later.control_counts(5, 2)
-    by_hand = {}
-    for radius in (0.25, 0.5, 1.0, 2.0):
-        for weight in (0.3, 1.0, 3.0, 10.0, 30.0):
-            model = shrunk_player_model(descriptors, control, learnt, radius, weight, prior=prior)
-            by_hand[(radius, weight)] = float(np.sum(held * np.log(model)) / held.sum())
-    assert fit.cv_scores == pytest.approx(by_hand)
-    assert (fit.radius, fit.prior_weight) == max(by_hand, key=lambda key: by_hand[key])
-    # the later players left the first ones' choice: the most prior of the grid wins,
-    # where 5-fold cross-validation within the first publication trusts its counts most
-    assert fit.prior_weight == 30.0
-    assert fit_shrunk_model(descriptors, control, first, prior, 0.5).prior_weight < 30.0
-
-
-def test_held_out_sessions_without_a_step_are_refused() -> None:
-    with pytest.raises(ValueError, match="no step"):
-        held_out_score(lambda counts: np.full((1, 2), 0.5), np.ones((1, 2)), np.zeros((1, 2)))
-
-
-def test_mixed_forward_scores_the_latest_publication_once_two_are_learnt() -> None:
-    mixed, forward = toy_refiners(PlayerModelKind.MIXED, PlayerModelKind.MIXED_FORWARD)
-    graph = forward.graph
-    first = PlayCounts.of_traces([np.array([[0, 1], [1, 1], [3, 1]]), np.array([[0, 1], [1, 1]])])
-    for refiner in (mixed, forward):
-        refiner.learn_counts(first)
-    # one publication: the 5-fold choice, so the same model and ranking as mixed
-    assert forward.shrunk_fit() == mixed.shrunk_fit()
-    np.testing.assert_array_equal(forward.weights().weights, mixed.weights().weights)
-    later = PlayCounts.of_traces([np.array([[0, 2], [2, 2], [5, 2]])], first=first.sessions)
-    for refiner in (mixed, forward):
-        refiner.learn_counts(later)
-    expected = fit_shrunk_model(
-        graph.vertex_descriptors(),
-        np.asarray(graph.vertex_control),
-        first,
-        forward.heuristic_model(),
-        0.5,
-        latest=later,
-    )
-    assert forward.shrunk_fit() == expected
-    assert mixed.shrunk_fit() != expected
-    # the model is then fitted to every session, as mixed's is
-    np.testing.assert_array_equal(
-        forward.player_model(),
-        shrunk_player_model(
-            graph.vertex_descriptors(),
-            np.asarray(graph.vertex_control),
-            forward.play.control_counts(graph.n_vertices, graph.n_controls),
-            expected.radius,
-            expected.prior_weight,
-            prior=forward.heuristic_model(),
-        ),
-    )

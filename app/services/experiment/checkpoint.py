@@ -16,6 +16,7 @@ from sqlalchemy.orm import Session
 
 from app.config import Settings
 from app.core.bots import play_sessions
+from app.core.crowd_models.kernel import kernel_support, nearest_visited_distance
 from app.core.metrics import (
     evaluate_checkpoint,
     observed_edge_density,
@@ -23,9 +24,7 @@ from app.core.metrics import (
     per_vertex_bound_edge_probabilities,
     predicted_edge_probabilities,
 )
-from app.core.neighbour_model import nearest_visited_distance
 from app.core.player_models import (
-    kernel_support,
     mean_session_length,
     observed_control_counts,
     trace_edges,

@@ -1,5 +1,5 @@
-"""The share of heuristic players a ``mixed`` ranking assumes, chosen by where the latest
-players met error (docs/player-models.md, "`mixed-error`").
+"""``mixed-error``: ``mixed``, its share of heuristic players chosen by where the latest
+players met error (docs/player-models.md, "`mixed-error`"); the default crowd model.
 
 ``mixed`` ranks for a population half of which plays as the heuristic model says. On one
 world in three the goal-directed crowd still loses at 20,000 frames: a sixth of its
@@ -9,32 +9,27 @@ them better than the heuristic one. A per-step likelihood weighs the many steps 
 crowd's route; growth only cares about the steps that meet a blend. So the share is
 chosen here by the error-weighted log score: over the error the latest publication's
 players met, the mean log of the share of play the ranking's population, learnt from the
-earlier publications' sessions, put on the edge where they met it.
-
-``mixed-held`` applies a share other than one half only once the share chosen the time
-before held on the next players (docs/player-models.md, "`mixed-held`"): at 5,000 frames
-``mixed-error`` chose the fewest heuristic players on every selection world, the next
-players left the route the last ones had met their error on, and the graph dipped.
-Pure numpy.
+earlier publications' sessions, put on the edge where they met it. Pure numpy.
 """
 
 from __future__ import annotations
 
 from collections.abc import Callable, Sequence
 from dataclasses import dataclass, field
+from typing import Any, ClassVar
 
 import numpy as np
 
+from app.core.crowd_models.estimator import CrowdGraph, CrowdPlay
+from app.core.crowd_models.mixed import UNSEEN_SHARE
+from app.core.crowd_models.shrunk import FittedShrunk, Shrunk
 from app.core.crowd_play import PlayCounts
 from app.core.metrics import predicted_edge_probabilities
 from app.core.player_models import PlayerModelKind
 from app.core.publication import Publication
-from app.core.strategies import UNSEEN_SHARE
 
 #: shares of heuristic players tried; ``mixed``'s (UNSEEN_SHARE) among them
 SHARES = (0.25, 0.5, 0.75, 0.9)
-#: the crowd models whose share of heuristic players is chosen here
-ERROR_SHARE_KINDS = frozenset({PlayerModelKind.MIXED_ERROR, PlayerModelKind.MIXED_HELD})
 #: a player model of the control counts it learns from: (V, N) counts in, P(c|v) out
 CountsModel = Callable[[np.ndarray], np.ndarray]
 
@@ -46,9 +41,6 @@ class ShareFit:
 
     share: float
     scores: dict[float, float] = field(default_factory=dict)
-    #: for a held fit, the share chosen on the publications before the latest (None
-    #: where none was chosen): the choice is applied only if that one held
-    before: float | None = None
 
 
 def error_weighted_score(weights: np.ndarray, steps: np.ndarray, edge_err: np.ndarray) -> float:
@@ -73,19 +65,13 @@ def fit_error_share(
     restart: float,
     *,
     shares: Sequence[float] = SHARES,
-    held: bool = False,
 ) -> ShareFit:
     """The share of heuristic players under which the ranking's population, the crowd
     ``model`` learnt from every publication's sessions but the latest mixed with the
     ``heuristic`` P(c|v), best scores where the latest's players met error
     (:func:`error_weighted_score`), both predicted by STATERANK on the latest
     publication. ``mixed``'s share before two publications' sessions or when the
-    latest's met no error; ties go to the share nearest it.
-
-    With ``held``, the share chosen on the publications before the latest must score at
-    least as well as one half on the latest's players (its forecast held) for the new
-    choice to be applied; otherwise, and before any earlier choice, the share is one half.
-    A choice of one half moved nothing and has nothing to hold."""
+    latest's met no error; ties go to the share nearest it."""
     played = [(then, play) for then, play in played if play.sessions]
     if len(played) < 2:
         return ShareFit(UNSEEN_SHARE)
@@ -108,10 +94,44 @@ def fit_error_share(
         for share in shares
     }
     share = max(scores, key=lambda s: (scores[s], -abs(s - UNSEEN_SHARE)))
-    if not held:
-        return ShareFit(share, scores)
-    before = fit_error_share(played[:-1], model, heuristic, n_vertices, restart, shares=shares)
-    if not before.scores:
-        return ShareFit(UNSEEN_SHARE, scores)
-    kept = scores[before.share] >= scores[UNSEEN_SHARE]
-    return ShareFit(share if kept else UNSEEN_SHARE, scores, before.share)
+    return ShareFit(share, scores)
+
+
+class MixedError:
+    """``mixed`` whose share of heuristic players is chosen where the latest
+    publication's players met error; it reads every session's publication."""
+
+    kind: ClassVar[PlayerModelKind] = PlayerModelKind.MIXED_ERROR
+    reads_publications: ClassVar[bool] = True
+
+    def fit(self, graph: CrowdGraph, play: CrowdPlay) -> FittedMixedError:
+        shrunk = Shrunk().fit(graph, play)
+        share = fit_error_share(
+            play.published(),
+            lambda counts: shrunk.of_counts(graph, counts),
+            graph.heuristic,
+            graph.n_vertices,
+            play.restart,
+        )
+        return FittedMixedError(shrunk, share)
+
+
+@dataclass(frozen=True)
+class FittedMixedError:
+    """``shrunk``'s fit and the share of heuristic players chosen."""
+
+    shrunk: FittedShrunk
+    share: ShareFit
+
+    @property
+    def unseen_share(self) -> float:
+        return self.share.share
+
+    def player_model(self, graph: CrowdGraph) -> np.ndarray:
+        return self.shrunk.player_model(graph)
+
+    def figures(self) -> dict[str, Any]:
+        return self.shrunk.figures() | {
+            "unseen_share": self.share.share,
+            "share_scores": {f"{s:g}": round(v, 6) for s, v in self.share.scores.items()},
+        }

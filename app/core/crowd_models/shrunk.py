@@ -1,14 +1,15 @@
-"""Eq. 2's evidence shrunk toward the heuristic model, state by state (docs/player-models.md).
+"""``shrunk``: eq. 2's evidence shrunk toward the heuristic model, state by state
+(docs/player-models.md, "`shrunk`").
 
 sr-crowd must never rank worse than sr-heuristic for having read traces. A learned model
-that extrapolates the crowd's choices to states nobody played (``knn``) sends STATERANK's
-mass down the crowd's old paths, and a growing graph adds most of its states where no
-session has been: there the extrapolation is a confident guess, and the blends on the
-branches it rules out stay unrefined until players fall into them.
+that extrapolates the crowd's choices to states nobody played sends STATERANK's mass down
+the crowd's old paths, and a growing graph adds most of its states where no session has
+been: there the extrapolation is a confident guess, and the blends on the branches it
+rules out stay unrefined until players fall into them.
 
 Here the heuristic model P_h (what sr-heuristic ranks with) is a Dirichlet prior of
 ``prior_weight`` pseudo-steps at every vertex, and eq. 2's kernel-weighted counts K
-(:func:`~app.core.player_models.kernel_counts`, radius ``radius``) are the evidence::
+(:func:`~app.core.crowd_models.kernel.kernel_counts`, radius ``radius``) are the evidence::
 
     P(c | v) = (K[v, c] + prior_weight * P_h(c | v)) / (sum_c K[v, c] + prior_weight)
 
@@ -22,31 +23,16 @@ from __future__ import annotations
 
 from collections.abc import Sequence
 from dataclasses import dataclass, field
+from typing import Any, ClassVar
 
 import numpy as np
 
+from app.core.crowd_models.estimator import CrowdGraph, CrowdPlay
+from app.core.crowd_models.kernel import kernel_counts
 from app.core.crowd_play import PlayCounts
 from app.core.model_checks import check_counts, check_distributions
-from app.core.player_models import PlayerModelKind, kernel_counts
-from app.core.session_folds import FOLDS, LearnedModel, SessionFolds, held_out_score
-
-#: the crowd models ranked for a population a share of which the traces have not seen
-#: (app.core.strategies.mixed_weights): ``mixed-forward`` also chooses its radius and
-#: weight otherwise, ``mixed-fresh`` weighs the counts (app.core.fresh_evidence),
-#: ``mixed-error`` and ``mixed-held`` choose the share (app.core.error_share),
-#: ``mixed-split`` gives each kind of player its own share of growth (strategies)
-MIXED_KINDS = frozenset(
-    {
-        PlayerModelKind.MIXED,
-        PlayerModelKind.MIXED_FORWARD,
-        PlayerModelKind.MIXED_FRESH,
-        PlayerModelKind.MIXED_ERROR,
-        PlayerModelKind.MIXED_SPLIT,
-        PlayerModelKind.MIXED_HELD,
-    }
-)
-#: the crowd models whose P(c|v) is :func:`shrunk_player_model`
-SHRUNK_KINDS = MIXED_KINDS | {PlayerModelKind.SHRUNK}
+from app.core.player_models import PlayerModelKind
+from app.core.session_folds import FOLDS, LearnedModel, SessionFolds
 
 #: kernel radii tried, in multiples of the dynamics' eq. 2 radius
 RADIUS_SCALES = (0.5, 1.0, 2.0, 4.0)
@@ -79,7 +65,8 @@ def shrunk_player_model(
     prior_weight : float
         m > 0: how many steps of evidence weigh as much as the prior.
     prior : ndarray, shape (V, N)
-        Rows are probability distributions (:func:`heuristic_player_model`).
+        Rows are probability distributions
+        (:func:`~app.core.player_models.heuristic_player_model`).
 
     Returns
     -------
@@ -119,29 +106,17 @@ def fit_shrunk_model(
     radius_scales: Sequence[float] = RADIUS_SCALES,
     prior_weights: Sequence[float] = PRIOR_WEIGHTS,
     folds: int = FOLDS,
-    latest: PlayCounts | None = None,
 ) -> ShrunkFit:
     """The (radius, prior weight) whose model best predicts held-out sessions' controls
-    (``play``: the sessions' summed counts).
+    (``play``: the sessions' summed counts), ``folds`` folds of them in turn.
 
-    Held out are ``folds`` folds of ``play``'s sessions, or, given ``latest`` (the
-    sessions of the latest publication, ``play`` those of the ones before it), ``latest``
-    under the model learnt from ``play``: growth's question, how the players of a graph
-    that has grown since choose (docs/player-models.md, "`mixed-forward`"). Radii are
-    ``base_radius`` times ``radius_scales``. Ties go to the smaller radius, then the
-    larger prior weight (the model closer to the heuristic). Raises ValueError when no
-    trace has a step.
+    Radii are ``base_radius`` times ``radius_scales``. Ties go to the smaller radius,
+    then the larger prior weight (the model closer to the heuristic). Raises ValueError
+    when no trace has a step.
     """
     prior = np.asarray(prior, dtype=np.float64)
     n_vertices, n_controls = prior.shape
-    if latest is None:
-        score = SessionFolds.of(play, n_vertices, n_controls, folds).score
-    else:
-        learnt = play.control_counts(n_vertices, n_controls)
-        held = latest.control_counts(n_vertices, n_controls)
-
-        def score(learned: LearnedModel) -> float:
-            return held_out_score(learned, learnt, held)
+    score = SessionFolds.of(play, n_vertices, n_controls, folds).score
 
     def model(radius: float, weight: float) -> LearnedModel:
         return lambda counts: shrunk_player_model(
@@ -152,3 +127,50 @@ def fit_shrunk_model(
     scores = {key: score(model(*key)) for key in candidates}
     radius, weight = max(scores, key=lambda key: (scores[key], -key[0], key[1]))
     return ShrunkFit(radius, weight, scores)
+
+
+class Shrunk:
+    """Eq. 2's evidence over the heuristic model as a prior, its radius and prior weight
+    chosen by 5-fold cross-validation over whole sessions."""
+
+    kind: ClassVar[PlayerModelKind] = PlayerModelKind.SHRUNK
+    reads_publications: ClassVar[bool] = False
+
+    def fit(self, graph: CrowdGraph, play: CrowdPlay) -> FittedShrunk:
+        chosen = fit_shrunk_model(
+            graph.descriptors, graph.vertex_control, play.all, graph.heuristic, graph.radius
+        )
+        return FittedShrunk(play, chosen)
+
+
+@dataclass(frozen=True)
+class FittedShrunk:
+    """``shrunk`` with its radius and prior weight chosen; ``unseen_share`` is the share of
+    heuristic players growth ranks for beside its crowd (``mixed``), None for none."""
+
+    play: CrowdPlay
+    chosen: ShrunkFit
+    unseen_share: float | None = None
+
+    def player_model(self, graph: CrowdGraph) -> np.ndarray:
+        return self.of_counts(graph, self.play.counts(graph))
+
+    def of_counts(self, graph: CrowdGraph, counts: np.ndarray) -> np.ndarray:
+        """P(c|v) on ``graph`` learnt from the (V, N) control ``counts`` instead."""
+        return shrunk_player_model(
+            graph.descriptors,
+            graph.vertex_control,
+            counts,
+            self.chosen.radius,
+            self.chosen.prior_weight,
+            prior=graph.heuristic,
+        )
+
+    def figures(self) -> dict[str, Any]:
+        return {
+            "radius": self.chosen.radius,
+            "prior_weight": self.chosen.prior_weight,
+            "cv_scores": {
+                f"{r:.6g}/{m:g}": round(v, 6) for (r, m), v in self.chosen.cv_scores.items()
+            },
+        }
