@@ -53,6 +53,22 @@ def _url_of(schemes: frozenset[str], *, optional: bool) -> Callable[[str], str]:
     return check
 
 
+_broker_scheme = _url_of(BROKER_SCHEMES, optional=True)
+
+
+def _broker_url(value: str) -> str:
+    """A broker of :data:`BROKER_SCHEMES`; a ``rediss://`` one says how the server's
+    certificate is checked, or Celery refuses it as its result backend (the broker's URL
+    unless ``SRG_RESULT_BACKEND`` names another), once a worker has started."""
+    _broker_scheme(value)
+    if value.lower().startswith("rediss://") and "ssl_cert_reqs=" not in urlsplit(value).query:
+        raise ValueError(
+            "a rediss:// URL must set ssl_cert_reqs (?ssl_cert_reqs=required, optional or "
+            "none) (the value is not shown)"
+        )
+    return value
+
+
 def _rates(value: str) -> str:
     if not all(_RATE.fullmatch(part) for part in re.split(r"[,;|]", value)):
         raise ValueError(
@@ -92,7 +108,7 @@ def _is_web_origin(origin: str) -> bool:
 DatabaseURL = Annotated[str, AfterValidator(_url_of(DATABASE_SCHEMES, optional=True))]
 PostgresURL = Annotated[str, AfterValidator(_url_of(POSTGRESQL_SCHEMES, optional=False))]
 #: a Celery broker URL, or '' for none (tasks then run eagerly)
-BrokerURL = Annotated[str, AfterValidator(_url_of(BROKER_SCHEMES, optional=True))]
+BrokerURL = Annotated[str, AfterValidator(_broker_url)]
 #: a Redis URL, or '' for none
 RedisURL = Annotated[str, AfterValidator(_url_of(REDIS_SCHEMES, optional=True))]
 #: limits in the ``limits`` notation, each of at least one request per period

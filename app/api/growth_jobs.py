@@ -20,6 +20,8 @@ from app.db.sessions import Scope
 from app.services.growth_tracking import end_request, failure_reason, start_request
 
 log = logging.getLogger(__name__)
+#: seconds the admin grow route waits for the broker to take a growth: its client waits
+SEND_TIMEOUT = 3.0
 
 
 class GrowthJobs:
@@ -88,8 +90,30 @@ def _record_failure(scope: Scope, request_id: int, exc: Exception) -> None:
         log.exception("could not record the failure of growth request %d", request_id)
 
 
-def send_to_workers(graph_id: int, expansions: int, request_id: int, *, renders: bool) -> None:
-    """One ``srg.grow_epoch`` of ``expansions``: a worker plans the epoch and fans it out."""
-    from app.tasks import growth
+def send_to_workers(settings: Settings, graph_id: int, expansions: int, request_id: int) -> None:
+    """One ``srg.grow_epoch`` of ``expansions``: a worker plans the epoch and fans it out.
 
-    growth.grow_epoch.delay(graph_id, expansions, renders, request_id)
+    Sent to the broker of ``settings`` (the one the route judged eager or not by) over a
+    connection of its own that waits :data:`SEND_TIMEOUT` at most and is never retried:
+    a broker that cannot take the work is a :class:`BrokerUnavailable` (a 503) while the
+    client waits, not Celery's retries. No result is kept: nobody reads it, and Redis's
+    result backend would first subscribe to it, retrying for about 19 s with Redis down.
+    """
+    from kombu.exceptions import OperationalError
+
+    from app.tasks import growth
+    from app.tasks.celery_app import BrokerUnavailable, make_celery
+
+    workers = make_celery(settings)
+    arguments = (graph_id, expansions, settings.render.growth_renders, request_id)
+    try:
+        with workers.connection_for_write(connect_timeout=SEND_TIMEOUT) as connection:
+            workers.send_task(
+                growth.grow_epoch.name,
+                arguments,
+                connection=connection,
+                ignore_result=True,
+                retry_policy={"max_retries": 0},
+            )
+    except OperationalError as exc:
+        raise BrokerUnavailable(f"the broker cannot take the growth: {exc}") from None

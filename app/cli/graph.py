@@ -124,7 +124,8 @@ def publish(
     ),
     json_output: bool = typer.Option(False, "--json", help=JSON_HELP),
 ) -> None:
-    """Relink every blend, render what is missing, freeze a publication for players."""
+    """Relink every blend, render what is missing (strips whose file is missing or
+    corrupt included), freeze a publication for players."""
     from app.config import get_settings
     from app.services.catalogue import missing_animations
     from app.services.publishing import publish_graph
@@ -238,7 +239,10 @@ def gc(
 
 def fsck(
     repair: bool = typer.Option(
-        False, "--repair", help="recompute corrupt or missing clips from their stored states"
+        False,
+        "--repair",
+        help="recompute corrupt or missing clips from their stored states, and strips "
+        "from their clips",
     ),
     json_output: bool = typer.Option(False, "--json", help=JSON_HELP),
 ) -> None:
@@ -247,8 +251,9 @@ def fsck(
 
     A file that fails is moved aside (corrupt/ under the artifact directory) so that
     nothing reads it again. With --repair, a clip is simulated again from the state it
-    started from and stored only if its bytes hash to what the database holds; a warm
-    start is forgotten; anything else is reported. Safe to run while graphs grow.
+    started from, and a strip rendered again from its clip, each stored only if its bytes
+    hash to what the database holds; a warm start is forgotten; anything else is
+    reported. Safe to run while graphs grow.
     """
     from app.config import get_settings
     from app.services.fsck import count_to_scan

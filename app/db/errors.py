@@ -111,6 +111,10 @@ _SERVER_PROBLEMS = {
     "57": "stopped by its operator",
     "58": "I/O error",
 }
+#: the codes of those classes that mean more than their class: query_canceled (57014) is
+#: what ``statement_timeout`` raises, a limit set on the server or the role, not an
+#: operator stopping the server (a cancel request raises it too, and its line says so)
+_SERVER_STATES = {"57014": "statement timeout"}
 
 
 def database_unavailable(exc: DBAPIError, url: URL) -> DatabaseUnavailable | None:
@@ -143,7 +147,8 @@ def database_unavailable(exc: DBAPIError, url: URL) -> DatabaseUnavailable | Non
     ):
         problem = "unreachable"  # the connection failed or was lost: no SQLSTATE for that
     else:
-        problem = _SERVER_PROBLEMS.get(str(getattr(orig, "sqlstate", ""))[:2])
+        state = str(getattr(orig, "sqlstate", ""))
+        problem = _SERVER_STATES.get(state) or _SERVER_PROBLEMS.get(state[:2])
     if problem is None:
         return None
     kind = DatabaseUnusable if problem in ("not a database", "corrupt") else DatabaseUnavailable

@@ -4,6 +4,11 @@ The epochs render the strips of what they add; publishing renders whatever is st
 missing. Both call these, so a strip is the same whoever renders it. A clip nearly
 identical to one already rendered shows that clip's strip instead of a new one
 (:mod:`app.core.dedup`, docs/dedup.md).
+
+A strip is a function of its clip, so one whose file rotted or went missing is rendered
+again rather than lost: publishing first forgets the graph's strips that fail their hash
+(:func:`forget_unreadable_strips`) and renders them with what is missing, and
+``srg fsck --repair`` renders one again from what it shows (:func:`rendered_again`).
 """
 
 from __future__ import annotations
@@ -19,17 +24,21 @@ from app.core.dedup import Substitute, animation_owners, find_substitute
 from app.core.dynamics import ClipFeatures, Dynamics
 from app.core.graph import EdgeKind
 from app.render.animation import STRIP_MEDIA_TYPE, encode_strip
-from app.services.loading import GraphContext, LoadedGraph
+from app.services.loading import GraphContext, LoadedGraph, graph_dynamics
 from app.services.progress import Advance
 from app.store.animations import (
     animation_media_type,
     clip_animations,
+    drop_animations,
     edges_without_animation,
+    graph_animations,
     rendered_clip_features,
     rendered_clips,
     set_animations,
+    strip_source,
 )
-from app.store.artifacts import ArtifactNotFound, ArtifactStore
+from app.store.artifacts import ArtifactCorrupt, ArtifactNotFound, ArtifactStore
+from app.store.graph_catalogue import graph_entry
 
 
 def reuse_error_limit(settings: Settings, context: GraphContext) -> float:
@@ -158,12 +167,17 @@ class AnimationReuse:
         self._descriptors.append(np.ravel(descriptor))
 
 
+def strip_bytes(dynamics: Dynamics, frames: np.ndarray) -> bytes:
+    """``frames`` rendered and encoded: the bytes of their strip."""
+    return encode_strip(dynamics.render(frames))
+
+
 def frames_strip(
     session: Session, artifacts: ArtifactStore, dynamics: Dynamics, frames: np.ndarray
 ) -> str:
     """Render ``frames`` and store the encoded strip; its artifact digest."""
     return artifacts.put_bytes(
-        encode_strip(dynamics.render(frames)), media_type=STRIP_MEDIA_TYPE, session=session
+        strip_bytes(dynamics, frames), media_type=STRIP_MEDIA_TYPE, session=session
     )
 
 
@@ -173,6 +187,45 @@ def blend_strip(session: Session, loaded: LoadedGraph, edge: int) -> str:
     target_clip = graph.edge_clip[graph.edge_target[edge]]
     frames = loaded.dynamics.blend(bank.frames(graph.edge_clip[edge]), bank.frames(target_clip))
     return frames_strip(session, loaded.artifacts, loaded.dynamics, frames)
+
+
+def forget_unreadable_strips(session: Session, loaded: LoadedGraph) -> list[str]:
+    """Take every strip of the graph whose file is missing or fails its hash off the clips
+    and edges showing it, so :func:`render_missing_animations` renders them again; the
+    strips taken off.
+
+    Each strip is read and hashed (:meth:`ArtifactStore.get_bytes`, which moves a rotted
+    file aside): a byte flipped in place keeps the file's size and time, so only its hash
+    tells. A render that gives the same bytes stores them under the same digest, which
+    heals the file for older publications too; one that does not gives the graph a new
+    digest, and older publications keep the old one (they are frozen).
+    """
+    unreadable = []
+    for digest in sorted(graph_animations(session, loaded.entry.id)):
+        try:
+            loaded.artifacts.get_bytes(digest)
+        except (ArtifactNotFound, ArtifactCorrupt):
+            unreadable.append(digest)
+    drop_animations(session, loaded.entry.id, unreadable)
+    return unreadable
+
+
+def rendered_again(
+    session: Session, settings: Settings, artifacts: ArtifactStore, digest: str
+) -> bytes | None:
+    """The strip ``digest`` rendered again from what it shows: its owner clip's frames,
+    or a BLEND edge's blend (:func:`~app.store.animations.strip_source`); None when no
+    clip or edge of a graph shows it any more. The clips' bundles are read verified
+    (:class:`~app.store.artifacts.ArtifactCorrupt` if one is not sound)."""
+    source = strip_source(session, digest)
+    if source is None:
+        return None
+    dynamics = graph_dynamics(graph_entry(session, source.graph_id), settings)
+    frames = artifacts.get_arrays(source.bundle, ("frames",))["frames"]
+    if source.blend_into is not None:
+        into = artifacts.get_arrays(source.blend_into, ("frames",))["frames"]
+        frames = dynamics.blend(frames, into)
+    return strip_bytes(dynamics, frames)
 
 
 def render_missing_animations(

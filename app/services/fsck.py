@@ -10,9 +10,16 @@ that fails aside), lists rows without files and, on SQLite, runs the file's own
   started from, which is its predecessor's end state when still kept, else recomputed
   back along the chain of clips to the start vertex; stored only when the recomputed
   bytes hash to the digest the database holds, which proves them;
+- an animation strip a clip or an edge of a graph shows: rendered again from its clip's
+  frames (a BLEND edge's: from eq. 8's blend), after the clips, whose bundles it reads;
+  stored only when the new bytes hash to its digest. Rendering is deterministic on one
+  machine; where it is not, the strip is left aside and the next publish gives the graph
+  a new one (:func:`~app.services.animations.forget_unreadable_strips`), while the
+  publications before it, frozen, keep showing the old digest;
 - a STATERANK warm start: forgotten (it only speeds up the next ranking).
 
-Anything else (a rendered strip, a checkpoint's arrays) is reported, not guessed.
+Anything else (a strip only older publications show, a checkpoint's arrays, a trace) is
+reported, not guessed.
 """
 
 from __future__ import annotations
@@ -28,8 +35,11 @@ from app.config import Settings
 from app.core.dynamics import Dynamics
 from app.core.graph_entry import GraphEntry
 from app.db.sessions import database_sessions, transaction
+from app.render.animation import STRIP_MEDIA_TYPE
+from app.services.animations import rendered_again
 from app.services.clips import ClipJob, finish_clip, planned_clip, simulate_job
 from app.services.loading import artifact_store, graph_dynamics
+from app.store.animations import animation_media_type
 from app.store.array_codec import ARRAYS_MEDIA_TYPE, encode_arrays
 from app.store.artifacts import ArtifactCorrupt, ArtifactNotFound, ArtifactStore
 from app.store.fsck import (
@@ -94,8 +104,12 @@ def fsck(
             if progress is not None:
                 progress(1)
     if repair:
-        for digest in [*result.corrupt, *result.missing]:
-            why = _repair(settings, store, digest)
+        broken = [*result.corrupt, *result.missing]
+        strips = _strips(settings, broken)
+        # clips first: a strip is rendered from its clips' bundles
+        for digest in sorted(broken, key=lambda digest: digest in strips):
+            repair_one = _repair_strip if digest in strips else _repair
+            why = repair_one(settings, store, digest)
             if why is None:
                 result.repaired.append(digest)
             else:
@@ -109,6 +123,31 @@ def _database_check(session: Session) -> list[str]:
     return sqlite_integrity(session)
 
 
+def _strips(settings: Settings, digests: list[str]) -> set[str]:
+    """Which of ``digests`` are animation strips."""
+    with database_sessions(settings)() as session:
+        return {digest for digest in digests if animation_media_type(session, digest)}
+
+
+def _repair_strip(settings: Settings, store: ArtifactStore, digest: str) -> str | None:
+    """Render the strip ``digest`` again and store it; None when done, else why not."""
+    with database_sessions(settings)() as session:
+        try:
+            data = rendered_again(session, settings, store, digest)
+        except (ArtifactCorrupt, ArtifactNotFound) as exc:
+            return f"its clip is unreadable, so it cannot be rendered again: {exc}"
+    if data is None:
+        return "not recomputable (a strip only older publications show)"
+    if hashlib.sha256(data).hexdigest() != digest:
+        return (
+            "rendered again from its clip, but the bytes differ from its hash: left aside "
+            "(the next publish gives the graph a new strip)"
+        )
+    with transaction(settings) as session:
+        store.put_bytes(data, media_type=STRIP_MEDIA_TYPE, session=session)
+    return None
+
+
 def _repair(settings: Settings, store: ArtifactStore, digest: str) -> str | None:
     """Recompute and store ``digest``; None when done, else why not."""
     arrays = _recomputed(settings, store, digest)
@@ -116,7 +155,7 @@ def _repair(settings: Settings, store: ArtifactStore, digest: str) -> str | None
         with transaction(settings) as session:
             if drop_warm_starts(session, digest):
                 return None
-        return "not recomputable (a rendered strip, a checkpoint's arrays or a trace)"
+        return "not recomputable (a checkpoint's arrays or a trace)"
     for data in _encodings(arrays):
         if hashlib.sha256(data).hexdigest() == digest:
             with transaction(settings) as session:

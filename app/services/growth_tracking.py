@@ -28,6 +28,7 @@ __all__ = [
     "RequestView",
     "end_request",
     "epochs_after",
+    "fail_request",
     "failure_reason",
     "last_epoch_number",
     "latest_request",
@@ -42,6 +43,12 @@ __all__ = [
 def queue_request(session: Session, graph_id: int, expansions: int, runs_on: str) -> int:
     """The id of a new queued request, in its own write transaction."""
     return in_transaction(session, lambda: add_request(session, graph_id, expansions, runs_on))
+
+
+def fail_request(session: Session, request_id: int, exc: BaseException) -> None:
+    """End a request that nothing will run (its work could not be sent) as failed, with
+    why, in its own write transaction: its poll says so rather than ``queued`` for ever."""
+    in_transaction(session, lambda: end_request(session, request_id, failure=failure_reason(exc)))
 
 
 def refuse_if_growing_elsewhere(

@@ -1,5 +1,9 @@
 """Publishing a graph: pre-publish relinking, every missing animation, a frozen copy.
 
+A strip whose file is missing or fails its hash counts as missing: it is rendered again
+from its clip (:func:`~app.services.animations.forget_unreadable_strips`), so a file that
+rotted is never frozen into a new publication.
+
 Players and bots only ever play publications (docs/play.md), so growth can go on
 rewriting the live graph under them. Publishing is a writer of the graph (its relinks
 are saved) and takes the graph's lock as growth's steps do (:mod:`app.store.locks`):
@@ -15,7 +19,11 @@ from sqlalchemy.orm import Session
 
 from app.config import Settings
 from app.core.growth import relink_all
-from app.services.animations import render_missing_animations, reuse_error_limit
+from app.services.animations import (
+    forget_unreadable_strips,
+    render_missing_animations,
+    reuse_error_limit,
+)
 from app.services.loading import LoadedGraph, loaded_graph
 from app.services.progress import Advance
 from app.store.graph_persistence import save_graph
@@ -30,7 +38,10 @@ class PublishResult:
     publication_id: int
     number: int
     relinked: int
+    #: edges given a strip
     rendered: int
+    #: strips whose file was missing or failed its hash: their edges are among ``rendered``
+    rerendered_strips: int
     size_frames: int
 
 
@@ -59,8 +70,9 @@ def publish_graph(
     """
     loaded = loaded_graph(session, settings, lock_named_graph(session, name))
     relinked = relink_blends(session, settings, loaded)
-    rendered = 0
+    rendered = rerendered = 0
     if render:
+        rerendered = len(forget_unreadable_strips(session, loaded))
         limit = reuse_error_limit(settings, loaded.context)
         rendered = render_missing_animations(session, loaded, limit, progress)
     publication_id = publish(
@@ -72,6 +84,7 @@ def publish_graph(
         number=get_publication(session, publication_id).number,
         relinked=relinked,
         rendered=rendered,
+        rerendered_strips=rerendered,
         size_frames=loaded.graph.size_frames,
     )
 

@@ -1,4 +1,5 @@
-"""Which clips and edges have an animation strip, and attaching new ones.
+"""Which clips and edges have an animation strip, attaching new ones, taking rotted ones
+off, and what a stored strip was rendered from.
 
 A SIM edge shows its clip's strip (rendered once per clip, kept on the clip row); a BLEND
 edge shows its own blend. Saving a changed edge drops its strip
@@ -7,7 +8,7 @@ edge shows its own blend. Saving a changed edge drops its strip
 
 from __future__ import annotations
 
-from collections.abc import Iterable, Mapping
+from collections.abc import Collection, Iterable, Mapping
 from typing import NamedTuple
 
 import numpy as np
@@ -20,7 +21,7 @@ from app.core.graph import EdgeKind, edge_index, edge_vertex_control
 from app.models import Artifact, Clip, Edge, PublicationEdge
 from app.store.artifacts import ArtifactStore
 from app.store.clipbank import ShapeOf
-from app.store.graph_catalogue import get_graph_row
+from app.store.graph_catalogue import clip_bundle_digest, get_graph_row
 from app.store.graph_persistence import (
     CLIP_FEATURE_COLUMNS,
     stored_descriptor,
@@ -54,6 +55,19 @@ def set_animations(
                 for e, h in edges.items()
                 for v, c in [edge_vertex_control(e, n)]
             ],
+        )
+
+
+def drop_animations(session: Session, graph_id: int, digests: Collection[str]) -> None:
+    """Take the strips ``digests`` off every clip and edge of the graph that shows them, so
+    that rendering what is missing gives those clips and edges a strip again."""
+    if not digests:
+        return
+    for table in (Clip, Edge):
+        session.execute(
+            update(table)
+            .where(table.graph_id == graph_id, table.animation.in_(list(digests)))
+            .values(animation=None)
         )
 
 
@@ -211,3 +225,51 @@ def graph_animations(session: Session, graph_id: int) -> set[str]:
     clips = select(Clip.animation).where(Clip.graph_id == graph_id, Clip.animation.is_not(None))
     edges = select(Edge.animation).where(Edge.graph_id == graph_id, Edge.animation.is_not(None))
     return {digest for digest in session.scalars(clips.union(edges)) if digest is not None}
+
+
+class StripSource(NamedTuple):
+    """What a stored strip shows: the frames of the clip stored as ``bundle``, blended into
+    those of ``blend_into`` when not None (a BLEND edge's eq. 8)."""
+
+    graph_id: int
+    bundle: str
+    blend_into: str | None
+
+
+def strip_source(session: Session, digest: str) -> StripSource | None:
+    """What the strip ``digest`` was rendered from, read off the first clip holding it (its
+    owner, :func:`app.core.dedup.animation_owners`: later clips holding it stand in), else
+    the first edge holding it; None when neither does (only older publications show it).
+
+    A live edge's strip shows the edge as it is: saving a changed edge drops its strip.
+    """
+    owner = session.execute(
+        select(Clip.graph_id, Clip.bundle)
+        .where(Clip.animation == digest)
+        .order_by(Clip.graph_id, Clip.idx)
+        .limit(1)
+    ).first()
+    if owner is not None:
+        return StripSource(int(owner[0]), owner[1], None)
+    edge = session.execute(
+        select(Edge.graph_id, Edge.kind, Edge.clip_idx, Edge.target)
+        .where(Edge.animation == digest)
+        .order_by(Edge.graph_id, Edge.vertex, Edge.control)
+        .limit(1)
+    ).first()
+    if edge is None:
+        return None
+    graph_id, kind, clip, target = int(edge[0]), int(edge[1]), int(edge[2]), edge[3]
+    bundle = clip_bundle_digest(session, graph_id, clip)
+    if bundle is None:
+        return None
+    if kind != EdgeKind.BLEND or target is None:
+        return StripSource(graph_id, bundle, None)
+    vertex, control = edge_vertex_control(int(target), get_graph_row(session, graph_id).n_controls)
+    target_clip = session.scalar(
+        select(Edge.clip_idx).where(
+            Edge.graph_id == graph_id, Edge.vertex == vertex, Edge.control == control
+        )
+    )
+    into = None if target_clip is None else clip_bundle_digest(session, graph_id, target_clip)
+    return None if into is None else StripSource(graph_id, bundle, into)

@@ -105,6 +105,9 @@ class ArtifactStore:
         try:
             data = self.path_for(digest).read_bytes()
         except FileNotFoundError:
+            # gone since this instance wrote it (moved aside by another process's read):
+            # a later put must write it again, not trust the memory
+            self._written.discard(digest)
             raise self._missing(digest) from None
         if hashlib.sha256(data).hexdigest() != digest:
             self._move_aside(digest)

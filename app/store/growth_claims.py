@@ -13,7 +13,9 @@ database drops with the process:
   closes its connection, and the server releases the lock;
 - SQLite: an exclusive ``flock`` of a file beside the database file, one per graph (a
   SQLite database is one machine's file, so all its growers share that machine); the
-  kernel releases it with the process. An in-memory database has one process: no claim.
+  kernel releases it with the process. The file is named for the database file itself,
+  symlinks resolved: a grower that reaches the database through a symlink takes the
+  same claim, not one of its own. An in-memory database has one process: no claim.
 """
 
 from __future__ import annotations
@@ -87,7 +89,7 @@ def _file_claim(engine: Engine, graph_id: int) -> Iterator[bool]:
     if database in (None, "", ":memory:"):
         yield True
         return
-    path = Path(f"{database}.grow-{graph_id}.lock")
+    path = Path(f"{Path(database).resolve()}.grow-{graph_id}.lock")
     fd = os.open(path, os.O_RDWR | os.O_CREAT, 0o600)
     try:
         try:

@@ -32,7 +32,7 @@ def celery_config(settings: Settings) -> dict[str, Any]:
     transport = {"visibility_timeout": settings.runtime.visibility_timeout}
     return {
         "broker_url": broker,
-        "result_backend": settings.result_backend or settings.broker_url or "cache+memory://",
+        "result_backend": settings.result_backend or default_result_backend(settings.broker_url),
         "task_always_eager": settings.eager,
         "task_eager_propagates": True,
         "task_acks_late": True,
@@ -53,6 +53,16 @@ def celery_config(settings: Settings) -> dict[str, Any]:
         "task_track_started": True,
         "beat_schedule": beat_schedule(settings),
     }
+
+
+def default_result_backend(broker: str) -> str:
+    """Where results go without ``SRG_RESULT_BACKEND``: a Redis broker holds them too; an
+    AMQP one has no result store (Celery 5 has no ``amqp`` backend), so they come back
+    over its connection (``rpc://``); with no broker (eager), this process's memory."""
+    if not broker:
+        return "cache+memory://"
+    redis = broker.startswith(("redis", "sentinel"))  # redis, rediss, redis+socket too
+    return broker if redis else "rpc://"
 
 
 def beat_schedule(settings: Settings) -> dict[str, dict[str, Any]]:
@@ -116,15 +126,16 @@ BROKER_CHECK_TIMEOUT = 3.0
 
 
 class BrokerUnavailable(Unavailable):
-    """The configured broker cannot be reached (or its URL names no transport)."""
+    """The configured broker cannot be reached, or cannot take the work sent."""
 
 
 def require_broker(settings: Settings, timeout: float = BROKER_CHECK_TIMEOUT) -> None:
     """Connect to the configured broker once, before a command writes anything it would
     then strand (or, with a shorter ``timeout``, for ``GET /api/health``).
 
-    Without this an unreachable or ``bogus://`` broker surfaces at the first ``delay``:
-    after the command stored its rows, as kombu's traceback. The settings' URL is the one
+    Without this an unreachable broker surfaces at the first ``delay``: after the command
+    stored its rows, as kombu's traceback (a URL of no transport Celery can use is refused
+    with the settings: :data:`app.config_types.BROKER_SCHEMES`). The settings' URL is the one
     checked, not this process's app's, which was configured when first imported.
     """
     from kombu import Connection

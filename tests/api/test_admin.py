@@ -7,18 +7,18 @@ import threading
 import time
 from collections.abc import Iterator
 from pathlib import Path
-from types import SimpleNamespace
 from typing import Any
 
 import httpx
 import pytest
+import redis
 from api_helpers import ADMIN_TOKEN, Published, make_client, toy_graph_database
 from fastapi.testclient import TestClient
+from kombu import Connection
 from sqlalchemy import func, select
 from sqlalchemy.orm import Session
 
 import app.services.growing
-import app.tasks.growth
 from app.api.app import create_app
 from app.api.local_server import serve_in_thread
 from app.config import ApiSettings, Settings
@@ -30,6 +30,10 @@ from app.store.growth_requests import add_request, failure_reason, start_request
 
 ADMIN = {"Authorization": f"Bearer {ADMIN_TOKEN}"}
 OFF = {"error": "admin routes are off: set SRG_ADMIN_TOKEN", "details": None}
+#: a broker no worker of the tests consumes from (tests/cli/test_cli_options.py sends there too)
+IDLE_BROKER = "redis://127.0.0.1:6379/15"
+#: nothing listens there: a broker that is down
+DOWN_BROKER = "redis://127.0.0.1:1/0"
 
 
 def admin_requests(name: str) -> list[tuple[str, str]]:
@@ -171,33 +175,63 @@ def test_bad_admin_grow_requests_get_4xx_json(client: TestClient, published: Pub
 
 
 def test_with_a_broker_admin_grow_sends_grow_epoch_to_the_workers(
-    session: Session,
-    db_url: str,
-    artifact_dir: Path,
-    published: Published,
-    monkeypatch: pytest.MonkeyPatch,
+    session: Session, db_url: str, artifact_dir: Path, published: Published
 ) -> None:
-    sent: list[tuple[Any, ...]] = []
-
-    def delay(*args: Any) -> SimpleNamespace:
-        sent.append(args)
-        return SimpleNamespace(id="task-id")
-
-    monkeypatch.setattr(app.tasks.growth, "grow_epoch", SimpleNamespace(delay=delay))
-    settings = {"broker_url": "redis://127.0.0.1:6379/15", "growth_renders": False}
+    settings: dict[str, Any] = {"broker_url": IDLE_BROKER, "growth_renders": False}
     with make_client(session, db_url, artifact_dir, **settings) as workers:
         grow = f"/api/graphs/{published.name}/grow"
-        reply = workers.post(grow, json={"expansions": 7}, headers=ADMIN)
-        assert reply.status_code == 202, reply.text
-        assert reply.json()["runs_on"] == "workers" and reply.json()["after_epoch"] == 0
-        assert sent == [(published.graph_id, 7, False, reply.json()["request"])]
-        start_epoch(session, published.graph_id, "sr-crowd")  # a worker's epoch is running
-        session.commit()
-        busy = workers.post(grow, headers=ADMIN)
-        assert busy.status_code == 409
-        assert busy.json()["error"].startswith("epoch 1 of graph 'api-toy' is running")
-        assert busy.json()["details"]["poll"] == f"/api/graphs/{published.name}/epochs?after=1"
-    assert len(sent) == 1
+        try:
+            reply = workers.post(grow, json={"expansions": 7}, headers=ADMIN)
+            assert reply.status_code == 202, reply.text
+            assert reply.json()["runs_on"] == "workers" and reply.json()["after_epoch"] == 0
+            sent = (published.graph_id, 7, False, reply.json()["request"])
+            assert sent in tasks_queued(IDLE_BROKER, "srg.grow_epoch")
+            start_epoch(session, published.graph_id, "sr-crowd")  # a worker's epoch is running
+            session.commit()
+            busy = workers.post(grow, headers=ADMIN)
+            assert busy.status_code == 409
+            assert busy.json()["error"].startswith("epoch 1 of graph 'api-toy' is running")
+            assert busy.json()["details"]["poll"] == f"/api/graphs/{published.name}/epochs?after=1"
+            assert sent not in tasks_queued(IDLE_BROKER, "srg.grow_epoch")
+        finally:
+            redis.Redis.from_url(IDLE_BROKER).delete("celery")  # the tasks nobody will run
+
+
+def test_with_the_broker_down_admin_grow_is_a_503_at_once_and_its_request_failed(
+    session: Session, db_url: str, artifact_dir: Path, published: Published
+) -> None:
+    """The finding: a 500 after 19 s (Celery's retries), the request ``queued`` for ever."""
+    settings: dict[str, Any] = {"broker_url": DOWN_BROKER, "growth_renders": False}
+    with make_client(session, db_url, artifact_dir, **settings) as workers:
+        started = time.monotonic()
+        reply = workers.post(f"/api/graphs/{published.name}/grow", headers=ADMIN)
+        assert time.monotonic() - started < 5
+        assert reply.status_code == 503, reply.text
+        assert set(reply.json()) == {"error", "details"}
+        assert reply.json()["error"].startswith("the broker cannot take the growth: ")
+        growth = workers.get(f"/api/graphs/{published.name}/epochs", headers=ADMIN).json()
+    assert growth["running"] is False
+    assert growth["growth"] == {
+        "request": growth["growth"]["request"],
+        "expansions": 4,
+        "runs_on": "workers",
+        "state": "failed",
+        "reason": reply.json()["error"],
+    }
+
+
+def tasks_queued(broker: str, task: str) -> list[tuple[Any, ...]]:
+    """The arguments of each ``task`` waiting in the broker's default queue, taken off it."""
+    found: list[tuple[Any, ...]] = []
+    with Connection(broker) as connection, connection.SimpleQueue("celery") as queue:
+        while True:
+            try:
+                message = queue.get(timeout=0.2)
+            except queue.Empty:
+                return found
+            message.ack()
+            if message.headers.get("task") == task:
+                found.append(tuple(message.payload[0]))
 
 
 @pytest.fixture

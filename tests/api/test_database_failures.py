@@ -87,7 +87,7 @@ def test_every_route_answers_503_when_the_database_cannot_serve(
             if path == "/api/health":  # its own 503: test_protocol
                 continue
             for method in operations:
-                url = path.format(name="g", digest="0" * 64)
+                url = path.format(name="g", digest="0" * 64, publication_id=1)
                 reply = client.request(method, url, params={"frames": 1}, headers=ADMIN)
                 answered[f"{method} {path}"] = reply.status_code
                 if method != "head":

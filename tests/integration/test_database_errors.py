@@ -85,6 +85,25 @@ def test_a_postgresql_database_that_does_not_exist_says_how_to_create_it() -> No
     assert f"create it with `{create}`, then run `srg db upgrade`" in str(unavailable)
 
 
+@pytest.mark.postgres
+def test_a_statement_timeout_is_named_as_one() -> None:
+    """The finding: SQLSTATE 57014 read as its class, "stopped by its operator"."""
+    url = make_url(postgres_base_url()).set(database="postgres")
+    engine = make_engine(url.render_as_string(hide_password=False))
+    try:
+        with pytest.raises(DBAPIError) as caught, engine.connect() as connection:
+            connection.exec_driver_sql("SET statement_timeout = '50ms'")
+            connection.exec_driver_sql("SELECT pg_sleep(5)")
+    finally:
+        engine.dispose()
+    assert getattr(caught.value.orig, "sqlstate", None) == "57014"
+    unavailable = database_unavailable(caught.value, url)
+    assert isinstance(unavailable, DatabaseUnavailable)
+    assert unavailable.problem == "statement timeout"
+    shown = url.render_as_string()
+    assert str(unavailable).startswith(f"cannot use the database {shown} (statement timeout): ")
+
+
 def test_the_createdb_line_names_only_what_the_url_gives() -> None:
     named = make_url("postgresql+psycopg://ops:secret@db.example:6543/srg")
     assert createdb_command(named) == "createdb -h db.example -p 6543 -U ops srg"

@@ -111,3 +111,19 @@ def test_a_flipped_bit_is_caught_on_read_and_the_file_moved_aside(
     # storing the true bytes again heals it
     assert artifacts.put_arrays(arrays, session=session) == digest
     np.testing.assert_array_equal(artifacts.get_arrays(digest)["frames"], arrays["frames"])
+
+
+def test_a_store_that_wrote_a_file_another_moved_aside_writes_it_again(
+    artifacts: ArtifactStore, session: Session
+) -> None:
+    """Two processes' stores: the one that wrote a strip still remembers it when the
+    other's read moves the rotted file aside. Its own read of the file, gone, makes it
+    forget, so its next put of the true bytes (a strip rendered again) heals the file."""
+    digest = artifacts.put_bytes(b"a strip", media_type="video/x-ivf", session=session)
+    flip_in_place(artifacts.path_for(digest), 2)
+    with pytest.raises(ArtifactCorrupt):
+        ArtifactStore(artifacts.root).get_bytes(digest)
+    with pytest.raises(ArtifactCorrupt):
+        artifacts.get_bytes(digest)
+    assert artifacts.put_bytes(b"a strip", media_type="video/x-ivf", session=session) == digest
+    assert artifacts.get_bytes(digest) == b"a strip"

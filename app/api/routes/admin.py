@@ -28,12 +28,14 @@ from app.api.schemas import (
     GrowthOut,
 )
 from app.config import Settings
+from app.core.errors import Unavailable
 from app.db.sessions import Scope
 from app.services.catalogue import find_graph
 from app.services.growth_tracking import (
     RequestState,
     RequestView,
     epochs_after,
+    fail_request,
     last_epoch_number,
     latest_request,
     queue_request,
@@ -74,8 +76,11 @@ def publish(name: str, request: Request, session: Session = Depends(get_session)
         409,
         413,
         422,
+        503,
         s404="no such graph",
         s409="the graph is growing already: poll it (details.poll), then grow",
+        s503="the database cannot serve, or the broker cannot take the growth (the request "
+        "is then failed, with the reason)",
     ),
 )
 def grow(
@@ -89,8 +94,9 @@ def grow(
     """Queue growth by ``expansions`` and answer 202 at once, naming the epochs to poll.
 
     With a broker: one Celery ``grow_epoch`` of that many expansions, which a worker plans
-    and fans out. Without (embedded): a background job of this server, growing in epochs
-    of ``SRG_BATCH_SIZE`` after the response is sent.
+    and fans out; a broker that cannot take it is a 503, and the request written for it
+    fails with the reason. Without (embedded): a background job of this server, growing in
+    epochs of ``SRG_BATCH_SIZE`` after the response is sent.
     """
     expansions = (body or GrowRequest()).expansions
     settings: Settings = request.app.state.settings
@@ -126,7 +132,11 @@ def grow(
             grow_in_background, jobs, scope, settings, graph_id, expansions, request_id
         )
     else:
-        send_to_workers(graph_id, expansions, request_id, renders=settings.render.growth_renders)
+        try:
+            send_to_workers(settings, graph_id, expansions, request_id)
+        except Unavailable as exc:  # the broker cannot take it: nothing will run the request
+            fail_request(session, request_id, exc)
+            raise
     return GrowQueued(
         graph=graph_name,
         expansions=expansions,

@@ -2,7 +2,8 @@
 
 Every check runs before anything is written: body size (413, before parsing; a declared
 Content-Length over the limit is refused unread: :mod:`app.api.bodylimit`), bearer token
-(401/403), rate limits of the client address and of the player (429), schema (422),
+(401/403) and rate limits of the client address and of the player (429), both before the
+body is read, so that whoever may not upload costs no upload's bytes; schema (422),
 steps per trace (413, ``max_trace_steps``: longer than any session), publication (404),
 every step following an edge (422, naming the first step that does not), key reuse for
 another trace (409). The first upload of a key answers 201; a replay of it answers 200 with the same
@@ -59,8 +60,10 @@ _BODY_SCHEMA = {
 def upload_trace(
     request: Request,
     response: Response,
-    body: bytes = Depends(raw_body),  # read first: no connection held while it streams
+    # in this order: a client without a token, or over a limit, is refused unread (and
+    # the token's read transaction has ended: no connection is held while the body streams)
     player_id: int = Depends(limited_uploader),
+    body: bytes = Depends(raw_body),
     session: Session = Depends(get_session),
 ) -> TraceStored:
     try:
