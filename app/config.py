@@ -33,6 +33,7 @@ from app.config_types import (
     MIB_PER_TIB,
     BrokerURL,
     DatabaseURL,
+    DirectoryPath,
     PostgresURL,
     RateLimits,
     RedisURL,
@@ -283,7 +284,7 @@ class Settings(BaseSettings):
 
     model_config = _SOURCES
 
-    var_dir: Path = Field(
+    var_dir: DirectoryPath = Field(
         Path("var"), description="where the embedded SQLite database and the artifacts live"
     )
     database_url: DatabaseURL = Field(

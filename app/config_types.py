@@ -1,5 +1,6 @@
 """The kinds of value a setting holds beyond a bounded number: URLs of the services srg
-can use, rate limits, web origins (:mod:`app.config` declares its fields with them).
+can use, rate limits, web origins, directories (:mod:`app.config` declares its fields
+with them).
 
 Each is a ``str`` checked as it is read, so a bad value is one line naming its variable
 (``SRG_DATABASE_URL: ...``) before a command or a server starts work, not a traceback or
@@ -10,6 +11,7 @@ from __future__ import annotations
 
 import re
 from collections.abc import Callable
+from pathlib import Path
 from typing import Annotated
 from urllib.parse import urlsplit
 
@@ -69,6 +71,15 @@ def _broker_url(value: str) -> str:
     return value
 
 
+def _directory_or_absent(value: Path) -> Path:
+    """A directory srg may make: refused when a file already sits at the path (or on the
+    way to it), which would otherwise fail later in ``mkdir`` without the setting's name."""
+    existing = next((p for p in (value, *value.parents) if p.exists()), None)
+    if existing is not None and not existing.is_dir():
+        raise ValueError(f"{value} is not a directory: {existing} is a file")
+    return value
+
+
 def _rates(value: str) -> str:
     if not all(_RATE.fullmatch(part) for part in re.split(r"[,;|]", value)):
         raise ValueError(
@@ -111,6 +122,8 @@ PostgresURL = Annotated[str, AfterValidator(_url_of(POSTGRESQL_SCHEMES, optional
 BrokerURL = Annotated[str, AfterValidator(_broker_url)]
 #: a Redis URL, or '' for none
 RedisURL = Annotated[str, AfterValidator(_url_of(REDIS_SCHEMES, optional=True))]
+#: a directory, made on first use (refused where a file is in the way)
+DirectoryPath = Annotated[Path, AfterValidator(_directory_or_absent)]
 #: limits in the ``limits`` notation, each of at least one request per period
 RateLimits = Annotated[str, AfterValidator(_rates)]
 #: comma-separated http(s) origins, or '*'; '' for none

@@ -6,6 +6,8 @@ lose (:mod:`app.db.data_loss`), unless ``--drop-data`` says to lose them.
 
 from __future__ import annotations
 
+import logging
+
 import typer
 
 from app.core.errors import InvalidInput
@@ -25,8 +27,6 @@ def migrate(direction: str, revision: str, *, drop_data: bool) -> None:
     Alembic says each revision it runs on stderr, as the ``alembic`` command does with the
     logging of ``alembic.ini`` (which an installed srg has not).
     """
-    import logging
-
     from alembic.util import CommandError
 
     from alembic import command
@@ -38,6 +38,8 @@ def migrate(direction: str, revision: str, *, drop_data: bool) -> None:
     parse_database_url(get_settings().resolved_database_url)  # one line, before Alembic
     logging.basicConfig(format="%(levelname)-5.5s [%(name)s] %(message)s")
     logging.getLogger("alembic").setLevel(logging.INFO)
+    for handler in logging.getLogger().handlers:
+        handler.addFilter(_revisions_run)
     try:
         getattr(command, direction)(alembic_config(drop_data=drop_data), revision)
     except CommandError as exc:
@@ -46,6 +48,12 @@ def migrate(direction: str, revision: str, *, drop_data: bool) -> None:
         raise DataLoss(
             f"cannot {direction} to {revision!r}: {exc} (--drop-data loses them)"
         ) from None
+
+
+def _revisions_run(record: logging.LogRecord) -> bool:
+    """Of Alembic's lines, only the revisions it runs: its set-up lines would come before
+    an unknown revision's one-line error."""
+    return not record.name.startswith("alembic") or record.getMessage().startswith("Running ")
 
 
 @app.command("upgrade")

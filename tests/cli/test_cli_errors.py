@@ -8,15 +8,17 @@ PostgreSQL, whose bounded columns used to fail where SQLite stored anything).
 from __future__ import annotations
 
 import json
+import os
 import re
 import socket
 import sqlite3
+import subprocess
 import uuid
 from collections.abc import Iterator
 from pathlib import Path
 
 import pytest
-from cli_helpers import ok, one_line_error, srg
+from cli_helpers import SRG, ok, one_line_error, srg
 from database_helpers import postgres_base_url, postgres_database
 from sqlalchemy import select
 from sqlalchemy.engine import make_url
@@ -502,3 +504,26 @@ def test_serve_on_a_port_in_use_or_a_host_of_no_interface_is_one_line(tmp_path: 
         port = str(taken.getsockname()[1])
         one_line_error(srg(tmp_path, "serve", "--port", port), "Address already in use")
     one_line_error(srg(tmp_path, "serve", "--host", "999.1.1.1"), "cannot listen on 999.1.1.1")
+
+
+def test_a_var_dir_that_is_a_file_is_named_in_its_error(tmp_path: Path) -> None:
+    in_the_way = tmp_path / "var"
+    in_the_way.write_text("not a directory")
+    for var in (in_the_way, in_the_way / "below"):
+        one_line_error(srg(var, "status"), f"SRG_VAR_DIR: Value error, {var} is not a directory")
+    assert in_the_way.read_text() == "not a directory"
+
+
+def test_an_unknown_revision_is_the_only_line_migrate_prints(tmp_path: Path) -> None:
+    """Alembic's set-up lines used to come first; a run's own lines still show."""
+    env = {**os.environ, "SRG_VAR_DIR": str(tmp_path)}
+    env.pop("SRG_DATABASE_URL", None)
+    done = subprocess.run(
+        [str(SRG), "db", "upgrade", "nonsense"], capture_output=True, text=True, env=env
+    )
+    assert done.returncode == 2
+    assert done.stderr.splitlines() == [
+        "srg: error: cannot upgrade to 'nonsense': Can't locate revision identified by 'nonsense'"
+    ]
+    done = subprocess.run([str(SRG), "db", "upgrade"], capture_output=True, text=True, env=env)
+    assert done.returncode == 0 and "Running upgrade  -> 0001" in done.stderr
