@@ -527,3 +527,19 @@ def test_an_unknown_revision_is_the_only_line_migrate_prints(tmp_path: Path) -> 
     ]
     done = subprocess.run([str(SRG), "db", "upgrade"], capture_output=True, text=True, env=env)
     assert done.returncode == 0 and "Running upgrade  -> 0001" in done.stderr
+
+
+def test_a_resume_under_an_edited_preregistration_is_refused(tmp_path: Path) -> None:
+    """The plan file's digest is stored with the experiment: once it changed, the runs
+    do not go on under it (studies are never edited after their first run)."""
+    plan = tmp_path / "plan.md"
+    plan.write_text("# plan\n")
+    args = ("experiment", "--quick", "--checkpoints", "200", "--seeds", "0,1")
+    ok(tmp_path, *args, "--name", "bound", "--through", "200", "--preregistration", str(plan))
+    plan.write_text("# plan, edited after the first run\n")
+    one_line_error(
+        srg(tmp_path, "experiment", "--resume", "--name", "bound"),
+        f"the pre-registered plan {plan} changed since the experiment started",
+    )
+    plan.unlink()
+    one_line_error(srg(tmp_path, "experiment", "--resume", "--name", "bound"), "is missing")
