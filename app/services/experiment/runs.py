@@ -86,6 +86,7 @@ def run_experiment(
 
     ``jobs > 1`` runs that many (strategy, seed) runs at once in spawned processes
     (PyOpenCL contexts do not survive a fork); progress then comes from the database.
+    The stored plan is read once here and handed to every run, spawned ones included.
     """
     plan = stored_plan(settings, name)
     started = time.perf_counter()
@@ -93,7 +94,7 @@ def run_experiment(
     for last in range(len(plan.checkpoints) if through is None else through + 1):
         if jobs <= 1:
             for run in range(len(plan.runs)):
-                run_one(settings, name, run, grower, progress, last=last)
+                run_one(settings, name, plan, run, grower, progress, last=last)
         else:
             reported = _run_in_processes(
                 settings, name, plan, grower, jobs, progress, last, reported
@@ -131,7 +132,7 @@ def _run_in_processes(
                 receive, send = context.Pipe(duplex=False)
                 started: BaseProcess = context.Process(
                     target=_run_process,
-                    args=(os.getpid(), send, settings, name, run, grower, last),
+                    args=(os.getpid(), send, settings, name, plan, run, grower, last),
                     name=f"{name}-run-{run}",
                 )
                 started.start()
@@ -167,6 +168,7 @@ def _run_process(
     report: Connection,
     settings: Settings,
     name: str,
+    plan: ExperimentPlan,
     run: int,
     grower: Grower,
     last: int,
@@ -175,7 +177,7 @@ def _run_process(
     the run's error (which the experiment's process raises)."""
     die_with_parent(parent)
     try:
-        run_one(settings, name, run, grower, None, last)
+        run_one(settings, name, plan, run, grower, None, last)
     except Exception as error:  # handed to the parent, which raises it
         report.send(error)
         return
@@ -221,15 +223,15 @@ def frames_grown(settings: Settings, name: str, plan: ExperimentPlan) -> int:
 def run_one(
     settings: Settings,
     name: str,
+    plan: ExperimentPlan,
     run_index: int,
     grower: Grower,
     progress: Advance | None = None,
     last: int | None = None,
 ) -> None:
-    """The plan's run ``run_index`` through its checkpoints (up to index ``last``, all
-    when None), skipping those already stored (a resume). Its graph starts from the
-    run's world (``Run.world``)."""
-    plan = stored_plan(settings, name)
+    """The run ``run_index`` of the stored experiment ``name``'s ``plan`` through its
+    checkpoints (up to index ``last``, all when None), skipping those already stored (a
+    resume). Its graph starts from the run's world (``Run.world``)."""
     run = plan.runs[run_index]
     strategy = run.strategy
     graph = plan.run_graph(name, run)
