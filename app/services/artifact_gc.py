@@ -38,11 +38,21 @@ def count_fanout_directories(settings: Settings) -> int:
     return _count_fanout_directories(artifact_store(settings))
 
 
+#: the longest grace period, in seconds (a century)
+MAX_GRACE = 100 * 365.25 * 24 * 3600
+
+
 def grace_seconds(settings: Settings, older_than: float | None) -> float:
-    """The grace period a collection keeps: ``older_than``, else the configured one."""
+    """The grace period a collection keeps: ``older_than``, else the configured one. At
+    most a century: a cutoff further back than that leaves the calendar (and keeps every
+    file anyway)."""
     grace = settings.runtime.artifact_gc_grace if older_than is None else older_than
     if not 0 <= grace < math.inf:
         raise InvalidInput(f"--older-than must be a finite number of seconds >= 0, not {grace}")
+    if grace > MAX_GRACE:
+        raise InvalidInput(
+            f"--older-than must be at most {MAX_GRACE:.0f} s (a century), not {grace:g}"
+        )
     return grace
 
 

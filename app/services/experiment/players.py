@@ -44,7 +44,7 @@ def check_shares(shares: Sequence[float], crowds: int, sessions: int, *, pooled:
     whole number of a checkpoint's sessions, so that the mix is kept exactly."""
     if not pooled or len(shares) != crowds:
         raise InvalidInput("--shares gives one share per crowd of pooled crowds (--pooled)")
-    if min(shares) <= 0 or abs(sum(shares) - 1.0) > 1e-9:
+    if not all(share > 0 for share in shares) or not abs(sum(shares) - 1.0) <= 1e-9:
         listed = ", ".join(f"{share:g}" for share in shares)
         raise InvalidInput(f"shares must be positive and sum to 1, got {listed}")
     for share in shares:
