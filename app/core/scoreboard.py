@@ -14,7 +14,7 @@ from dataclasses import asdict, dataclass
 
 import numpy as np
 
-from app.core.comparison import difference_interval, ratio_interval
+from app.core.comparison import SeedComparison, difference_interval, ratio_interval
 
 
 @dataclass(frozen=True)
@@ -51,19 +51,9 @@ def ratio_bar(
     the log ratios; met when the upper end is below 1. A world whose denominator is 0
     leaves the ratio undefined, which is not met; arms at 0 in every world cannot fail."""
     compared = ratio_interval(numerator, denominator)
-    return Bar(
-        endpoint,
-        players,
-        frames,
-        compared.mean,
-        compared.low,
-        compared.high,
-        compared.per_seed,
-        "upper end < 1",
-        compared.high is not None and compared.high < 1.0,
-        bool(np.any(np.asarray(numerator) > 0) or np.any(np.asarray(denominator) > 0)),
-        primary,
-    )
+    met = compared.high is not None and compared.high < 1.0
+    where = (endpoint, players, frames)
+    return _bar(where, compared, "upper end < 1", met, (numerator, denominator), primary)
 
 
 def difference_bar(
@@ -76,6 +66,21 @@ def difference_bar(
     """Mean over worlds of first - second (shares of steps) with its 95 % t interval;
     met when the upper end is at most 0. Both at 0 in every world cannot fail."""
     compared = difference_interval(first, second)
+    met = compared.high is not None and compared.high <= 0.0
+    return _bar((endpoint, players, frames), compared, "upper end <= 0", met, (first, second))
+
+
+def _bar(
+    where: tuple[str, str, int],
+    compared: SeedComparison,
+    rule: str,
+    met: bool,
+    arms: Sequence[Sequence[float]],
+    primary: bool = False,
+) -> Bar:
+    """A bar of two arms compared over worlds; it can fail unless both arms are 0 in
+    every world."""
+    endpoint, players, frames = where
     return Bar(
         endpoint,
         players,
@@ -84,9 +89,10 @@ def difference_bar(
         compared.low,
         compared.high,
         compared.per_seed,
-        "upper end <= 0",
-        compared.high is not None and compared.high <= 0.0,
-        bool(np.any(np.asarray(first) > 0) or np.any(np.asarray(second) > 0)),
+        rule,
+        met,
+        any(bool(np.any(np.asarray(arm) > 0)) for arm in arms),
+        primary,
     )
 
 
