@@ -475,7 +475,7 @@ def test_an_unusable_var_dir_is_one_line(tmp_path: Path) -> None:
     blocker = tmp_path / "file"
     blocker.write_text("not a directory")
     done = srg(blocker / "var", "init", "g")
-    one_line_error(done, "Not a directory")
+    one_line_error(done, f"SRG_VAR_DIR: Value error, {blocker / 'var'} is not a directory")
 
 
 @pytest.mark.parametrize(
