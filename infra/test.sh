@@ -20,7 +20,7 @@ mypy
 echo "test: docs"  # a broken link, anchor or page fails here (mkdocs.yml)
 NO_MKDOCS_2_WARNING=1 mkdocs build --strict  # not --quiet: it hides the warnings strict counts
 echo "test: pytest ($tier)"
-limits=(--durations=25 --timeout="${SRG_TEST_TIMEOUT:-900}")
+limits=(--durations=25 --timeout="${SRG_TEST_TIMEOUT:-2400}")
 if [ "$tier" = fast ]; then
   pytest -q "${limits[@]}" -m "not slow" tests/unit tests/kernels tests/api "$@"
 else
