@@ -42,13 +42,14 @@ def scoreboard(
     at the first checkpoint) are listed and left out of the count.
     """
     from app.config import get_settings
+    from app.services.experiment.scoreboard import read_play, scoreboard_figures
     from app.services.experiment.scoreboard import scoreboard as judge
-    from app.services.experiment.scoreboard import scoreboard_figures
 
     settings = get_settings()
-    board = judge(settings, name, primary_players=primary_players, outside=outside)
+    play = read_play(settings, name)
+    board = judge(settings, name, primary_players=primary_players, outside=outside, play=play)
     if figures is not None:
-        for drawn in scoreboard_figures(settings, name, figures, primary_players=primary_players):
+        for drawn in scoreboard_figures(board, play, figures):
             typer.echo(f"figure: {drawn}", err=True)
     if json_output:
         emit(board.to_dict(), as_json=True)

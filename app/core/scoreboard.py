@@ -130,6 +130,10 @@ class CleanGame:
             for strategy, values in self.per_world.items()
         }
 
+    def listed(self) -> dict[str, list[float | None]]:
+        """Per strategy, each world's frames (None: beyond the last checkpoint)."""
+        return {s: [_frames(v) for v in values] for s, values in self.per_world.items()}
+
     def judged(self, crowd: str, others: Sequence[str], frames: Sequence[int]) -> Bar:
         """sr-crowd's median at most every other arm's, and fewer frames than the first
         other arm (the control) in more worlds than the reverse, over the checkpoints

@@ -20,10 +20,10 @@ from app.core.scoreboard import CleanGame, difference_bar, frames_to_clean, rati
 from app.core.strategies import Strategy
 from app.db.sessions import transaction
 from app.models import Trace
-from app.services.experiment.plan import ExperimentPlan, create_experiment, stored_plan
+from app.services.experiment.plan import ExperimentPlan, create_experiment
 from app.services.experiment.preregistration import check_preregistration, preregistration_of
 from app.services.experiment.runs import grow_in_process, run_experiment
-from app.services.experiment.scoreboard import scoreboard, scoreboard_figures, stored_figures
+from app.services.experiment.scoreboard import read_play, scoreboard, scoreboard_figures
 from app.services.loading import artifact_store
 from app.store.experiments import checkpoint_rows
 
@@ -158,14 +158,16 @@ def test_the_primary_is_the_fresh_populations_pooled_steps(mixed_runs: dict[str,
     expected = ratio_interval(means["sr-crowd"], means["sr-heuristic"])
     assert board.primary.mean == pytest.approx(expected.mean)
     assert board.primary.high == pytest.approx(expected.high)
-    figures = stored_figures(settings, "judged", stored_plan(settings, "judged"))
+    figures = read_play(settings, "judged").figures()
     assert ("fresh-population", "baseline", 21, 0) in figures
 
 
 def test_the_scoreboard_draws_figs_6_and_7_of_the_primarys_players(
     mixed_runs: dict[str, Any], tmp_path: Path
 ) -> None:
-    drawn = scoreboard_figures(mixed_runs["settings"], "judged", tmp_path / "figures")
+    play = read_play(mixed_runs["settings"], "judged")
+    board = scoreboard(mixed_runs["settings"], "judged", play=play)
+    drawn = scoreboard_figures(board, play, tmp_path / "figures")
     assert [p.name for p in drawn] == ["visibly-wrong.png", "error-histograms.png"]
     assert all(p.read_bytes().startswith(b"\x89PNG") for p in drawn)
 

@@ -4,9 +4,12 @@ and the populations judged on their members' steps together (docs/experiment.md,
 
 from __future__ import annotations
 
-from collections.abc import Sequence
+from collections.abc import Mapping, Sequence
 from dataclasses import dataclass
 from fractions import Fraction
+from typing import Any
+
+import numpy as np
 
 from app.core.bots import BotKind
 from app.core.errors import InvalidInput
@@ -37,6 +40,20 @@ class PlayerGroup:
 def kind_of(label: str) -> str:
     """The bot kind of a player label (a fresh judge's is its crowd's)."""
     return label.removeprefix(FRESH)
+
+
+def with_populations(
+    populations: Mapping[str, tuple[str, ...]], steps: Mapping[tuple[Any, ...], np.ndarray]
+) -> dict[tuple[Any, ...], np.ndarray]:
+    """``steps`` (keyed by player label first) with each population's: its members' steps
+    together wherever every member played, so that a kind weighs by the steps it took."""
+    together = dict(steps)
+    for label, members in populations.items():
+        for key in [k for k in steps if k[0] == members[0]]:
+            keys = [(member, *key[1:]) for member in members]
+            if all(k in steps for k in keys):
+                together[(label, *key[1:])] = np.concatenate([steps[k] for k in keys])
+    return together
 
 
 def check_shares(shares: Sequence[float], crowds: int, sessions: int, *, pooled: bool) -> None:

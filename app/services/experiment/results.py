@@ -27,7 +27,7 @@ from app.core.error_origin import error_origin
 from app.core.metrics import relative_difference
 from app.db.sessions import transaction
 from app.services.experiment.plan import ExperimentPlan, stored_experiment_id, stored_plan
-from app.services.experiment.players import kind_of
+from app.services.experiment.players import kind_of, with_populations
 from app.services.loading import artifact_store
 from app.store.experiments import checkpoint_rows
 
@@ -177,7 +177,7 @@ def compare_strategies(
     compared = [s for s in (BASELINE, HEURISTIC, CROWD) if s in planned]
     if len(compared) < 2:
         return {}
-    samples = {**samples, **_population_samples(plan, samples)}
+    samples = _population_samples(plan, samples)
     comparison: dict[str, list[dict[str, Any]]] = {}
     for bot in (*plan.players, *plan.populations):
         points = []
@@ -206,15 +206,11 @@ def compare_strategies(
 def _population_samples(
     plan: ExperimentPlan, samples: dict[tuple[str, str, str, int], tuple[np.ndarray, float]]
 ) -> dict[tuple[str, str, str, int], tuple[np.ndarray, float]]:
-    """Each population's steps at each stored (strategy, seed, checkpoint): its members'
-    steps together, so that a kind weighs by the steps it played."""
-    together = {}
-    for label, members in plan.populations.items():
-        for _, strategy, seed, index in [k for k in samples if k[0] == members[0]]:
-            played = [samples[(m, strategy, seed, index)] for m in members]
-            errors = np.concatenate([errors for errors, _ in played])
-            together[(label, strategy, seed, index)] = (errors, played[0][1])
-    return together
+    """``samples`` with each population's (:func:`with_populations`), at the threshold of
+    the place they were played."""
+    threshold = {key[1:]: t for key, (_, t) in samples.items()}
+    errors = with_populations(plan.populations, {k: e for k, (e, _) in samples.items()})
+    return {key: (e, threshold[key[1:]]) for key, e in errors.items()}
 
 
 def _comparison_row(point: CheckpointComparison, judged: list[Target]) -> dict[str, Any]:

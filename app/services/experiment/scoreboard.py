@@ -9,7 +9,7 @@ the same publications), so anyone with the database gets the same table.
 from __future__ import annotations
 
 import json
-from collections.abc import Iterable, Mapping
+from collections.abc import Iterable
 from dataclasses import dataclass, replace
 from pathlib import Path
 from typing import Any
@@ -22,7 +22,7 @@ from app.core.errors import InvalidInput
 from app.core.scoreboard import Bar, CleanGame, difference_bar, frames_to_clean, ratio_bar
 from app.db.sessions import transaction
 from app.services.experiment.plan import ExperimentPlan, stored_experiment_id, stored_plan
-from app.services.experiment.players import FRESH, POPULATION
+from app.services.experiment.players import FRESH, POPULATION, with_populations
 from app.services.loading import artifact_store
 from app.store.experiments import checkpoint_rows
 
@@ -72,7 +72,7 @@ class Scoreboard:
             "met": met,
             "judged": judged,
             "clean_game": [
-                {"bar": clean.bar, "per_world": _listed(clean.per_world), **clean.summary()}
+                {"bar": clean.bar, "per_world": clean.listed(), **clean.summary()}
                 for clean in self.clean
             ],
         }
@@ -84,14 +84,17 @@ def scoreboard(
     *,
     primary_players: str | None = None,
     outside: Path | None = None,
+    play: StoredPlay | None = None,
 ) -> Scoreboard:
     """Judge the stored experiment ``name`` (it needs baseline, sr-heuristic and
     sr-crowd). ``primary_players``: whose error the primary endpoint is (default: the
-    fresh population, else the population, else the first crowd)."""
-    plan = stored_plan(settings, name)
+    fresh population, else the population, else the first crowd). ``play``: its
+    :func:`read_play`, when the caller has it already."""
+    play = play or read_play(settings, name)
+    plan = play.plan
     if {BASELINE, HEURISTIC, CROWD} - {s.value for s in plan.strategies}:
         raise InvalidInput(f"{name} did not grow baseline, sr-heuristic and sr-crowd")
-    figures = stored_figures(settings, name, plan)
+    figures = play.figures()
     players = [*plan.players, *plan.populations]
     if outside is not None:
         figures.update(outside_figures(settings, name, outside))
@@ -147,21 +150,17 @@ def scoreboard(
     return Scoreboard(name, plan.checkpoints, plan.seeds, primary, bars, clean, missing)
 
 
-def scoreboard_figures(
-    settings: Settings, name: str, out: Path, *, primary_players: str | None = None
-) -> list[Path]:
-    """The paper's Figs. 6 and 7 for the primary's players at every checkpoint every run
-    reached: the visibly-wrong share against frames, and the errors met per checkpoint,
-    the three strategies beside each other (:mod:`app.reports.scoreboard`)."""
+def scoreboard_figures(board: Scoreboard, play: StoredPlay, out: Path) -> list[Path]:
+    """The paper's Figs. 6 and 7 for ``board``'s primary players at every checkpoint
+    every run reached: the visibly-wrong share against frames, and the errors met per
+    checkpoint, the three strategies beside each other (:mod:`app.reports.scoreboard`)."""
     from app.reports.scoreboard import plot_error_histograms, plot_visibly_wrong
 
-    board = scoreboard(settings, name, primary_players=primary_players)
-    plan = stored_plan(settings, name)
-    steps, threshold = stored_steps(settings, name, plan)
+    plan, steps, threshold = play.plan, play.steps, play.threshold
     players = board.primary.players
     reached = [i for i, c in enumerate(plan.checkpoints) if c not in board.missing]
     if not reached:
-        raise InvalidInput(f"{name} has no checkpoint every run reached: no figure yet")
+        raise InvalidInput(f"{board.name} has no checkpoint every run reached: no figure yet")
     frames = [plan.checkpoints[i] for i in reached]
     strategies = (BASELINE, HEURISTIC, CROWD)
     shares = {
@@ -198,19 +197,24 @@ def clean_game(
     return CleanGame(bar, per_world)
 
 
-def stored_figures(settings: Settings, name: str, plan: ExperimentPlan) -> Figures:
-    """Each stored row's mean error per step and visibly-wrong share, and each
-    population's, from its members' steps together."""
-    steps, threshold = stored_steps(settings, name, plan)
-    return {key: _figures(errors, threshold) for key, errors in steps.items()}
+@dataclass(frozen=True)
+class StoredPlay:
+    """An experiment's plan and every stored row's per-step errors (and each population's)
+    by (players, strategy, seed, checkpoint index), read once for the bars and figures."""
+
+    plan: ExperimentPlan
+    steps: dict[tuple[str, str, int, int], np.ndarray]
+    #: the visibility threshold, fixed in the plan when the experiment was made
+    threshold: float
+
+    def figures(self) -> Figures:
+        """Each row's mean error per step and visibly-wrong share."""
+        return {key: _figures(errors, self.threshold) for key, errors in self.steps.items()}
 
 
-def stored_steps(
-    settings: Settings, name: str, plan: ExperimentPlan
-) -> tuple[dict[tuple[str, str, int, int], np.ndarray], float]:
-    """Each stored row's per-step errors (and each population's: its members' steps
-    together) by (players, strategy, seed, checkpoint index), and the visibility
-    threshold the plan fixed."""
+def read_play(settings: Settings, name: str) -> StoredPlay:
+    """The stored experiment ``name``'s play (:class:`StoredPlay`)."""
+    plan = stored_plan(settings, name)
     with transaction(settings) as session:
         rows = checkpoint_rows(session, stored_experiment_id(session, name))
     artifacts = artifact_store(settings)
@@ -220,14 +224,9 @@ def stored_steps(
         )["step_errors"]
         for row in rows
     }
-    for label, members in plan.populations.items():
-        for _, strategy, seed, index in [k for k in list(steps) if k[0] == members[0]]:
-            keys = [(m, strategy, seed, index) for m in members]
-            if all(k in steps for k in keys):
-                steps[(label, strategy, seed, index)] = np.concatenate([steps[k] for k in keys])
     # one threshold, fixed in the plan when the experiment was made, on every row
     threshold = float(rows[0].figures["high_error_threshold"]) if rows else 0.0
-    return steps, threshold
+    return StoredPlay(plan, with_populations(plan.populations, steps), threshold)
 
 
 def outside_figures(settings: Settings, name: str, path: Path) -> Figures:
@@ -286,7 +285,3 @@ def _complete(figures: Figures, plan: ExperimentPlan, index: int) -> bool:
         for strategy in plan.strategies
         for seed in plan.seeds
     )
-
-
-def _listed(per_world: Mapping[str, list[float]]) -> dict[str, list[float | None]]:
-    return {s: [v if np.isfinite(v) else None for v in values] for s, values in per_world.items()}
