@@ -34,7 +34,7 @@ GRAPH = "demo-gif"
 ROOT = Path(__file__).resolve().parents[1]
 #: the graph's database and artifacts (var/ is the checkout's own, not committed)
 WORK_DIR = ROOT / "var/demo-gif"
-#: one control a clip (app/core/scene.py, TILT_DEGREES: 0 level, 1 and 2 tilted 30 degrees
+#: one control a clip (app/core/liquid/scene.py, TILT_DEGREES: 0 level, 1 and 2 tilted 30 degrees
 #: either way), the tilt turned every second clip: the water sloshes across the tank and
 #: back all the way (a control held longer on this small graph replays one clip)
 CONTROLS = (1, 2, 2, 1, 1, 2, 2, 1, 1, 2, 2, 1)

@@ -19,10 +19,10 @@ from database_helpers import alembic_config, migrate, postgres_base_url, postgre
 from sqlalchemy import Engine
 from sqlalchemy.orm import Session
 
-from app.core.clipbank import MemoryClipBank
-from app.core.graph import StateGraph
-from app.core.growth import expand_blend_edge, initial_tree
-from app.core.toy import ToyDynamics
+from app.core.graph.clipbank import MemoryClipBank
+from app.core.graph.state_graph import StateGraph
+from app.core.graph.toy import ToyDynamics
+from app.core.growth.expansion import expand_blend_edge, initial_tree
 from app.db.engines import make_engine
 from app.store.artifacts import ArtifactStore
 

@@ -4,7 +4,7 @@ from __future__ import annotations
 
 import numpy as np
 
-from app.core.publication import Publication
+from app.core.graph.publication import Publication
 
 
 def looping_trace(publication: Publication, control: int, steps: int) -> np.ndarray:

@@ -5,7 +5,7 @@ reads of the traces").
 the steps per (publication, bucket of the session's ordinal, vertex, control);
 ``play_lengths`` the sessions per (publication, length). Existing traces are numbered in
 their graph by id, as growth dealt them to folds until now, and summed from their steps
-in SQL. The 60 buckets are ``app.core.crowd_play.FOLD_BUCKETS``, written out here so that
+in SQL. The 60 buckets are ``app.core.players.crowd_play.FOLD_BUCKETS``, written out here so that
 this migration stays what it was.
 
 Revision ID: 0010

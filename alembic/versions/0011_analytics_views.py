@@ -3,7 +3,7 @@ publication, an edge-kind lookup, two views, and a comment on every table and co
 
 - ``publications.high_error_threshold``: the high-error threshold in force when the
   publication was made (NULL for those made before: it was not stored).
-- ``edge_kinds``: 0 sim, 1 blend, the names of ``app.core.graph.EdgeKind``, written out
+- ``edge_kinds``: 0 sim, 1 blend, the names of ``app.core.graph.state_graph.EdgeKind``, written out
   here so that this migration stays what it was.
 - ``analytics_sessions``: one row per session (trace) with its steps, its error, its
   high-error steps and its player's kind; the means over sessions an analyst needs come

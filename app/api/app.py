@@ -32,7 +32,7 @@ from app.api.head import HeadAsGet
 from app.api.ratelimit import RateLimits
 from app.api.routes import admin, animations, graphs, health, players, traces
 from app.config import Settings, get_settings
-from app.core.publication import Publication
+from app.core.graph.publication import Publication
 from app.db.engines import make_engine
 from app.db.sessions import session_factory
 from app.services.loading import artifact_store

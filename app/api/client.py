@@ -1,7 +1,7 @@
 """Bots that play over HTTP, through exactly the path a browser takes.
 
 Register a bot player, download the latest publication, rebuild a core
-:class:`~app.core.publication.Publication` from its JSON, play seeded bot sessions on it
+:class:`~app.core.graph.publication.Publication` from its JSON, play seeded bot sessions on it
 and upload each trace under a fresh idempotency key (a network retry of the same upload
 reuses its key, so the server stores it once).
 """
@@ -21,11 +21,11 @@ from tenacity import (
     stop_after_attempt,
 )
 
-from app.core.bots import BotKind, play_sessions
 from app.core.errors import SrgError
-from app.core.graph import EdgeKind
-from app.core.players import PlayerKind
-from app.core.publication import Publication
+from app.core.graph.publication import Publication
+from app.core.graph.state_graph import EdgeKind
+from app.core.players.bots import BotKind, play_sessions
+from app.core.players.kinds import PlayerKind
 
 #: attempts per upload on transport errors and 429 (idempotent, so retrying is safe)
 UPLOAD_ATTEMPTS = 3

@@ -11,7 +11,7 @@ from __future__ import annotations
 from sqlalchemy.orm import Session
 
 from app.api.schemas import EdgeOut, GraphSummary, PublicationListed, PublicationOut
-from app.core.graph import EdgeKind
+from app.core.graph.state_graph import EdgeKind
 from app.services.catalogue import (
     GraphEntry,
     PublishedEdge,

@@ -14,7 +14,7 @@ from typing import Annotated, Literal
 
 from pydantic import BaseModel, BeforeValidator, ConfigDict, Field, StrictInt
 
-from app.core.players import PlayerKind
+from app.core.players.kinds import PlayerKind
 
 INT32_MAX = 2**31 - 1
 

@@ -34,7 +34,7 @@ from app.api.local_server import serve_in_thread
 from app.bench.ingest import ToyGraph, build_toy_graph
 from app.config import Settings
 from app.core.errors import Unavailable
-from app.core.graph import EdgeKind
+from app.core.graph.state_graph import EdgeKind
 from app.db.engines import make_engine
 from app.db.sessions import session_factory
 from app.models import Base

@@ -36,10 +36,10 @@ from typing import TypeVar
 
 import numpy as np
 
-from app.core.dynamics import ClipFeatures, SimClip
-from app.core.particle_lattice import snap_state
-from app.core.silhouette import silhouette_projector, silhouettes, tank_camera
-from app.core.surface import dequantise_sdf
+from app.core.graph.dynamics import ClipFeatures, SimClip
+from app.core.liquid.particle_lattice import snap_state
+from app.core.liquid.silhouette import silhouette_projector, silhouettes, tank_camera
+from app.core.liquid.surface import dequantise_sdf
 from app.kernels.sph import SphSimulator
 from app.liquid.adapter import LiquidCalibration, LiquidDynamics, MissingCalibration
 from app.liquid.devices import LiquidDevices

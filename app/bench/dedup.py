@@ -1,6 +1,6 @@
 """Benchmark of shared animations (the paper's section 8) on a stored graph.
 
-Replays the search of :mod:`app.core.dedup` over the graph's rendered clips in index
+Replays the search of :mod:`app.core.graph.dedup` over the graph's rendered clips in index
 order, as growth and publishing meet them, for several limits (fractions of the
 high-error threshold): how many clips would show another's strip, the bytes that saves
 per simulated frame, and what it costs to look at. The cost is measured twice: the

@@ -22,9 +22,9 @@ from typing import Any
 
 from app.bench.scratch import scratch_database
 from app.config import Settings
-from app.core.bots import BotKind, play_sessions
-from app.core.refinement import Refiner
-from app.core.strategies import Strategy
+from app.core.growth.refinement import Refiner
+from app.core.growth.strategies import Strategy
+from app.core.players.bots import BotKind, play_sessions
 from app.db.engines import make_engine
 from app.db.sessions import session_factory, transaction
 from app.services.analytics import played_graph_analytics

@@ -20,7 +20,7 @@ import numpy as np
 
 from app.bench.sph_batch import bench_batch
 from app.bench.sph_profile import profile_sph
-from app.core.scene import tilt_tank
+from app.core.liquid.scene import tilt_tank
 from app.kernels.sph import SphSimulator
 
 log = logging.getLogger(__name__)

@@ -32,11 +32,11 @@ import numpy as np
 
 from app.bench.scratch import scratch_database, scratch_redis
 from app.config import Settings
-from app.core.clipbank import MemoryClipBank
-from app.core.dynamics import Dynamics
-from app.core.graph import EdgeKind, StateGraph
-from app.core.graph_entry import GraphScene
-from app.core.growth import expand_blend_edge, initial_tree
+from app.core.graph.clipbank import MemoryClipBank
+from app.core.graph.dynamics import Dynamics
+from app.core.graph.graph_entry import GraphScene
+from app.core.graph.state_graph import EdgeKind, StateGraph
+from app.core.growth.expansion import expand_blend_edge, initial_tree
 from app.db.engines import make_engine
 from app.db.sessions import session_factory
 from app.liquid.devices import LiquidDevices

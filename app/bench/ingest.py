@@ -26,13 +26,13 @@ from sqlalchemy.orm import Session
 from app.api.app import create_app
 from app.api.local_server import serve_in_thread
 from app.config import Settings
-from app.core.bots import BotKind, play_sessions
-from app.core.clipbank import MemoryClipBank
 from app.core.errors import InvalidInput
-from app.core.graph import StateGraph
-from app.core.graph_entry import GraphScene
-from app.core.growth import expand_blend_edge, initial_tree
-from app.core.toy import ToyDynamics
+from app.core.graph.clipbank import MemoryClipBank
+from app.core.graph.graph_entry import GraphScene
+from app.core.graph.state_graph import StateGraph
+from app.core.graph.toy import ToyDynamics
+from app.core.growth.expansion import expand_blend_edge, initial_tree
+from app.core.players.bots import BotKind, play_sessions
 from app.db.engines import make_engine
 from app.db.sessions import session_factory
 from app.models import Base

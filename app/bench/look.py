@@ -17,8 +17,8 @@ import numpy as np
 
 from app.config import Settings
 from app.core.errors import NotFound
-from app.core.silhouette import silhouette_projector, silhouettes, tank_camera
-from app.core.surface import dequantise_sdf
+from app.core.liquid.silhouette import silhouette_projector, silhouettes, tank_camera
+from app.core.liquid.surface import dequantise_sdf
 from app.db.sessions import database_sessions
 from app.liquid.adapter import LiquidDynamics
 from app.render.animation import decode_strip

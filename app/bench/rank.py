@@ -13,9 +13,9 @@ import numpy as np
 import scipy.sparse as sp
 
 from app.core.errors import InvalidInput
-from app.core.graph import edge_vertex_control
-from app.core.player_models import heuristic_player_model
-from app.core.staterank import StateRankResult, staterank
+from app.core.graph.state_graph import edge_vertex_control
+from app.core.graph.staterank import StateRankResult, staterank
+from app.core.players.player_models import heuristic_player_model
 
 #: Defaults of docs/design.md, "Graph algorithms": keep-control probability, session steps
 ALPHA = 0.8

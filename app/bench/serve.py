@@ -47,9 +47,9 @@ from app.api.client import publication_from_json
 from app.bench.ingest import build_toy_graph
 from app.bench.scratch import scratch_database
 from app.config import Settings
-from app.core.bots import BotKind, play_sessions
 from app.core.errors import Unavailable
-from app.core.players import PlayerKind
+from app.core.players.bots import BotKind, play_sessions
+from app.core.players.kinds import PlayerKind
 from app.db.engines import make_engine
 from app.db.sessions import session_factory
 from app.store.animations import set_animations

@@ -19,7 +19,7 @@ import time
 from pathlib import Path
 from typing import Any
 
-from app.core.scene import Scene, tilt_tank
+from app.core.liquid.scene import Scene, tilt_tank
 from app.kernels.sph import SphSimulator
 
 GL_PRELOAD = "/lib/x86_64-linux-gnu/libGLdispatch.so.0"

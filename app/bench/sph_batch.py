@@ -14,7 +14,7 @@ from typing import Any
 
 import numpy as np
 
-from app.core.scene import tilt_tank
+from app.core.liquid.scene import tilt_tank
 from app.kernels.sph import SphSimulator
 
 

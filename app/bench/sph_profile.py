@@ -15,7 +15,7 @@ from typing import Any
 
 import pyopencl as cl
 
-from app.core.scene import tilt_tank
+from app.core.liquid.scene import tilt_tank
 from app.kernels.sph import SphSimulator
 
 #: the kernels of the pressure loop (the rest run once a substep)

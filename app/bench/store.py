@@ -18,9 +18,9 @@ from pathlib import Path
 import numpy as np
 from sqlalchemy.orm import Session
 
-from app.core.clipbank import MemoryClipBank
-from app.core.dynamics import ClipFeatures, SimClip
-from app.core.graph import StateGraph, edge_vertex_control
+from app.core.graph.clipbank import MemoryClipBank
+from app.core.graph.dynamics import ClipFeatures, SimClip
+from app.core.graph.state_graph import StateGraph, edge_vertex_control
 from app.db.engines import make_engine
 from app.models import Base
 from app.store.artifacts import ArtifactStore

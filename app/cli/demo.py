@@ -37,7 +37,7 @@ def demo(
     Ends with the SR-CROWD graph published with its animations, ready to play.
     """
     from app.config import get_settings
-    from app.core.player_models import parse_player_model
+    from app.core.players.player_models import parse_player_model
     from app.db.engines import require_intact
     from app.liquid.devices import LiquidDevices
     from app.reports.provenance import with_provenance

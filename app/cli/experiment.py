@@ -10,10 +10,10 @@ import typer
 
 from app.cli.choices import DynamicsName, Fluid, LiquidPreset, choice_list, value_of
 from app.cli.output import JSON_HELP, emit, progress_bar, write_result
-from app.core.bots import BotKind
 from app.core.errors import InvalidInput
-from app.core.player_models import PlayerModelKind
-from app.core.strategies import Strategy
+from app.core.growth.strategies import Strategy
+from app.core.players.bots import BotKind
+from app.core.players.player_models import PlayerModelKind
 
 if TYPE_CHECKING:
     from app.services.experiment.plan import ExperimentPlan
@@ -244,7 +244,7 @@ def _experiment_plan(
     fresh_judges: bool = False,
     preregistration: Path | None = None,
 ) -> ExperimentPlan:
-    from app.core.player_models import parse_player_model
+    from app.core.players.player_models import parse_player_model
     from app.services.experiment.plan import ExperimentPlan, parse_checkpoints
     from app.services.experiment.preregistration import preregistration_of
 

@@ -14,10 +14,10 @@ import typer
 
 from app.cli.choices import DynamicsName, Fluid, LiquidPreset, value_of
 from app.cli.output import JSON_HELP, emit, progress_bar
-from app.core.bots import BotKind
 from app.core.errors import InvalidInput
-from app.core.player_models import PlayerModelKind
-from app.core.strategies import Strategy
+from app.core.growth.strategies import Strategy
+from app.core.players.bots import BotKind
+from app.core.players.player_models import PlayerModelKind
 from app.db.engines import require_intact
 from app.db.sessions import transaction
 from app.services.catalogue import MAX_ROW_ID
@@ -46,7 +46,7 @@ def init(
 ) -> None:
     """Create a graph: the initial tree of the dynamics, its leaves blended back."""
     from app.config import get_settings
-    from app.core.growth import initial_tree_clips
+    from app.core.growth.expansion import initial_tree_clips
     from app.services.creation import init_graph
     from app.services.dynamics import DEFAULT_LIQUID_PRESET, control_count
     from app.services.progress import Advance

@@ -16,7 +16,7 @@ import typer
 from app.cli.choices import Fluid, LiquidPreset
 from app.cli.output import JSON_HELP, emit, write_result
 from app.core.errors import InvalidInput
-from app.core.scene import DEFAULT_FLUID
+from app.core.liquid.scene import DEFAULT_FLUID
 from app.services.dynamics import DEFAULT_LIQUID_PRESET
 
 PRESET_HELP = "tilt-tank preset"

@@ -10,7 +10,7 @@ import typer
 from app.cli.output import JSON_HELP, emit
 
 if TYPE_CHECKING:
-    from app.core.scoreboard import Bar
+    from app.core.evaluation.scoreboard import Bar
 
 app = typer.Typer(help="A stored experiment judged from its database.", no_args_is_help=True)
 

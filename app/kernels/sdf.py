@@ -1,4 +1,4 @@
-"""Zhu and Bridson SDF frames on the OpenCL device (twin: ``app.core.surface``).
+"""Zhu and Bridson SDF frames on the OpenCL device (twin: ``app.core.liquid.surface``).
 
 The host bins each frame's particles into cells of edge R (the search radius) with a
 stable sort, uploads them and launches one work-item per voxel (``sdf.cl``). Buffers are
@@ -12,7 +12,7 @@ from collections.abc import Sequence
 import numpy as np
 import pyopencl as cl
 
-from app.core.surface import SurfaceGrid
+from app.core.liquid.surface import SurfaceGrid
 from app.kernels.context import runtime
 
 #: bins of margin around the voxel grid, so particles a little outside the tank (within

@@ -7,7 +7,7 @@ The API other layers use::
     frames, end = sim.simulate_clip(rest, control=1)   # (k, n, 3) positions, (n, 6)
     frames, ends = sim.run_batch([rest] * 3, [0, 1, 2], 10)  # (3, 10, n, 3), (3, n, 6)
 
-A state is ``app.core.scene``'s (n, 6) float32 array (positions, velocities) in a fixed
+A state is ``app.core.liquid.scene``'s (n, 6) float32 array (positions, velocities) in a fixed
 particle order. Each clip starts from the state alone (pressures from zero), so the same
 state, control and device always give bit-identical frames, alone or in a batch.
 """
@@ -20,7 +20,7 @@ from dataclasses import dataclass, field
 import numpy as np
 import pyopencl as cl
 
-from app.core.scene import Scene, initial_particles
+from app.core.liquid.scene import Scene, initial_particles
 from app.kernels.sph_kernels import SphKernels
 
 
@@ -69,7 +69,7 @@ class SphSimulator:
     Parameters
     ----------
     scene : Scene
-        Tank, fluid, spacing, substeps, tolerances (see ``app.core.scene``).
+        Tank, fluid, spacing, substeps, tolerances (see ``app.core.liquid.scene``).
     fixed_iterations : int or None
         If given, every substep runs exactly this many pressure iterations instead of
         iterating to ``scene.eta`` (benchmarks at equal iteration counts).
@@ -306,7 +306,7 @@ class SphSimulator:
         The first ``damped_seconds`` remove a fraction ``damping`` of the velocity per
         substep (so the lattice relaxes without sloshing), the rest runs undamped so the
         result is a genuine rest state of the undamped solver. A ``world`` seed jitters
-        the lattice first (``app.core.scene.initial_particles``); None settles the plain one.
+        the lattice first (``app.core.liquid.scene.initial_particles``); None settles the plain one.
         """
         fps = self.scene.fps
         state = initial_particles(self.scene, world)

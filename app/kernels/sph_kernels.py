@@ -15,9 +15,9 @@ import numpy as np
 import pyopencl as cl
 import pyopencl.cltypes as cltypes
 
-from app.core.scene import Scene
-from app.core.sph import WALL_MARGIN
-from app.core.sph_grid import (
+from app.core.liquid.scene import Scene
+from app.core.liquid.sph import WALL_MARGIN
+from app.core.liquid.sph_grid import (
     make_grid,
     pcisph_delta,
     sort_by_cell,

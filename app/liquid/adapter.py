@@ -1,11 +1,11 @@
-"""``LiquidDynamics``: the tilt-tank liquid as a :class:`~app.core.dynamics.Dynamics`.
+"""``LiquidDynamics``: the tilt-tank liquid as a :class:`~app.core.graph.dynamics.Dynamics`.
 
 It composes the PCISPH simulator (``app.kernels.sph``), the Zhu-Bridson SDF kernel
-(``app.kernels.sdf``), the paper's metrics and blend (``app.core.liquid_metrics``) and
+(``app.kernels.sdf``), the paper's metrics and blend (``app.core.liquid.liquid_metrics``) and
 the Mitsuba renderer (``app.render``). A clip's ``frames`` are its SDFs quantised to
-int8 (``app.core.surface.quantise_sdf``): the store keeps them as they are, and blends
+int8 (``app.core.liquid.surface.quantise_sdf``): the store keeps them as they are, and blends
 return the same kind. Occupancy in the features is uint8 for the same reason. End states
-are snapped onto the preset's particle lattice (``app.core.particle_lattice``) before a
+are snapped onto the preset's particle lattice (``app.core.liquid.particle_lattice``) before a
 clip is returned, so the state the store keeps is the state a continuation starts from.
 
 The constants the paper measures (T0, w_e) and the defaults of the crowd radius and the
@@ -25,17 +25,17 @@ from pathlib import Path
 
 import numpy as np
 
-from app.core.dynamics import ClipFeatures, SimClip
 from app.core.errors import NotFound
-from app.core.liquid_metrics import (
+from app.core.graph.dynamics import ClipFeatures, SimClip
+from app.core.liquid.liquid_metrics import (
     LiquidMetricParams,
     blend_sdf,
     clip_distance,
     descriptor_distance,
 )
-from app.core.particle_lattice import ParticleLattice, particle_lattice, snap_state
-from app.core.scene import Scene, kinetic_energy, potential_energies, tilt_tank
-from app.core.surface import (
+from app.core.liquid.particle_lattice import ParticleLattice, particle_lattice, snap_state
+from app.core.liquid.scene import Scene, kinetic_energy, potential_energies, tilt_tank
+from app.core.liquid.surface import (
     SurfaceGrid,
     clip_descriptor,
     clip_score,
@@ -141,9 +141,9 @@ class LiquidDynamics:
     Parameters
     ----------
     preset : str
-        ``tiny``, ``small`` or ``paper`` (``app.core.scene.tilt_tank``).
+        ``tiny``, ``small`` or ``paper`` (``app.core.liquid.scene.tilt_tank``).
     fluid : str
-        ``low`` or ``high`` viscosity (``app.core.scene.FLUIDS``).
+        ``low`` or ``high`` viscosity (``app.core.liquid.scene.FLUIDS``).
     calibration : LiquidCalibration, optional
         Defaults to the stored one of the preset and fluid.
     render_quality : RenderQuality, optional

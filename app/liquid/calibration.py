@@ -30,8 +30,8 @@ from typing import Any
 
 import numpy as np
 
-from app.core.dynamics import ClipFeatures
-from app.core.liquid_metrics import (
+from app.core.graph.dynamics import ClipFeatures
+from app.core.liquid.liquid_metrics import (
     LiquidMetricParams,
     clip_distance,
     descriptor_distance,
@@ -82,7 +82,7 @@ def calibrate(
     ``<preset>-<fluid>.json`` for a fluid other than ``low``). Takes about 30 s on
     ``tiny`` and 3 min on ``small`` (2 CPU cores) before the threshold, which adds
     4-8 min on ``tiny`` and up to 18 min on ``small`` (2 loaded cores); the high fluid
-    takes longer (more substeps, see ``app.core.scene.viscous_substeps``).
+    takes longer (more substeps, see ``app.core.liquid.scene.viscous_substeps``).
     """
     probe = LiquidDynamics(preset, fluid, LiquidCalibration(0.0, 1.0, 0.0, 0.0), devices=devices)
     # T0 over the last second of a 3 s settle

@@ -6,10 +6,10 @@ settled tank (a fresh depth-2 tree and random control sequences); every clip in 
 a dead end ``d`` blended into other clips ``t`` of its control, from its best target to
 its worst, so that ``dist(d, t, c)`` spans from about zero to far above any blend a graph
 keeps. Each blend's silhouette through the game camera is compared with ``d``'s, the
-simulated continuation the blend stands in for (``app.core.visible_error``); the
-pre-registered :class:`~app.core.visible_error.VisibilityCriterion` labels it visibly
+simulated continuation the blend stands in for (``app.core.liquid.visible_error``); the
+pre-registered :class:`~app.core.liquid.visible_error.VisibilityCriterion` labels it visibly
 wrong or not, and the threshold is the dist where the two are equally likely
-(``app.core.error_threshold``).
+(``app.core.liquid.error_threshold``).
 
 A few blends spread over the range of dist are also rendered with Mitsuba: their mean
 RGB difference to the rendered simulation is reported next to the silhouette measures,
@@ -26,8 +26,8 @@ from typing import Any
 import numpy as np
 from scipy.stats import spearmanr
 
-from app.core.dynamics import ClipFeatures
-from app.core.error_threshold import (
+from app.core.graph.dynamics import ClipFeatures
+from app.core.liquid.error_threshold import (
     DEFAULT_RIDGE,
     ThresholdFitError,
     bootstrap_thresholds,
@@ -35,9 +35,9 @@ from app.core.error_threshold import (
     logistic_threshold,
     separating_threshold,
 )
-from app.core.silhouette import silhouettes
-from app.core.surface import dequantise_sdf
-from app.core.visible_error import VisibilityCriterion, VisibleArtifacts, image_difference
+from app.core.liquid.silhouette import silhouettes
+from app.core.liquid.surface import dequantise_sdf
+from app.core.liquid.visible_error import VisibilityCriterion, VisibleArtifacts, image_difference
 from app.liquid.adapter import LiquidDynamics
 from app.liquid.threshold_blends import (
     DEFAULT_CLIPS,
@@ -282,7 +282,7 @@ def measure_visible_threshold(
     """The high-error threshold of ``dyn``'s preset and fluid and how it was measured.
 
     Returns ``(threshold, details)``; ``details`` is JSON-able (the calibration stores
-    it). Raises :class:`~app.core.error_threshold.ThresholdFitError` when the blends do
+    it). Raises :class:`~app.core.liquid.error_threshold.ThresholdFitError` when the blends do
     not straddle the criterion. 4-8 min on tiny with the defaults (2 loaded cores).
     """
     study = measure_blends(

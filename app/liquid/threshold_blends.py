@@ -13,15 +13,15 @@ from dataclasses import dataclass
 
 import numpy as np
 
-from app.core.dynamics import SimClip
-from app.core.silhouette import (
+from app.core.graph.dynamics import SimClip
+from app.core.liquid.silhouette import (
     SilhouetteProjector,
     silhouette_projector,
     silhouettes,
     tank_camera,
 )
-from app.core.surface import dequantise_sdf, liquid_volumes, occupancy
-from app.core.visible_error import VisibilityCriterion, swelling, visible_artifacts
+from app.core.liquid.surface import dequantise_sdf, liquid_volumes, occupancy
+from app.core.liquid.visible_error import VisibilityCriterion, swelling, visible_artifacts
 from app.liquid.adapter import LiquidDynamics
 
 #: clips simulated for the study: a depth-2 tree (N + N^2 = 12) and random sequences

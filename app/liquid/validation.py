@@ -19,8 +19,8 @@ from typing import Any
 import numpy as np
 from scipy.spatial import cKDTree
 
-from app.core import sph as twin
-from app.core.scene import (
+from app.core.liquid import sph as twin
+from app.core.liquid.scene import (
     GRAVITY,
     Scene,
     dam_break,
@@ -28,7 +28,7 @@ from app.core.scene import (
     kinetic_energy,
     tilt_tank,
 )
-from app.core.sph_grid import sort_by_cell
+from app.core.liquid.sph_grid import sort_by_cell
 from app.kernels.sph import SphSimulator
 
 #: dam-break resolution per preset: cells across the column width a (and in depth)
@@ -76,7 +76,7 @@ def floor_gauge(sim: SphSimulator, seconds: float = GAUGE_SECONDS) -> dict[str, 
     An experimenter reads the bottom pressure off a gauge in the floor, not off the
     fluid. Here the gauge is the floor's boundary particles at least one support radius
     from the side walls: every substep, the vertical Akinci force the fluid exerts on
-    them (:func:`app.core.sph.wall_pressure_forces`, at the positions and with the
+    them (:func:`app.core.liquid.sph.wall_pressure_forces`, at the positions and with the
     pressures that substep used) is summed and divided by the patch area. The clamp a
     quarter spacing above the floor also holds particles up; its share is measured
     separately (from the velocity it removed: m ((v' - v) / dt - a_np - a_p) for the

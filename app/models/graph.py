@@ -1,7 +1,7 @@
 """Tables of a state graph: the graph row, its vertices, clips and edges, growth epochs.
 
 Vertices, clips and edges are keyed by the graph's dense indices (``idx``, and
-``(vertex, control)`` for edges), mirroring :class:`app.core.graph.StateGraph`, so a
+``(vertex, control)`` for edges), mirroring :class:`app.core.graph.state_graph.StateGraph`, so a
 graph loads with three ordered scans and saves with bulk inserts.
 """
 
@@ -53,7 +53,7 @@ class Graph(Base):
     #: the world seed of the start state (``Dynamics.initial_state``); NULL: the canonical one
     world: Mapped[int | None] = mapped_column(Integer)
     strategy: Mapped[str] = mapped_column(String(32))
-    #: the crowd model sr-crowd learns (app.core.player_models.PlayerModelKind)
+    #: the crowd model sr-crowd learns (app.core.players.player_models.PlayerModelKind)
     player_model: Mapped[str] = mapped_column(String(16), default="eq2", server_default="eq2")
     growing: Mapped[bool] = mapped_column(Boolean, default=False)
     #: bumped by every save; a save that finds another revision lost a race or a rollback
@@ -106,7 +106,7 @@ class Edge(Base):
     )
     vertex: Mapped[int] = mapped_column(Integer, primary_key=True)
     control: Mapped[int] = mapped_column(SmallInteger, primary_key=True)
-    #: 0 SIM, 1 BLEND (app.core.graph.EdgeKind)
+    #: 0 SIM, 1 BLEND (app.core.graph.state_graph.EdgeKind)
     kind: Mapped[int] = mapped_column(SmallInteger)
     clip_idx: Mapped[int] = mapped_column(Integer)
     dst: Mapped[int] = mapped_column(Integer)

@@ -17,7 +17,7 @@ from sqlalchemy import (
 )
 from sqlalchemy.orm import Mapped, mapped_column
 
-from app.core.players import PlayerKind
+from app.core.players.kinds import PlayerKind
 from app.models.base import HASH_LENGTH, Base, created_at_column
 
 #: the kinds a player may be, as the database enforces them (migration 0007)
@@ -60,7 +60,7 @@ class PublicationEdge(Base):
 
 
 class EdgeKindName(Base):
-    """The name of each :class:`~app.core.graph.EdgeKind` number, for SQL that reads
+    """The name of each :class:`~app.core.graph.state_graph.EdgeKind` number, for SQL that reads
     ``edges.kind`` and ``publication_edges.kind`` (the analytics views join it)."""
 
     __tablename__ = "edge_kinds"
@@ -75,7 +75,7 @@ class Player(Base):
 
     id: Mapped[int] = mapped_column(primary_key=True)
     name: Mapped[str] = mapped_column(String(100), unique=True)
-    #: a :class:`~app.core.players.PlayerKind`, said at registration; no default, so that
+    #: a :class:`~app.core.players.kinds.PlayerKind`, said at registration; no default, so that
     #: a writer that forgot to say who played fails rather than counts as either
     kind: Mapped[str] = mapped_column(String(8))
     #: sha256 of the bearer token; the token itself is never stored
@@ -130,7 +130,7 @@ class GraphSessions(Base):
 
 class PlayCount(Base):
     """Steps taken with ``control`` at ``vertex`` on a publication by the sessions whose
-    ordinal in the graph is ``bucket`` modulo :data:`~app.core.crowd_play.FOLD_BUCKETS`:
+    ordinal in the graph is ``bucket`` modulo :data:`~app.core.players.crowd_play.FOLD_BUCKETS`:
     what the crowd models read, kept as traces are accepted (app.store.play_counts), per
     kind of player so that analytics can answer for people or bots."""
 

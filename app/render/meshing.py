@@ -7,7 +7,7 @@ from dataclasses import dataclass
 import numpy as np
 from skimage.measure import marching_cubes
 
-from app.core.surface import SurfaceGrid
+from app.core.liquid.surface import SurfaceGrid
 from app.render.smoothing import SMOOTHING_STEPS, taubin_smooth, vertex_normals
 
 #: how far (in voxels) liquid that touches a tank wall reaches into the wall's surface

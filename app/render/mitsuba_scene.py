@@ -29,9 +29,9 @@ import drjit as dr
 import mitsuba as mi
 import numpy as np
 
-from app.core.scene import Box, Scene
-from app.core.silhouette import tank_camera
-from app.core.surface import SurfaceGrid
+from app.core.liquid.scene import Box, Scene
+from app.core.liquid.silhouette import tank_camera
+from app.core.liquid.surface import SurfaceGrid
 from app.render.denoise import median_denoise
 from app.render.meshing import LiquidMesh, render_mesh
 from app.render.smoothing import SMOOTHING_STEPS

@@ -1,4 +1,4 @@
-"""The report's table of where players met error (:mod:`app.core.error_origin`)."""
+"""The report's table of where players met error (:mod:`app.core.evaluation.error_origin`)."""
 
 from __future__ import annotations
 
@@ -6,7 +6,7 @@ from typing import Any
 
 import numpy as np
 
-from app.core.error_origin import PARTS
+from app.core.evaluation.error_origin import PARTS
 
 
 def error_origin_section(result: dict[str, Any]) -> list[str]:

@@ -11,7 +11,7 @@ from typing import Any
 
 import numpy as np
 
-from app.core.comparison import (
+from app.core.evaluation.comparison import (
     AIMLESS_CROWDS,
     BASELINE,
     CROWD,
@@ -275,7 +275,8 @@ def _interval_cell(compared: dict[str, Any] | None, digits: int = 2) -> str:
 
 
 def _targets_table(comparison: dict[str, Any], seeds: int) -> list[str]:
-    """Each crowd's targets (app.core.comparison.targets): the number, the bar, met or not.
+    """Each crowd's targets (app.core.evaluation.comparison.targets): the number, the bar, met
+    or not.
 
     One world (the demo) gives no interval: the targets that need one are not judged
     there but named as needing more worlds, so a one-world run reports what it can say

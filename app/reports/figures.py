@@ -25,8 +25,8 @@ from matplotlib.collections import LineCollection  # noqa: E402
 from matplotlib.figure import Figure  # noqa: E402
 from matplotlib.patches import Patch  # noqa: E402
 
-from app.core.graph import edge_vertex_control  # noqa: E402
-from app.core.seed_interval import seed_interval  # noqa: E402
+from app.core.evaluation.seed_interval import seed_interval  # noqa: E402
+from app.core.graph.state_graph import edge_vertex_control  # noqa: E402
 
 ArraysLoader = Callable[[str], dict[str, np.ndarray]]
 

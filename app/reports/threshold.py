@@ -24,7 +24,7 @@ import matplotlib.pyplot as plt  # noqa: E402
 import numpy as np  # noqa: E402
 from PIL import Image  # noqa: E402
 
-from app.core.error_threshold import fit_logistic, log_dist  # noqa: E402
+from app.core.liquid.error_threshold import fit_logistic, log_dist  # noqa: E402
 from app.liquid.threshold import ThresholdStudy  # noqa: E402
 
 MEASURES = (

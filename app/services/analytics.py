@@ -1,6 +1,6 @@
 """What the traces of a graph say (``srg analytics``): the SQL reports, how well the crowd
 model predicted the latest publication's play, and a warning for every figure that rests
-on too few sessions (the rule: :mod:`app.core.session_figures`).
+on too few sessions (the rule: :mod:`app.core.evaluation.session_figures`).
 
 Every figure is computed from the sessions of the players chosen: people, bots or all.
 """
@@ -13,9 +13,9 @@ from typing import Any
 from sqlalchemy.orm import Session
 
 from app.config import Settings
-from app.core.player_models import parse_player_model
-from app.core.players import PlayerSelection
-from app.core.session_figures import MAX_RELATIVE_SE, MIN_SESSIONS, SessionFigure
+from app.core.evaluation.session_figures import MAX_RELATIVE_SE, MIN_SESSIONS, SessionFigure
+from app.core.players.kinds import PlayerSelection
+from app.core.players.player_models import parse_player_model
 from app.services.loading import graph_context
 from app.services.prediction import latest_play_prediction
 from app.store.analytics import graph_analytics

@@ -3,7 +3,7 @@
 The epochs render the strips of what they add; publishing renders whatever is still
 missing. Both call these, so a strip is the same whoever renders it. A clip nearly
 identical to one already rendered shows that clip's strip instead of a new one
-(:mod:`app.core.dedup`, docs/dedup.md).
+(:mod:`app.core.graph.dedup`, docs/dedup.md).
 
 A strip is a function of its clip, so one whose file rotted or went missing is rendered
 again rather than lost: publishing first forgets the graph's strips that fail their hash
@@ -20,9 +20,9 @@ import numpy as np
 from sqlalchemy.orm import Session
 
 from app.config import Settings
-from app.core.dedup import Substitute, animation_owners, find_substitute
-from app.core.dynamics import ClipFeatures, Dynamics
-from app.core.graph import EdgeKind
+from app.core.graph.dedup import Substitute, animation_owners, find_substitute
+from app.core.graph.dynamics import ClipFeatures, Dynamics
+from app.core.graph.state_graph import EdgeKind
 from app.render.animation import STRIP_MEDIA_TYPE, encode_strip
 from app.services.loading import GraphContext, LoadedGraph, graph_dynamics
 from app.services.progress import Advance
@@ -236,7 +236,7 @@ def render_missing_animations(
     A SIM edge shows its clip (one strip per clip, kept on the clip row: a nearly
     identical clip's within ``max_reuse_error``, else rendered); a BLEND edge shows
     eq. 8's blend of its dead-end clip into its target's clip. SIM edges go in clip
-    order, so a strip's owner is the first clip holding it (:mod:`app.core.dedup`).
+    order, so a strip's owner is the first clip holding it (:mod:`app.core.graph.dedup`).
     """
     graph_id, graph = loaded.entry.id, loaded.graph
     missing = edges_without_animation(session, graph_id, graph.n_controls)

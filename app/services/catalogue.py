@@ -3,7 +3,7 @@ publications, and a publication's edges.
 
 Shells reach the store only through services (docs/design.md, "Layers"); this module is
 that door for reads of the catalogue. A graph is handed out as a
-:class:`~app.core.graph_entry.GraphEntry`, a value, so that no shell keeps an ORM row past
+:class:`~app.core.graph.graph_entry.GraphEntry`, a value, so that no shell keeps an ORM row past
 the session it came from.
 """
 
@@ -11,7 +11,7 @@ from __future__ import annotations
 
 from sqlalchemy.orm import Session
 
-from app.core.graph_entry import GraphEntry
+from app.core.graph.graph_entry import GraphEntry
 from app.store.animations import count_missing_animations
 from app.store.graph_catalogue import MAX_ROW_ID, graph_ids, size_frames
 from app.store.graph_catalogue import graph_entry as find_graph

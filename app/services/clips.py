@@ -19,9 +19,9 @@ import numpy as np
 from sqlalchemy.orm import Session
 
 from app.config import Settings
-from app.core.dynamics import ClipFeatures, Dynamics, SimClip
 from app.core.errors import NotFound
-from app.core.graph_entry import GraphEntry
+from app.core.graph.dynamics import ClipFeatures, Dynamics, SimClip
+from app.core.graph.graph_entry import GraphEntry
 from app.services.animations import AnimationReuse, frames_strip, reuse_error_limit
 from app.services.loading import artifact_store, graph_context, graph_dynamics
 from app.store.animations import clip_features, set_animations, stored_clip
@@ -308,7 +308,7 @@ def render_step(
     A new clip ends on a blend edge, which shows eq. 8's blend, not the clip: its own strip
     is first shown when that edge is expanded. So an expansion renders one strip, its
     dead-end clip's, in the pipeline of control 0 (docs/runtime.md, "Strips"): a nearly
-    identical earlier clip's when there is one (:mod:`app.core.dedup`), else its frames
+    identical earlier clip's when there is one (:mod:`app.core.graph.dedup`), else its frames
     rendered.
     """
     if expansion_clip(session, epoch_id, position, control) is None:

@@ -5,13 +5,13 @@ from __future__ import annotations
 from sqlalchemy.orm import Session
 
 from app.config import Settings
-from app.core.clipbank import MemoryClipBank
 from app.core.errors import InvalidInput
-from app.core.graph_entry import GraphScene
-from app.core.growth import initial_tree
+from app.core.graph.clipbank import MemoryClipBank
+from app.core.graph.graph_entry import GraphScene
+from app.core.growth.expansion import initial_tree
+from app.core.growth.strategies import parse_strategy
 from app.core.names import check_name
-from app.core.player_models import parse_player_model
-from app.core.strategies import parse_strategy
+from app.core.players.player_models import parse_player_model
 from app.liquid.devices import LiquidDevices
 from app.services.dynamics import make_dynamics
 from app.services.loading import artifact_store
@@ -67,7 +67,8 @@ def init_graph(
 ) -> dict[str, object]:
     """Store the initial tree of a new graph; return its summary.
 
-    ``progress(1)`` follows each clip of the tree (``app.core.growth.initial_tree_clips``).
+    ``progress(1)`` follows each clip of the tree
+    (``app.core.growth.expansion.initial_tree_clips``).
 
     ``world`` is the seed of the start state (``Dynamics.initial_state``; None, the
     canonical start); it is stored with the graph, non-negative (docs/experiment.md,

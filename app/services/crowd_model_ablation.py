@@ -16,16 +16,16 @@ from typing import Any
 import numpy as np
 
 from app.config import Settings
-from app.core.crowd_models.eq2 import crowd_player_model
-from app.core.crowd_play import PlayCounts
-from app.core.player_models import (
+from app.core.evaluation.prediction import PlayedSessions, prediction_figures
+from app.core.growth.strategies import Strategy
+from app.core.players.crowd_models.eq2 import crowd_player_model
+from app.core.players.crowd_play import PlayCounts
+from app.core.players.player_models import (
     heuristic_player_model,
     mean_session_length,
     observed_control_counts,
     robust_session_length,
 )
-from app.core.prediction import PlayedSessions, prediction_figures
-from app.core.strategies import Strategy
 from app.db.sessions import transaction
 from app.services.experiment.plan import stored_experiment_id, stored_plan
 from app.services.loading import open_graph

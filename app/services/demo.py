@@ -19,9 +19,9 @@ from typing import Any
 from sqlalchemy.orm import Session
 
 from app.config import Settings
-from app.core.graph import EdgeKind
-from app.core.player_models import PlayerModelKind
-from app.core.strategies import Strategy
+from app.core.graph.state_graph import EdgeKind
+from app.core.growth.strategies import Strategy
+from app.core.players.player_models import PlayerModelKind
 from app.db.sessions import transaction
 from app.reports.contact_sheet import Tile, contact_sheet
 from app.reports.experiment import write_report

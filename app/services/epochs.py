@@ -29,10 +29,10 @@ import numpy as np
 from sqlalchemy.orm import Session
 
 from app.config import Settings
-from app.core.graph import EdgeKind, edge_index
-from app.core.graph_entry import GraphEntry
-from app.core.growth import integrate_expansion
-from app.core.strategies import Strategy
+from app.core.graph.graph_entry import GraphEntry
+from app.core.graph.state_graph import EdgeKind, edge_index
+from app.core.growth.expansion import integrate_expansion
+from app.core.growth.strategies import Strategy
 from app.db.sessions import Scope
 from app.services.animations import blend_strip
 from app.services.clips import (

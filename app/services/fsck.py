@@ -32,8 +32,8 @@ import numpy as np
 from sqlalchemy.orm import Session
 
 from app.config import Settings
-from app.core.dynamics import Dynamics
-from app.core.graph_entry import GraphEntry
+from app.core.graph.dynamics import Dynamics
+from app.core.graph.graph_entry import GraphEntry
 from app.db.sessions import database_sessions, transaction
 from app.render.animation import STRIP_MEDIA_TYPE
 from app.services.animations import rendered_again

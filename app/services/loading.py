@@ -15,11 +15,11 @@ from functools import lru_cache
 from sqlalchemy.orm import Session
 
 from app.config import Settings
-from app.core.clipbank import ClipBank
-from app.core.dynamics import Dynamics
 from app.core.errors import InvalidInput
-from app.core.graph import StateGraph
-from app.core.graph_entry import GraphEntry
+from app.core.graph.clipbank import ClipBank
+from app.core.graph.dynamics import Dynamics
+from app.core.graph.graph_entry import GraphEntry
+from app.core.graph.state_graph import StateGraph
 from app.liquid.devices import LiquidDevices
 from app.services.dynamics import make_dynamics, threshold_in_force
 from app.services.graph_cache import graph_cache

@@ -19,10 +19,10 @@ import numpy as np
 from sqlalchemy.orm import Session
 
 from app.config import Settings
-from app.core.bots import BotKind, parse_bot, play_sessions
 from app.core.errors import InvalidInput
-from app.core.metrics import high_error_fraction, observed_mean_error
-from app.core.publication import Publication
+from app.core.evaluation.metrics import high_error_fraction, observed_mean_error
+from app.core.graph.publication import Publication
+from app.core.players.bots import BotKind, parse_bot, play_sessions
 from app.services.loading import graph_context
 from app.store.graph_catalogue import graph_entry
 from app.store.publications import latest_publication_id, load_publication

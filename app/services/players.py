@@ -7,7 +7,7 @@ from dataclasses import dataclass
 
 from sqlalchemy.orm import Session
 
-from app.core.players import PlayerKind
+from app.core.players.kinds import PlayerKind
 from app.store.traces import get_or_create_player, player_for_token
 from app.store.transactions import in_transaction
 

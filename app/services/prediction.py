@@ -14,13 +14,17 @@ from typing import Any
 from sqlalchemy.orm import Session
 
 from app.config import Settings
-from app.core.bots import BotKind, play_sessions
-from app.core.player_models import PlayerModelKind, parse_player_model
-from app.core.players import PlayerSelection
-from app.core.prediction import PlayedSessions, prediction_figures, split_half_correlation
-from app.core.publication import Publication
-from app.core.refinement import Refiner
-from app.core.strategies import Strategy
+from app.core.evaluation.prediction import (
+    PlayedSessions,
+    prediction_figures,
+    split_half_correlation,
+)
+from app.core.graph.publication import Publication
+from app.core.growth.refinement import Refiner
+from app.core.growth.strategies import Strategy
+from app.core.players.bots import BotKind, play_sessions
+from app.core.players.kinds import PlayerSelection
+from app.core.players.player_models import PlayerModelKind, parse_player_model
 from app.services.loading import LoadedGraph, open_graph
 from app.services.refining import learn_play, refiner_config
 from app.store.play_counts import played_sessions

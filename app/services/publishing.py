@@ -18,7 +18,7 @@ from dataclasses import dataclass
 from sqlalchemy.orm import Session
 
 from app.config import Settings
-from app.core.growth import relink_all
+from app.core.growth.expansion import relink_all
 from app.services.animations import (
     forget_unreadable_strips,
     render_missing_animations,

@@ -13,7 +13,7 @@ from sqlalchemy.orm import Session
 
 from app.config import Settings
 from app.core.errors import Conflict
-from app.core.graph_entry import GraphEntry
+from app.core.graph.graph_entry import GraphEntry
 from app.services.loading import keep_graph, loaded_graph
 from app.services.publishing import publish_graph, relink_blends
 from app.services.refining import rank_stored, refiner_for

@@ -4,7 +4,7 @@ from __future__ import annotations
 
 from sqlalchemy.orm import Session
 
-from app.core.graph import EdgeKind
+from app.core.graph.state_graph import EdgeKind
 from app.store.animations import count_missing_animations
 from app.store.epochs import epoch_count
 from app.store.graph_catalogue import edge_kind_counts, graph_entry, size_frames

@@ -10,7 +10,7 @@ from __future__ import annotations
 import numpy as np
 from sqlalchemy.orm import Session
 
-from app.core.publication import Publication
+from app.core.graph.publication import Publication
 from app.store.publications import load_publication
 from app.store.traces import record_trace
 from app.store.transactions import in_transaction

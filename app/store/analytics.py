@@ -9,10 +9,10 @@ read the sums and per-session figures kept as traces are accepted (``play_counts
 after a few (docs/analytics.md, "What analytics reads").
 
 Every statement reads only the sessions of the players chosen (``:kinds``, the
-:class:`~app.core.players.PlayerKind` values of a
-:class:`~app.core.players.PlayerSelection`). The figures that are means over sessions
+:class:`~app.core.players.kinds.PlayerKind` values of a
+:class:`~app.core.players.kinds.PlayerSelection`). The figures that are means over sessions
 are read one row per session, so that their standard error is computed over sessions
-(:mod:`app.core.session_figures`).
+(:mod:`app.core.evaluation.session_figures`).
 """
 
 from __future__ import annotations
@@ -23,8 +23,8 @@ from typing import Any
 from sqlalchemy import TextClause, bindparam, text
 from sqlalchemy.orm import Session
 
-from app.core.players import PlayerKind, PlayerSelection
-from app.core.session_figures import SessionFigure, SessionLengths
+from app.core.evaluation.session_figures import SessionFigure, SessionLengths
+from app.core.players.kinds import PlayerKind, PlayerSelection
 
 
 def _chosen_players(statement: str) -> TextClause:

@@ -15,9 +15,9 @@ import numpy as np
 from sqlalchemy import ColumnElement, func, select, update
 from sqlalchemy.orm import Session
 
-from app.core.dynamics import ClipFeatures
 from app.core.errors import NotFound
-from app.core.graph import EdgeKind, edge_index, edge_vertex_control
+from app.core.graph.dynamics import ClipFeatures
+from app.core.graph.state_graph import EdgeKind, edge_index, edge_vertex_control
 from app.models import Artifact, Clip, Edge, PublicationEdge
 from app.store.artifacts import ArtifactStore
 from app.store.clipbank import ShapeOf
@@ -238,7 +238,7 @@ class StripSource(NamedTuple):
 
 def strip_source(session: Session, digest: str) -> StripSource | None:
     """What the strip ``digest`` was rendered from, read off the first clip holding it (its
-    owner, :func:`app.core.dedup.animation_owners`: later clips holding it stand in), else
+    owner, :func:`app.core.graph.dedup.animation_owners`: later clips holding it stand in), else
     the first edge holding it; None when neither does (only older publications show it).
 
     A live edge's strip shows the edge as it is: saving a changed edge drops its strip.

@@ -1,7 +1,7 @@
 """The artifact format of named arrays: integer coding, delta, byte planes, zstd.
 
 Bundles are mostly integers: int8 SDF and uint8 occupancy frames, and liquid states whose
-float32 values lie on a power-of-two lattice (``app.core.particle_lattice``). Each member
+float32 values lie on a power-of-two lattice (``app.core.liquid.particle_lattice``). Each member
 is coded on its own, losslessly:
 
 1. integers as they are; floats as integers ``x * 2^e`` with the least exponent ``e``
@@ -42,7 +42,7 @@ from typing import Any, BinaryIO
 import numpy as np
 import zstandard
 
-from app.core.particle_lattice import MORTON_BITS, morton_cells, morton_codes
+from app.core.liquid.particle_lattice import MORTON_BITS, morton_cells, morton_codes
 
 ARRAYS_MEDIA_TYPE = "application/x-srg-arrays+zstd"
 MAGIC = b"SRGA1\n"
@@ -222,7 +222,7 @@ def _morton_columns(
     """A particle state's first three columns as one column of Morton codes, or None.
 
     Applies to (n, >= 3) floats whose rows are in Morton order of their first three
-    columns, non-negative cells on one lattice (``app.core.particle_lattice``): the
+    columns, non-negative cells on one lattice (``app.core.liquid.particle_lattice``): the
     codes' differences are the gaps between neighbours along the curve, fewer bits than
     three coordinates' differences. Each position column is brought to the finest of
     their exponents; the exponents returned are those the decoded columns are scaled by.

@@ -1,4 +1,4 @@
-"""A :class:`~app.core.clipbank.ClipBank` backed by the artifact store.
+"""A :class:`~app.core.graph.clipbank.ClipBank` backed by the artifact store.
 
 Each saved clip has one arrays bundle: its frames, and its end state while its edge is
 a blend. A blend edge's clip is expanded from its end state; once the edge is a
@@ -23,9 +23,9 @@ from typing import Protocol
 
 import numpy as np
 
-from app.core.clipbank import ClipBank
-from app.core.dynamics import ClipFeatures, SimClip
-from app.core.graph import StateGraph
+from app.core.graph.clipbank import ClipBank
+from app.core.graph.dynamics import ClipFeatures, SimClip
+from app.core.graph.state_graph import StateGraph
 from app.store.artifacts import ArtifactStore
 
 #: default budget of the shape (occupancy, descriptor) cache, and its least entries

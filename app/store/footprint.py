@@ -13,7 +13,7 @@ from typing import Any
 from sqlalchemy import Select, func, select
 from sqlalchemy.orm import Session
 
-from app.core.graph import EdgeKind
+from app.core.graph.state_graph import EdgeKind
 from app.models import Artifact, Clip, Edge, Vertex
 
 

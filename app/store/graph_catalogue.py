@@ -16,8 +16,8 @@ from sqlalchemy.exc import IntegrityError
 from sqlalchemy.orm import Session
 
 from app.core.errors import Conflict, NotFound
-from app.core.graph import edge_vertex_control
-from app.core.graph_entry import GraphEntry, GraphScene
+from app.core.graph.graph_entry import GraphEntry, GraphScene
+from app.core.graph.state_graph import edge_vertex_control
 from app.models import Clip, Edge, Graph
 
 

@@ -20,9 +20,9 @@ import numpy as np
 from sqlalchemy import Row, select, update
 from sqlalchemy.orm import Session
 
-from app.core.clipbank import ClipBank
 from app.core.errors import Conflict
-from app.core.graph import NO_TARGET, EdgeKind, GraphInvariantError, StateGraph
+from app.core.graph.clipbank import ClipBank
+from app.core.graph.state_graph import NO_TARGET, EdgeKind, GraphInvariantError, StateGraph
 from app.models import Clip, Edge, Graph, Vertex
 from app.store._sql import bulk_insert
 from app.store.array_codec import ARRAYS_MEDIA_TYPE, encode_arrays
@@ -164,7 +164,7 @@ def load_graph(
     Descriptors come back as float64 of the stored float32 values; everything else is
     exact. The energy index is rebuilt through ``set_sim`` in ascending energy order,
     where each insertion is an append. A stored graph that breaks an invariant is
-    :class:`~app.core.graph.GraphInvariantError`, naming the graph.
+    :class:`~app.core.graph.state_graph.GraphInvariantError`, naming the graph.
     """
     row = get_graph_row(session, graph_id)
     revision = _current_revision(session, graph_id)

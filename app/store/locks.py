@@ -10,7 +10,7 @@ from __future__ import annotations
 from sqlalchemy import select
 from sqlalchemy.orm import Session
 
-from app.core.graph_entry import GraphEntry
+from app.core.graph.graph_entry import GraphEntry
 from app.db.engines import begin_immediate
 from app.models import Graph
 from app.store.epochs import Epoch, get_epoch

@@ -16,9 +16,9 @@ from sqlalchemy import BigInteger, ColumnElement, func, select
 from sqlalchemy.dialects import postgresql, sqlite
 from sqlalchemy.orm import Session
 
-from app.core.crowd_play import FOLD_BUCKETS, PlayCounts
-from app.core.players import PlayerKind, PlayerSelection
-from app.core.prediction import PlayedSessions
+from app.core.evaluation.prediction import PlayedSessions
+from app.core.players.crowd_play import FOLD_BUCKETS, PlayCounts
+from app.core.players.kinds import PlayerKind, PlayerSelection
 from app.models import GraphSessions, PlayCount, Player, PlayLength, PlayVisit, Trace
 from app.models import Publication as PublicationRow
 

@@ -15,8 +15,8 @@ from sqlalchemy import func, select
 from sqlalchemy.orm import Session
 
 from app.core.errors import NotFound
-from app.core.graph import StateGraph, edge_index, edge_vertex_control
-from app.core.publication import Publication, freeze
+from app.core.graph.publication import Publication, freeze
+from app.core.graph.state_graph import StateGraph, edge_index, edge_vertex_control
 from app.models import Edge, Graph, PublicationEdge
 from app.models import Publication as PublicationRow
 from app.store._sql import bulk_insert

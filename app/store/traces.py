@@ -21,8 +21,8 @@ from sqlalchemy.exc import IntegrityError
 from sqlalchemy.orm import Session
 
 from app.core.errors import Conflict, InvalidInput
-from app.core.players import PlayerKind, PlayerSelection
-from app.core.publication import Publication
+from app.core.graph.publication import Publication
+from app.core.players.kinds import PlayerKind, PlayerSelection
 from app.models import Player, Trace, TraceStep
 from app.models import Publication as PublicationRow
 from app.store._sql import bulk_insert, insert_ignoring_duplicates

@@ -28,7 +28,7 @@ from celery.utils.log import get_task_logger
 from sqlalchemy.exc import OperationalError
 
 from app.config import Settings, get_settings
-from app.core.growth import GrowthBudget
+from app.core.growth.expansion import GrowthBudget
 from app.db.sessions import transaction
 from app.services import clips, epochs, rank_relink_publish
 from app.services.catalogue import find_graph, size_frames

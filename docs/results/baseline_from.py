@@ -5,7 +5,7 @@ sr-heuristic read no traces, so an earlier run of the same fluid, crowd and worl
 grew the very same graphs and its bots played them the same sessions. This script checks
 that (sr-heuristic's mean error per step must be equal in both runs at every checkpoint
 and seed, else it refuses) and then prints sr-crowd / baseline per checkpoint with the
-interval the reports use (``app.core.comparison.ratio_interval``).
+interval the reports use (``app.core.evaluation.comparison.ratio_interval``).
 
     PYTHONPATH=. python docs/results/baseline_from.py CROWD_RUN BASELINE_RUN CROWD
 
@@ -18,7 +18,7 @@ import json
 import sys
 from pathlib import Path
 
-from app.core.comparison import ratio_interval
+from app.core.evaluation.comparison import ratio_interval
 
 RESULTS = Path(__file__).resolve().parent
 

@@ -4,7 +4,7 @@ Each report judges its own run's targets, but four of the six crowd-and-fluid cl
 grew no baseline: their sr-crowd / baseline bars read "not measured" there. This script
 pairs each such run with the run of the same worlds that grew baseline (checked as
 ``baseline_from.py`` checks it: sr-heuristic's error equal at every checkpoint and seed)
-and judges all of them with the code the reports use (``app.core.comparison``), so one
+and judges all of them with the code the reports use (``app.core.evaluation.comparison``), so one
 table says which bars stand and which do not.
 
 Then, for each crowd with an aim on the low fluid, the chance that three worlds put the
@@ -29,7 +29,7 @@ import numpy as np
 from baseline_from import RESULTS, checkpoints, same_worlds
 from scipy import optimize, stats
 
-from app.core.comparison import LEVEL, Target, compare_checkpoint, targets
+from app.core.evaluation.comparison import LEVEL, Target, compare_checkpoint, targets
 
 sys.path.insert(0, str(RESULTS / "sel-squared-fresh"))
 from factors import PAIRS, crowd_null  # noqa: E402

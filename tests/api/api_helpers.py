@@ -14,7 +14,7 @@ from sqlalchemy.orm import Session
 from app.api.app import create_app
 from app.api.deps import get_session, growth_scope
 from app.config import Settings
-from app.core.publication import Publication
+from app.core.graph.publication import Publication
 from app.models import Player, Trace, TraceStep
 from app.services.epochs import in_session
 

@@ -11,8 +11,8 @@ from api_helpers import Published, walk
 from sqlalchemy import text, update
 from sqlalchemy.orm import Session
 
-from app.core.players import PlayerKind, PlayerSelection
-from app.core.session_figures import SessionFigure
+from app.core.evaluation.session_figures import SessionFigure
+from app.core.players.kinds import PlayerKind, PlayerSelection
 from app.models import Publication as PublicationRow
 from app.store.analytics import graph_analytics, session_lengths
 from app.store.traces import bot_player, get_or_create_player, record_trace

@@ -10,7 +10,7 @@ from fastapi.testclient import TestClient
 from sqlalchemy.orm import Session
 
 from app.bench.ingest import ToyGraph, build_toy_graph
-from app.core.growth import expand_blend_edge
+from app.core.growth.expansion import expand_blend_edge
 from app.store.artifacts import ArtifactStore
 from app.store.graph_persistence import save_graph
 from app.store.publications import publish

@@ -16,7 +16,7 @@ from sqlalchemy import func, select
 from sqlalchemy.orm import Session
 
 from app.bench.ingest import build_toy_graph
-from app.core.toy import ToyDynamics
+from app.core.graph.toy import ToyDynamics
 from app.models import Player
 from app.render.animation import STRIP_MEDIA_TYPE, decode_strip
 from app.services.status import graph_summary

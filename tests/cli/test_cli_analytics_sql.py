@@ -18,9 +18,9 @@ from sqlalchemy import select, text
 from sqlalchemy.orm import Session
 
 from app.config import Settings
-from app.core.bots import BotKind, play_sessions
-from app.core.graph import EdgeKind
-from app.core.players import PlayerKind
+from app.core.graph.state_graph import EdgeKind
+from app.core.players.bots import BotKind, play_sessions
+from app.core.players.kinds import PlayerKind
 from app.db.engines import make_engine
 from app.models import Graph
 from app.store.publications import latest_publication, load_publication

@@ -27,7 +27,7 @@ from sqlalchemy import select, update
 from app.api.app import create_app
 from app.api.local_server import serve_in_thread
 from app.config import Settings
-from app.core.graph import EdgeKind
+from app.core.graph.state_graph import EdgeKind
 from app.db.engines import database_engine, dispose_engines
 from app.db.sessions import transaction
 from app.models import Edge, GrowthEpoch

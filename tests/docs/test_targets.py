@@ -16,7 +16,7 @@ from types import ModuleType
 import numpy as np
 import pytest
 
-from app.core.comparison import ratio_interval
+from app.core.evaluation.comparison import ratio_interval
 
 ROOT = Path(__file__).resolve().parents[2]
 RESULTS = ROOT / "docs/results"

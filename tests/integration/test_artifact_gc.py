@@ -13,7 +13,7 @@ from sqlalchemy import select, update
 from sqlalchemy.orm import Session
 
 from app.bench.ingest import build_toy_graph
-from app.core.toy import ToyDynamics
+from app.core.graph.toy import ToyDynamics
 from app.models import Artifact, Clip
 from app.store.artifact_gc import (
     artifact_references,

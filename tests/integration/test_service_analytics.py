@@ -14,11 +14,11 @@ from service_settings import session_settings
 from sqlalchemy.orm import Session
 
 from app.config import Settings
-from app.core.bots import BotKind, play_sessions
 from app.core.errors import InvalidInput
-from app.core.players import PlayerKind, PlayerSelection
-from app.core.session_figures import MAX_RELATIVE_SE, MIN_SESSIONS
-from app.core.toy import ToyDynamics
+from app.core.evaluation.session_figures import MAX_RELATIVE_SE, MIN_SESSIONS
+from app.core.graph.toy import ToyDynamics
+from app.core.players.bots import BotKind, play_sessions
+from app.core.players.kinds import PlayerKind, PlayerSelection
 from app.services.analytics import played_graph_analytics
 from app.services.catalogue import find_graph
 from app.services.creation import init_graph

@@ -12,8 +12,8 @@ from service_settings import session_settings
 from sqlalchemy.orm import Session
 
 from app.config import Settings
-from app.core.growth import initial_tree_clips
-from app.core.toy import ToyDynamics
+from app.core.graph.toy import ToyDynamics
+from app.core.growth.expansion import initial_tree_clips
 from app.services.catalogue import (
     MAX_ROW_ID,
     GraphEntry,

@@ -19,8 +19,8 @@ from service_settings import committed_settings
 
 from app.config import Settings
 from app.core.errors import InvalidInput
-from app.core.player_models import PlayerModelKind
-from app.core.strategies import Strategy
+from app.core.growth.strategies import Strategy
+from app.core.players.player_models import PlayerModelKind
 from app.db.sessions import transaction
 from app.reports.provenance import with_provenance
 from app.services.catalogue import find_graph, latest_publication_id, missing_animations

@@ -9,7 +9,7 @@ import pytest
 from sqlalchemy import func, select
 from sqlalchemy.orm import Session
 
-from app.core.players import PlayerKind
+from app.core.players.kinds import PlayerKind
 from app.models import Player
 from app.services.players import RegisteredPlayer, player_for_token, register_player
 

@@ -13,8 +13,8 @@ from service_settings import session_settings
 from sqlalchemy.orm import Session
 
 from app.config import Settings
-from app.core.growth import initial_tree_clips
-from app.core.toy import ToyDynamics
+from app.core.graph.toy import ToyDynamics
+from app.core.growth.expansion import initial_tree_clips
 from app.services.catalogue import find_graph, size_frames
 from app.services.creation import init_graph
 from app.services.epochs import in_session

@@ -9,11 +9,11 @@ import pytest
 from sqlalchemy import func, select
 from sqlalchemy.orm import Session
 
-from app.core.clipbank import MemoryClipBank
-from app.core.graph import StateGraph
-from app.core.players import PlayerKind
-from app.core.publication import Publication
-from app.core.toy import ToyDynamics
+from app.core.graph.clipbank import MemoryClipBank
+from app.core.graph.publication import Publication
+from app.core.graph.state_graph import StateGraph
+from app.core.graph.toy import ToyDynamics
+from app.core.players.kinds import PlayerKind
 from app.models import Trace, TraceStep
 from app.services.trace_upload import load_publication, store_trace
 from app.store.artifacts import ArtifactStore

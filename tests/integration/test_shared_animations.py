@@ -6,11 +6,11 @@ import numpy as np
 import pytest
 from sqlalchemy.orm import Session
 
-from app.core.clipbank import MemoryClipBank
-from app.core.dynamics import SimClip
-from app.core.graph import StateGraph
-from app.core.growth import expand_blend_edge, initial_tree
-from app.core.toy import ToyDynamics
+from app.core.graph.clipbank import MemoryClipBank
+from app.core.graph.dynamics import SimClip
+from app.core.graph.state_graph import StateGraph
+from app.core.graph.toy import ToyDynamics
+from app.core.growth.expansion import expand_blend_edge, initial_tree
 from app.services.animations import AnimationReuse, render_missing_animations
 from app.services.loading import GraphContext, LoadedGraph
 from app.store.animations import clip_animations, set_animations

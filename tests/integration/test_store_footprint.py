@@ -6,9 +6,9 @@ import numpy as np
 from sqlalchemy import func, select
 from sqlalchemy.orm import Session
 
-from app.core.clipbank import MemoryClipBank
-from app.core.graph import EdgeKind, StateGraph
-from app.core.toy import ToyDynamics
+from app.core.graph.clipbank import MemoryClipBank
+from app.core.graph.state_graph import EdgeKind, StateGraph
+from app.core.graph.toy import ToyDynamics
 from app.models import Artifact, Clip
 from app.store.animations import set_animations
 from app.store.artifacts import ArtifactStore

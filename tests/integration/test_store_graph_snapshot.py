@@ -18,11 +18,11 @@ from database_helpers import migrate, postgres_base_url, postgres_database
 from sqlalchemy import Engine, event, update
 from sqlalchemy.orm import Session
 
-from app.core.clipbank import MemoryClipBank
 from app.core.errors import Inconsistent, SrgError
-from app.core.graph import GraphInvariantError
-from app.core.growth import expand_blend_edge, initial_tree
-from app.core.toy import ToyDynamics
+from app.core.graph.clipbank import MemoryClipBank
+from app.core.graph.state_graph import GraphInvariantError
+from app.core.graph.toy import ToyDynamics
+from app.core.growth.expansion import expand_blend_edge, initial_tree
 from app.db.engines import make_engine
 from app.db.sessions import session_factory
 from app.models import Edge

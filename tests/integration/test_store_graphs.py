@@ -10,11 +10,11 @@ from sqlalchemy import func, select, update
 from sqlalchemy.orm import Session
 
 from app.bench.store import synthetic_graph, synthetic_shape
-from app.core.clipbank import ClipBank, MemoryClipBank
-from app.core.graph import EdgeKind, StateGraph
-from app.core.graph_entry import GraphScene
-from app.core.growth import best_target, expand_blend_edge, relink_all
-from app.core.toy import ToyDynamics
+from app.core.graph.clipbank import ClipBank, MemoryClipBank
+from app.core.graph.graph_entry import GraphScene
+from app.core.graph.state_graph import EdgeKind, StateGraph
+from app.core.graph.toy import ToyDynamics
+from app.core.growth.expansion import best_target, expand_blend_edge, relink_all
 from app.models import Clip, Edge, Graph
 from app.store.animations import set_animations
 from app.store.artifacts import ArtifactStore

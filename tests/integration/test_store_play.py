@@ -9,12 +9,12 @@ import pytest
 from sqlalchemy import func, select
 from sqlalchemy.orm import Session
 
-from app.core.clipbank import MemoryClipBank
-from app.core.graph import StateGraph
-from app.core.growth import expand_blend_edge
-from app.core.players import PlayerKind, PlayerSelection
-from app.core.publication import freeze
-from app.core.toy import ToyDynamics
+from app.core.graph.clipbank import MemoryClipBank
+from app.core.graph.publication import freeze
+from app.core.graph.state_graph import StateGraph
+from app.core.graph.toy import ToyDynamics
+from app.core.growth.expansion import expand_blend_edge
+from app.core.players.kinds import PlayerKind, PlayerSelection
 from app.models import GrowthEpoch, Player, PublicationEdge, Trace, TraceStep
 from app.store.animations import set_animations
 from app.store.artifacts import ArtifactStore

@@ -19,7 +19,7 @@ from sqlalchemy import Engine, text
 from sqlalchemy.orm import Session, sessionmaker
 
 from app.core.errors import SrgError
-from app.core.graph_entry import GraphScene
+from app.core.graph.graph_entry import GraphScene
 from app.db.engines import make_engine
 from app.db.sessions import session_factory
 from app.store.epochs import EpochTaken, start_epoch

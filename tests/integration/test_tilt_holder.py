@@ -16,7 +16,7 @@ from app.api.app import create_app
 from app.api.local_server import serve_in_thread
 from app.bench.ingest import build_toy_graph
 from app.config import Settings
-from app.core.growth import expand_blend_edge
+from app.core.growth.expansion import expand_blend_edge
 from app.db.engines import make_engine
 from app.db.sessions import session_factory
 from app.models import Base

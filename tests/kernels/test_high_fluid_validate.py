@@ -11,8 +11,8 @@ from __future__ import annotations
 import numpy as np
 import pytest
 
-from app.core.scene import Box, tilt_tank
-from app.core.surface import clip_score, occupancy, surface_grid
+from app.core.liquid.scene import Box, tilt_tank
+from app.core.liquid.surface import clip_score, occupancy, surface_grid
 from app.kernels.sdf import SdfKernel
 from app.kernels.sph import SphSimulator
 from app.liquid.validation import check_passed, validate

@@ -1,11 +1,11 @@
-"""The OpenCL Zhu-Bridson SDF against its NumPy twin (app.core.surface)."""
+"""The OpenCL Zhu-Bridson SDF against its NumPy twin (app.core.liquid.surface)."""
 
 from __future__ import annotations
 
 import numpy as np
 
-from app.core.scene import initial_particles, tilt_tank
-from app.core.surface import surface_grid, zhu_bridson_sdf
+from app.core.liquid.scene import initial_particles, tilt_tank
+from app.core.liquid.surface import surface_grid, zhu_bridson_sdf
 from app.kernels.sdf import SdfKernel
 
 SCENE = tilt_tank("tiny")

@@ -12,7 +12,7 @@ from dataclasses import dataclass
 import numpy as np
 import pytest
 
-from app.core.scene import kinetic_energy, tilt_tank
+from app.core.liquid.scene import kinetic_energy, tilt_tank
 from app.kernels.sph import SphSimulator
 
 #: one clip of tilt, then one clip level: the slosh starts and swings back

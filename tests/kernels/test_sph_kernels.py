@@ -6,8 +6,8 @@ import numpy as np
 import pyopencl as cl
 import pytest
 
-from app.core import sph as twin
-from app.core.scene import initial_particles, kinetic_energy, tilt_tank
+from app.core.liquid import sph as twin
+from app.core.liquid.scene import initial_particles, kinetic_energy, tilt_tank
 from app.kernels.context import runtime
 from app.kernels.launch_shapes import GPU_SCAN_BLOCK
 from app.kernels.sph import SphSimulator, iterations_used

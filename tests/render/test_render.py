@@ -12,8 +12,8 @@ import pytest
 from PIL import Image
 from scipy.ndimage import median_filter
 
-from app.core.scene import initial_particles, tilt_tank
-from app.core.surface import dequantise_sdf, surface_grid, zhu_bridson_sdf
+from app.core.liquid.scene import initial_particles, tilt_tank
+from app.core.liquid.surface import dequantise_sdf, surface_grid, zhu_bridson_sdf
 from app.render.animation import (
     STRIP_MEDIA_TYPE,
     decode_strip,

@@ -20,7 +20,7 @@ from tasks_helpers import (
     snapshot,
 )
 
-from app.core.toy import ToyDynamics
+from app.core.graph.toy import ToyDynamics
 from app.models import GrowthEpoch, Publication, PublicationEdge
 from app.store.epochs import EpochStatus
 

@@ -16,13 +16,13 @@ from tasks_cluster import RedisServer
 from tasks_helpers import eager_reference, seed_graph, snapshot
 
 from app.config import Settings, get_settings
-from app.core.clipbank import MemoryClipBank
-from app.core.dynamics import Dynamics
-from app.core.graph import EdgeKind
-from app.core.growth import expand_blend_edge, initial_tree
-from app.core.player_models import PlayerModelKind
-from app.core.refinement import RefinerConfig
-from app.core.toy import ToyDynamics
+from app.core.graph.clipbank import MemoryClipBank
+from app.core.graph.dynamics import Dynamics
+from app.core.graph.state_graph import EdgeKind
+from app.core.graph.toy import ToyDynamics
+from app.core.growth.expansion import expand_blend_edge, initial_tree
+from app.core.growth.refinement import RefinerConfig
+from app.core.players.player_models import PlayerModelKind
 from app.db.engines import make_engine
 from app.db.sessions import database_sessions, session_factory, transaction
 from app.models import Clip, Graph, GrowthEpoch, GrowthRequest, Publication, PublicationEdge

@@ -12,7 +12,7 @@ from sqlalchemy import func, select
 from sqlalchemy.orm import Session
 
 from app.config import Settings, get_settings
-from app.core.toy import ToyDynamics
+from app.core.graph.toy import ToyDynamics
 from app.db.sessions import transaction
 from app.liquid.adapter import LiquidDynamics
 from app.models import Clip, Graph, SimulatedClip

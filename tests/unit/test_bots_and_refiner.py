@@ -6,19 +6,19 @@ import numpy as np
 import pytest
 from trace_helpers import looping_trace
 
-from app.core.bots import LEVEL_CONTROL, AvoiderBot, BotKind, HesitantBot, play_sessions
-from app.core.clipbank import MemoryClipBank
-from app.core.growth import initial_tree
-from app.core.publication import Publication
-from app.core.refinement import Refiner, RefinerConfig
-from app.core.strategies import (
+from app.core.graph.clipbank import MemoryClipBank
+from app.core.graph.publication import Publication
+from app.core.graph.toy import ToyDynamics
+from app.core.growth.expansion import initial_tree
+from app.core.growth.refinement import Refiner, RefinerConfig
+from app.core.growth.strategies import (
     EdgeWeights,
     Strategy,
     edge_weights,
     mixed_weights,
     parse_strategy,
 )
-from app.core.toy import ToyDynamics
+from app.core.players.bots import LEVEL_CONTROL, AvoiderBot, BotKind, HesitantBot, play_sessions
 
 DYN = ToyDynamics()
 

@@ -1,5 +1,5 @@
 """Strategies compared over seeds: Student t intervals on log ratios and on differences,
-their verdicts, and the targets judged on them (app.core.comparison)."""
+their verdicts, and the targets judged on them (app.core.evaluation.comparison)."""
 
 from __future__ import annotations
 
@@ -7,7 +7,7 @@ import math
 
 import pytest
 
-from app.core.comparison import (
+from app.core.evaluation.comparison import (
     CheckpointComparison,
     SeedComparison,
     Target,

@@ -11,21 +11,21 @@ from pathlib import Path
 import numpy as np
 import pytest
 
-from app.core.bots import BotKind, play_sessions
-from app.core.clipbank import MemoryClipBank
-from app.core.crowd_models import candidates
-from app.core.crowd_models.candidates import candidate_models
-from app.core.crowd_models.eq2 import Eq2
-from app.core.crowd_models.estimator import CrowdGraph, CrowdModel, CrowdPlay
-from app.core.crowd_models.registry import CROWD_MODELS, by_kind, crowd_model
-from app.core.crowd_models.shrunk import Shrunk
-from app.core.crowd_play import PlayCounts
-from app.core.growth import initial_tree
-from app.core.player_models import PlayerModelKind
-from app.core.publication import Publication
-from app.core.refinement import Refiner, RefinerConfig
-from app.core.strategies import Strategy
-from app.core.toy import ToyDynamics
+from app.core.graph.clipbank import MemoryClipBank
+from app.core.graph.publication import Publication
+from app.core.graph.toy import ToyDynamics
+from app.core.growth.expansion import initial_tree
+from app.core.growth.refinement import Refiner, RefinerConfig
+from app.core.growth.strategies import Strategy
+from app.core.players.bots import BotKind, play_sessions
+from app.core.players.crowd_models import candidates
+from app.core.players.crowd_models.candidates import candidate_models
+from app.core.players.crowd_models.eq2 import Eq2
+from app.core.players.crowd_models.estimator import CrowdGraph, CrowdModel, CrowdPlay
+from app.core.players.crowd_models.registry import CROWD_MODELS, by_kind, crowd_model
+from app.core.players.crowd_models.shrunk import Shrunk
+from app.core.players.crowd_play import PlayCounts
+from app.core.players.player_models import PlayerModelKind
 
 DYN = ToyDynamics()
 #: the control group no session of :func:`played` visits
@@ -44,13 +44,13 @@ def test_a_candidate_is_one_module_in_the_candidates_package(
 ) -> None:
     assert candidate_models() == []  # none on trial today
     (tmp_path / "mixed_trial.py").write_text(
-        "from app.core.crowd_models.shrunk import Shrunk\n\n\n"
+        "from app.core.players.crowd_models.shrunk import Shrunk\n\n\n"
         "class MixedTrial(Shrunk):\n    pass\n\n\nCANDIDATE = MixedTrial\n"
     )
     monkeypatch.setattr(candidates, "__path__", [str(tmp_path)])
     (found,) = candidate_models()
     assert found.__name__ == "MixedTrial"
-    assert found.__module__ == "app.core.crowd_models.candidates.mixed_trial"
+    assert found.__module__ == "app.core.players.crowd_models.candidates.mixed_trial"
 
 
 class Played:

@@ -17,13 +17,13 @@ import hashlib
 import numpy as np
 import pytest
 
-from app.core.bots import BotKind, play_sessions
-from app.core.clipbank import MemoryClipBank
-from app.core.growth import initial_tree
-from app.core.player_models import PlayerModelKind
-from app.core.refinement import Refiner, RefinerConfig
-from app.core.strategies import Strategy
-from app.core.toy import ToyDynamics
+from app.core.graph.clipbank import MemoryClipBank
+from app.core.graph.toy import ToyDynamics
+from app.core.growth.expansion import initial_tree
+from app.core.growth.refinement import Refiner, RefinerConfig
+from app.core.growth.strategies import Strategy
+from app.core.players.bots import BotKind, play_sessions
+from app.core.players.player_models import PlayerModelKind
 
 #: sha256 of :func:`grown`'s arrays per kind, recorded at commit d10dfb4
 PINNED = {

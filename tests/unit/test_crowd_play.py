@@ -5,9 +5,9 @@ from __future__ import annotations
 import numpy as np
 import pytest
 
-from app.core.crowd_play import FOLD_BUCKETS, PlayCounts
-from app.core.player_models import observed_control_counts
-from app.core.session_folds import SessionFolds
+from app.core.players.crowd_play import FOLD_BUCKETS, PlayCounts
+from app.core.players.player_models import observed_control_counts
+from app.core.players.session_folds import SessionFolds
 
 
 def sessions(seed: int, count: int, n_vertices: int = 12) -> list[np.ndarray]:

@@ -4,7 +4,7 @@ from __future__ import annotations
 
 import numpy as np
 
-from app.core.graph import edge_index, edge_vertex_control
+from app.core.graph.state_graph import edge_index, edge_vertex_control
 
 
 def test_edge_index_and_its_inverse_agree_on_ints_and_arrays() -> None:

@@ -1,4 +1,4 @@
-"""Where players met error: the split by the age of the blends (app.core.error_origin)."""
+"""Where players met error, split by the age of the blends (app.core.evaluation.error_origin)."""
 
 from __future__ import annotations
 
@@ -7,8 +7,8 @@ from typing import Any
 import numpy as np
 import pytest
 
-from app.core.error_origin import error_origin
-from app.core.graph import EdgeKind
+from app.core.evaluation.error_origin import error_origin
+from app.core.graph.state_graph import EdgeKind
 from app.reports.error_origin import error_origin_section
 
 SIM, BLEND = EdgeKind.SIM, EdgeKind.BLEND

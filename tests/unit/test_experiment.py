@@ -12,12 +12,12 @@ import pytest
 from database_helpers import migrate
 
 from app.config import get_settings
-from app.core.bots import BotKind, play_sessions
 from app.core.errors import InvalidInput
-from app.core.metrics import CheckpointReport, evaluate_checkpoint
-from app.core.player_models import PlayerModelKind, robust_session_length
-from app.core.publication import Publication
-from app.core.strategies import Strategy
+from app.core.evaluation.metrics import CheckpointReport, evaluate_checkpoint
+from app.core.graph.publication import Publication
+from app.core.growth.strategies import Strategy
+from app.core.players.bots import BotKind, play_sessions
+from app.core.players.player_models import PlayerModelKind, robust_session_length
 from app.db.engines import dispose_engines
 from app.services import play
 from app.services.crowd_model_ablation import eq2_ingredients

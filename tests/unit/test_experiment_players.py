@@ -12,8 +12,8 @@ import math
 
 import pytest
 
-from app.core.bots import BotKind
 from app.core.errors import InvalidInput
+from app.core.players.bots import BotKind
 from app.services.experiment.players import (
     FRESH,
     POPULATION,

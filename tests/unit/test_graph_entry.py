@@ -5,7 +5,7 @@ from __future__ import annotations
 import pytest
 
 from app.core.errors import InvalidInput
-from app.core.graph_entry import DEFAULT_FPS, GraphEntry, GraphScene
+from app.core.graph.graph_entry import DEFAULT_FPS, GraphEntry, GraphScene
 
 
 def test_a_scene_stores_only_the_keys_it_has_and_reads_them_back() -> None:

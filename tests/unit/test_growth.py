@@ -7,9 +7,10 @@ import pytest
 from hypothesis import given, settings
 from hypothesis import strategies as st
 
-from app.core.clipbank import MemoryClipBank
-from app.core.graph import EdgeKind, StateGraph
-from app.core.growth import (
+from app.core.graph.clipbank import MemoryClipBank
+from app.core.graph.state_graph import EdgeKind, StateGraph
+from app.core.graph.toy import ToyDynamics
+from app.core.growth.expansion import (
     best_target,
     expand_blend_edge,
     initial_tree,
@@ -18,7 +19,6 @@ from app.core.growth import (
     select_for_expansion,
     simulate_clips,
 )
-from app.core.toy import ToyDynamics
 
 DYN = ToyDynamics()
 

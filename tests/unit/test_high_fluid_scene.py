@@ -10,7 +10,7 @@ from __future__ import annotations
 
 import pytest
 
-from app.core.scene import FILL_HEIGHT, FLUIDS, Box, tilt_tank
+from app.core.liquid.scene import FILL_HEIGHT, FLUIDS, Box, tilt_tank
 
 #: the target every low-fluid graph was grown and scored with
 WATER_TARGET = Box((0.2, 0.25, 0.0), (0.4, 0.4, 0.16))

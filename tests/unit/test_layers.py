@@ -1,7 +1,7 @@
 """The layers of ``app`` (docs/design.md, "Runtime"), held by import-linter's contracts.
 
 The contracts live in ``pyproject.toml`` (``[tool.importlinter]``): the core imports
-nothing of ``app``, the learned player models import no bot's policy (every model the
+nothing of ``app``, its five domains import only those below them, the learned player models import no bot's policy (every model the
 registry holds, checked here), nothing imports the
 CLI, services import neither the shells nor the benchmarks, the API, the tasks and the CLI
 reach the store only through services, no import circles at any depth, and the layers
@@ -21,11 +21,11 @@ import sys
 import tomllib
 from pathlib import Path
 
-from app.core.crowd_models.registry import CROWD_MODELS
+from app.core.players.crowd_models.registry import CROWD_MODELS
 
 ROOT = Path(__file__).resolve().parents[2]
 LINT_IMPORTS = Path(sys.executable).with_name("lint-imports")
-CONTRACTS = 7
+CONTRACTS = 8
 #: the contract that keeps every crowd model from the bots' policies
 LEARNED_MODELS = "the learned player models import no bot's policy"
 #: where SQL may be written: the store, the tables, the engines, and the benchmarks'
@@ -59,8 +59,8 @@ def test_the_code_keeps_every_contract() -> None:
 
 def test_an_arrow_back_up_breaks_the_contracts(tmp_path: Path) -> None:
     # a copy of the package's modules, with the core importing the CLI (which imports the
-    # core: a circle too), a service importing the tasks, a player model the bots and a
-    # route the store
+    # core: a circle too), the graph domain importing evaluation, a service importing the
+    # tasks, a player model the bots and a route the store
     shutil.copytree(
         ROOT / "app",
         tmp_path / "app",
@@ -69,16 +69,20 @@ def test_an_arrow_back_up_breaks_the_contracts(tmp_path: Path) -> None:
         ],
     )
     (tmp_path / "app" / "core" / "upward.py").write_text("import app.cli.main\n")
+    (tmp_path / "app" / "core" / "graph" / "upward.py").write_text(
+        "import app.core.evaluation.metrics\n"
+    )
     (tmp_path / "app" / "services" / "upward.py").write_text("import app.tasks\n")
-    model = tmp_path / "app" / "core" / "crowd_models" / "shrunk.py"
-    model.write_text(model.read_text() + "\nimport app.core.bots\n")
+    model = tmp_path / "app" / "core" / "players" / "crowd_models" / "shrunk.py"
+    model.write_text(model.read_text() + "\nimport app.core.players.bots\n")
     (tmp_path / "app" / "api" / "routes" / "upward.py").write_text("import app.store.traces\n")
     done = lint_imports(tmp_path)
     assert done.returncode == 1, done.stdout + done.stderr
     assert f"Contracts: 0 kept, {CONTRACTS} broken." in done.stdout, done.stdout
     assert "app.core.upward -> app.cli.main" in done.stdout
+    assert "app.core.graph.upward -> app.core.evaluation.metrics" in done.stdout
     assert "app.services.upward -> app.tasks" in done.stdout
-    assert "app.core.crowd_models.shrunk -> app.core.bots" in done.stdout
+    assert "app.core.players.crowd_models.shrunk -> app.core.players.bots" in done.stdout
     assert "app.api.routes.upward -> app.store.traces" in done.stdout
 
 

@@ -10,9 +10,9 @@ import numpy as np
 import pytest
 
 from app.config import RenderSettings, RuntimeSettings, Settings
-from app.core.dynamics import Dynamics, SimClip
-from app.core.scene import tilt_tank
-from app.core.surface import dequantise_sdf, liquid_volumes, occupancy
+from app.core.graph.dynamics import Dynamics, SimClip
+from app.core.liquid.scene import tilt_tank
+from app.core.liquid.surface import dequantise_sdf, liquid_volumes, occupancy
 from app.liquid.adapter import (
     CALIBRATION_DIR,
     LiquidDynamics,

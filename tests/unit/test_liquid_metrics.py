@@ -7,8 +7,8 @@ import pytest
 from hypothesis import given, settings
 from hypothesis import strategies as st
 
-from app.core.dynamics import ClipFeatures
-from app.core.liquid_metrics import (
+from app.core.graph.dynamics import ClipFeatures
+from app.core.liquid.liquid_metrics import (
     LiquidMetricParams,
     blend_sdf,
     blend_weights,

@@ -7,8 +7,8 @@ import dataclasses
 import numpy as np
 import pytest
 
-from app.core.scene import Box, initial_particles, tilt_tank
-from app.core.surface import (
+from app.core.liquid.scene import Box, initial_particles, tilt_tank
+from app.core.liquid.surface import (
     clip_descriptor,
     clip_score,
     dequantise_occupancy,

@@ -8,7 +8,7 @@ import math
 import numpy as np
 import pytest
 
-from app.core.metrics import (
+from app.core.evaluation.metrics import (
     density_agreement,
     error_histogram,
     evaluate_checkpoint,
@@ -17,9 +17,9 @@ from app.core.metrics import (
     observed_mean_error,
     observed_step_errors,
     per_vertex_bound_edge_probabilities,
-    predicted_edge_probabilities,
 )
-from app.core.player_models import mean_session_length, observed_control_counts
+from app.core.graph.staterank import predicted_edge_probabilities
+from app.core.players.player_models import mean_session_length, observed_control_counts
 
 ERR = np.array([0.0, 0.5, 1.0, 0.0])
 TRACES = [[(0, 1), (1, 0)], [(0, 0), (0, 1), (1, 1), (1, 0)]]

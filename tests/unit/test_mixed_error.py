@@ -10,20 +10,20 @@ import numpy as np
 import pytest
 from refiner_helpers import toy_refiners
 
-from app.core.crowd_models.mixed import UNSEEN_SHARE
-from app.core.crowd_models.mixed_error import (
+from app.core.graph.publication import Publication, freeze
+from app.core.graph.staterank import predicted_edge_probabilities
+from app.core.growth.refinement import Refiner
+from app.core.growth.strategies import Strategy, edge_weights, mixed_weights
+from app.core.players.crowd_models.mixed import UNSEEN_SHARE
+from app.core.players.crowd_models.mixed_error import (
     SHARES,
     FittedMixedError,
     ShareFit,
     error_weighted_score,
     fit_error_share,
 )
-from app.core.crowd_play import PlayCounts
-from app.core.metrics import predicted_edge_probabilities
-from app.core.player_models import PlayerModelKind
-from app.core.publication import Publication, freeze
-from app.core.refinement import Refiner
-from app.core.strategies import Strategy, edge_weights, mixed_weights
+from app.core.players.crowd_play import PlayCounts
+from app.core.players.player_models import PlayerModelKind
 
 
 def test_the_score_is_the_error_weighted_mean_log_share_by_hand() -> None:

@@ -6,9 +6,13 @@ from __future__ import annotations
 import numpy as np
 import pytest
 
-from app.core.crowd_models.eq2 import crowd_player_model
-from app.core.crowd_models.kernel import kernel_counts, kernel_support, nearest_visited_distance
-from app.core.player_models import (
+from app.core.players.crowd_models.eq2 import crowd_player_model
+from app.core.players.crowd_models.kernel import (
+    kernel_counts,
+    kernel_support,
+    nearest_visited_distance,
+)
+from app.core.players.player_models import (
     PlayerModelKind,
     Trace,
     heuristic_player_model,

@@ -7,21 +7,26 @@ from dataclasses import replace
 import numpy as np
 import pytest
 
-from app.core.bots import BotKind, play_sessions
-from app.core.clipbank import MemoryClipBank
-from app.core.crowd_play import PlayCounts
-from app.core.growth import initial_tree
-from app.core.metrics import observed_mean_error, predicted_edge_probabilities
-from app.core.player_models import (
+from app.core.evaluation.metrics import observed_mean_error
+from app.core.evaluation.prediction import (
+    PlayedSessions,
+    prediction_figures,
+    split_half_correlation,
+)
+from app.core.graph.clipbank import MemoryClipBank
+from app.core.graph.publication import Publication
+from app.core.graph.staterank import predicted_edge_probabilities
+from app.core.graph.toy import ToyDynamics
+from app.core.growth.expansion import initial_tree
+from app.core.growth.refinement import Refiner, RefinerConfig
+from app.core.growth.strategies import Strategy
+from app.core.players.bots import BotKind, play_sessions
+from app.core.players.crowd_play import PlayCounts
+from app.core.players.player_models import (
     mean_session_length,
     observed_control_counts,
     observed_player_model,
 )
-from app.core.prediction import PlayedSessions, prediction_figures, split_half_correlation
-from app.core.publication import Publication
-from app.core.refinement import Refiner, RefinerConfig
-from app.core.strategies import Strategy
-from app.core.toy import ToyDynamics
 
 DYN = ToyDynamics()
 

@@ -6,7 +6,7 @@ import numpy as np
 import pytest
 from scipy import stats
 
-from app.core.seed_interval import seed_interval
+from app.core.evaluation.seed_interval import seed_interval
 
 
 def test_the_interval_is_student_s_t_of_each_column() -> None:

@@ -7,13 +7,13 @@ import numpy as np
 import pytest
 
 from app.core.errors import InvalidInput
-from app.core.players import PlayerKind, PlayerSelection, parse_player_selection
-from app.core.session_figures import (
+from app.core.evaluation.session_figures import (
     MAX_RELATIVE_SE,
     MIN_SESSIONS,
     SessionFigure,
     SessionLengths,
 )
+from app.core.players.kinds import PlayerKind, PlayerSelection, parse_player_selection
 
 
 def sessions(n: int, seed: int = 0) -> tuple[np.ndarray, np.ndarray]:

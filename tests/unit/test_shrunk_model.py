@@ -7,15 +7,15 @@ import numpy as np
 import pytest
 from refiner_helpers import toy_refiners
 
-from app.core.clipbank import MemoryClipBank
-from app.core.crowd_models.shrunk import FittedShrunk, fit_shrunk_model, shrunk_player_model
-from app.core.crowd_play import PlayCounts
-from app.core.growth import initial_tree
-from app.core.player_models import PlayerModelKind, heuristic_player_model
-from app.core.refinement import Refiner, RefinerConfig
-from app.core.session_folds import SessionFolds
-from app.core.strategies import Strategy
-from app.core.toy import ToyDynamics
+from app.core.graph.clipbank import MemoryClipBank
+from app.core.graph.toy import ToyDynamics
+from app.core.growth.expansion import initial_tree
+from app.core.growth.refinement import Refiner, RefinerConfig
+from app.core.growth.strategies import Strategy
+from app.core.players.crowd_models.shrunk import FittedShrunk, fit_shrunk_model, shrunk_player_model
+from app.core.players.crowd_play import PlayCounts
+from app.core.players.player_models import PlayerModelKind, heuristic_player_model
+from app.core.players.session_folds import SessionFolds
 
 
 def test_evidence_against_pseudo_steps_of_the_prior_by_hand() -> None:

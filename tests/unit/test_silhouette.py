@@ -7,9 +7,9 @@ import math
 import numpy as np
 import pytest
 
-from app.core.scene import tilt_tank
-from app.core.silhouette import silhouette_projector, silhouettes, tank_camera
-from app.core.surface import surface_grid
+from app.core.liquid.scene import tilt_tank
+from app.core.liquid.silhouette import silhouette_projector, silhouettes, tank_camera
+from app.core.liquid.surface import surface_grid
 
 SCENE = tilt_tank("tiny")
 GRID = surface_grid(SCENE)

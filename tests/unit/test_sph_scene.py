@@ -8,8 +8,8 @@ import math
 import numpy as np
 import pytest
 
-from app.core import sph
-from app.core.scene import (
+from app.core.liquid import sph
+from app.core.liquid.scene import (
     FLUIDS,
     VISCOUS_STEP,
     Scene,
@@ -20,7 +20,7 @@ from app.core.scene import (
     tilt_tank,
     viscous_substeps,
 )
-from app.core.sph_grid import (
+from app.core.liquid.sph_grid import (
     make_grid,
     pcisph_delta,
     sort_by_cell,

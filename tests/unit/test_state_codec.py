@@ -12,14 +12,14 @@ import json
 import numpy as np
 import pytest
 
-from app.core.particle_lattice import (
+from app.core.liquid.particle_lattice import (
     ParticleLattice,
     morton_cells,
     morton_codes,
     particle_lattice,
     snap_state,
 )
-from app.core.scene import TILT_TANK_SPACINGS
+from app.core.liquid.scene import TILT_TANK_SPACINGS
 from app.store.array_codec import (
     CorruptArrays,
     decode_arrays,

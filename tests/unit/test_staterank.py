@@ -7,7 +7,7 @@ import pytest
 from hypothesis import given, settings
 from hypothesis import strategies as st
 
-from app.core.staterank import (
+from app.core.graph.staterank import (
     StateRankConvergenceError,
     edge_probabilities,
     expected_error,

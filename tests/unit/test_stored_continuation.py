@@ -4,7 +4,7 @@ from __future__ import annotations
 
 import numpy as np
 
-from app.core.particle_lattice import snap_state
+from app.core.liquid.particle_lattice import snap_state
 from app.liquid.adapter import LiquidDynamics
 from app.store.array_codec import decode_arrays, encode_arrays
 

@@ -1,11 +1,11 @@
-"""Finding a rendered clip that can stand in for another (app.core.dedup)."""
+"""Finding a rendered clip that can stand in for another (app.core.graph.dedup)."""
 
 from __future__ import annotations
 
 import numpy as np
 
-from app.core.dedup import animation_owners, find_substitute, substitution_error
-from app.core.dynamics import ClipFeatures
+from app.core.graph.dedup import animation_owners, find_substitute, substitution_error
+from app.core.graph.dynamics import ClipFeatures
 
 
 class ShapeOnly:

@@ -6,7 +6,7 @@ import numpy as np
 import pytest
 from scipy.stats import spearmanr
 
-from app.core.visible_error import VisibilityCriterion, VisibleArtifacts
+from app.core.liquid.visible_error import VisibilityCriterion, VisibleArtifacts
 from app.liquid.adapter import LiquidDynamics
 from app.liquid.threshold import measure_blends
 from app.liquid.threshold_blends import pick_targets

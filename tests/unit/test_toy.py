@@ -5,10 +5,10 @@ from __future__ import annotations
 import numpy as np
 import pytest
 
-from app.core.clipbank import MemoryClipBank
-from app.core.dynamics import Dynamics
-from app.core.growth import expand_blend_edge, initial_tree
-from app.core.toy import ToyDynamics
+from app.core.graph.clipbank import MemoryClipBank
+from app.core.graph.dynamics import Dynamics
+from app.core.graph.toy import ToyDynamics
+from app.core.growth.expansion import expand_blend_edge, initial_tree
 
 DYN = ToyDynamics()
 

@@ -5,7 +5,7 @@ from __future__ import annotations
 import numpy as np
 import pytest
 
-from app.core.error_threshold import (
+from app.core.liquid.error_threshold import (
     ThresholdFitError,
     bootstrap_thresholds,
     fit_logistic,
@@ -13,7 +13,7 @@ from app.core.error_threshold import (
     logistic_threshold,
     separating_threshold,
 )
-from app.core.visible_error import (
+from app.core.liquid.visible_error import (
     VisibilityCriterion,
     VisibleArtifacts,
     frame_changes,

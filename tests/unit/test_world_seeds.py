@@ -5,12 +5,12 @@ from __future__ import annotations
 import numpy as np
 import pytest
 
-from app.core.clipbank import MemoryClipBank
-from app.core.growth import initial_tree
-from app.core.refinement import Refiner, RefinerConfig
-from app.core.scene import WORLD_JITTER, initial_particles, tilt_tank
-from app.core.strategies import Strategy
-from app.core.toy import ToyDynamics
+from app.core.graph.clipbank import MemoryClipBank
+from app.core.graph.toy import ToyDynamics
+from app.core.growth.expansion import initial_tree
+from app.core.growth.refinement import Refiner, RefinerConfig
+from app.core.growth.strategies import Strategy
+from app.core.liquid.scene import WORLD_JITTER, initial_particles, tilt_tank
 from app.liquid.adapter import LiquidDynamics
 
 TOY = ToyDynamics()

@@ -16,7 +16,7 @@ from app.api.deps import get_session
 from app.api.errors import error_responses
 from app.api.ratelimit import limited_registration
 from app.api.schemas import PlayerCreated, PlayerRequest
-from app.core.players import PlayerKind
+from app.core.players.kinds import PlayerKind
 from app.services.players import register_player as register
 
 router = APIRouter(prefix="/api/players", tags=["players"])

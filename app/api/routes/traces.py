@@ -22,7 +22,7 @@ from app.api.deps import get_session, raw_body
 from app.api.errors import ApiError, error_responses, validation_details
 from app.api.ratelimit import limited_uploader
 from app.api.schemas import TraceStored, TraceUpload
-from app.core.publication import Publication
+from app.core.graph.publication import Publication
 from app.services.trace_upload import load_publication, store_trace
 
 router = APIRouter(prefix="/api/traces", tags=["traces"])

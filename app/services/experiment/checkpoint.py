@@ -15,24 +15,24 @@ import numpy as np
 from sqlalchemy.orm import Session
 
 from app.config import Settings
-from app.core.bots import play_sessions
-from app.core.crowd_models.kernel import kernel_support, nearest_visited_distance
-from app.core.metrics import (
+from app.core.evaluation.metrics import (
     evaluate_checkpoint,
     observed_edge_density,
     observed_step_errors,
     per_vertex_bound_edge_probabilities,
-    predicted_edge_probabilities,
 )
-from app.core.player_models import (
+from app.core.evaluation.prediction import PlayedSessions
+from app.core.graph.publication import Publication
+from app.core.graph.staterank import predicted_edge_probabilities
+from app.core.growth.refinement import Refiner
+from app.core.growth.strategies import Strategy
+from app.core.players.bots import play_sessions
+from app.core.players.crowd_models.kernel import kernel_support, nearest_visited_distance
+from app.core.players.player_models import (
     mean_session_length,
     observed_control_counts,
     trace_edges,
 )
-from app.core.prediction import PlayedSessions
-from app.core.publication import Publication
-from app.core.refinement import Refiner
-from app.core.strategies import Strategy
 from app.services.experiment.plan import ExperimentPlan, Run
 from app.services.experiment.players import PlayerGroup
 from app.services.loading import LoadedGraph, open_graph

@@ -21,11 +21,11 @@ from typing import Any, Literal
 from sqlalchemy.orm import Session
 
 from app.config import Settings
-from app.core.bots import BotKind, parse_bot
 from app.core.errors import Conflict, InvalidInput, NotFound
+from app.core.growth.strategies import Strategy, parse_strategy
 from app.core.names import check_name
-from app.core.player_models import PlayerModelKind, parse_player_model
-from app.core.strategies import Strategy, parse_strategy
+from app.core.players.bots import BotKind, parse_bot
+from app.core.players.player_models import PlayerModelKind, parse_player_model
 from app.db.sessions import transaction
 from app.liquid.devices import LiquidDevices
 from app.services.creation import MAX_WORLD

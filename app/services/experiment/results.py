@@ -14,7 +14,7 @@ from typing import Any
 import numpy as np
 
 from app.config import Settings
-from app.core.comparison import (
+from app.core.evaluation.comparison import (
     BASELINE,
     CROWD,
     HEURISTIC,
@@ -23,8 +23,8 @@ from app.core.comparison import (
     compare_checkpoint,
     targets,
 )
-from app.core.error_origin import error_origin
-from app.core.metrics import relative_difference
+from app.core.evaluation.error_origin import error_origin
+from app.core.evaluation.metrics import relative_difference
 from app.db.sessions import transaction
 from app.services.experiment.plan import ExperimentPlan, stored_experiment_id, stored_plan
 from app.services.experiment.players import kind_of, with_populations
@@ -47,7 +47,7 @@ RATIOS = {
         for label in THRESHOLD_SENSITIVITY
     },
 }
-#: the prediction figures of both settings in the summary (app.core.prediction)
+#: the prediction figures of both settings in the summary (app.core.evaluation.prediction)
 PREDICTION_KEYS = (
     "expected_error_relative_difference",
     "density_correlation",
@@ -143,7 +143,7 @@ def _error_origin(
     arrays: dict[str, np.ndarray], earlier: dict[str, np.ndarray], figures: dict[str, Any]
 ) -> dict[str, Any]:
     """The split of a checkpoint's error by the age of the blends its players met it on
-    (:mod:`app.core.error_origin`), against the run's checkpoint before."""
+    (:mod:`app.core.evaluation.error_origin`), against the run's checkpoint before."""
     return error_origin(
         arrays["edge_kind"],
         arrays["edge_err"],
@@ -163,7 +163,7 @@ def compare_strategies(
     """Per crowd and checkpoint, sr-crowd / sr-heuristic (the headline: what the traces
     add), sr-crowd / baseline and sr-heuristic / baseline of the mean error per step,
     each strategy's visibly-wrong share and sr-crowd's minus sr-heuristic's, with their
-    intervals over seeds (:mod:`app.core.comparison`); each row holds the targets judged
+    intervals over seeds (:mod:`app.core.evaluation.comparison`); each row holds the targets judged
     at its checkpoint, and the last row whether all of them are met.
 
     ``samples``: one checkpoint's per-step errors and threshold per (player label,

@@ -17,9 +17,15 @@ from typing import Any
 import numpy as np
 
 from app.config import Settings
-from app.core.comparison import BASELINE, CROWD, HEURISTIC
 from app.core.errors import InvalidInput
-from app.core.scoreboard import Bar, CleanGame, difference_bar, frames_to_clean, ratio_bar
+from app.core.evaluation.comparison import BASELINE, CROWD, HEURISTIC
+from app.core.evaluation.scoreboard import (
+    Bar,
+    CleanGame,
+    difference_bar,
+    frames_to_clean,
+    ratio_bar,
+)
 from app.db.sessions import transaction
 from app.services.experiment.plan import ExperimentPlan, stored_experiment_id, stored_plan
 from app.services.experiment.players import FRESH, POPULATION, with_populations

@@ -8,11 +8,14 @@ ETA_D > 0 stops the density solve on the mean compression of the linear predicti
 ETA_D < 0 on its maximum (|ETA_D|); ETA_V is the divergence solve's mean bound.
 Pressures are kappa = p / rho0^2, as the PCISPH twin's forces use rho0.
 """
-import sys, time
+import sys
+import time
+
 import numpy as np
-from app.core.scene import tilt_tank
-from app.core import sph as tw
-from app.core.sph_grid import wall_particles, wall_volumes
+
+from app.core.liquid import sph as tw
+from app.core.liquid.scene import tilt_tank
+from app.core.liquid.sph_grid import wall_particles, wall_volumes
 from app.kernels.sph import SphSimulator
 
 preset = sys.argv[1] if len(sys.argv) > 1 else "tiny"

@@ -26,7 +26,7 @@ import numpy as np
 from sqlalchemy import select
 
 from app.config import get_settings
-from app.core.graph import EdgeKind
+from app.core.graph.state_graph import EdgeKind
 from app.db.sessions import transaction
 from app.models.experiment import ExperimentCheckpoint
 from app.models.play import Trace, TraceStep

@@ -21,7 +21,7 @@ from pathlib import Path
 
 import numpy as np
 
-from app.core.seed_interval import seed_interval
+from app.core.evaluation.seed_interval import seed_interval
 
 RESULTS = Path(__file__).resolve().parent.parent
 REFERENCE = {"goal-directed": "sel-gd20k-mixed-held-tiny", "avoider": "sel-av20k-mixed-held-tiny"}

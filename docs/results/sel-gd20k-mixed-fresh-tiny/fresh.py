@@ -13,12 +13,12 @@ not as it was when growth chose.
 import sys
 
 import numpy as np
+from app.core.fresh_evidence import weighted_counts
 
 from app.config import Settings
-from app.core.fresh_evidence import weighted_counts
-from app.core.player_models import PlayerModelKind
-from app.core.refinement import Refiner
-from app.core.strategies import Strategy
+from app.core.growth.refinement import Refiner
+from app.core.growth.strategies import Strategy
+from app.core.players.player_models import PlayerModelKind
 from app.db.sessions import transaction
 from app.services.loading import open_graph
 from app.services.refining import refiner_config

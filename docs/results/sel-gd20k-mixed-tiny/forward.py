@@ -11,16 +11,16 @@ log-likelihood per step of publication LATEST's sessions (the players to come).
 import sys
 
 import numpy as np
-
-from app.config import Settings
-from app.core.crowd_play import PlayCounts
-from app.core.player_models import heuristic_player_model
 from app.core.shrunk_model import (
     PRIOR_WEIGHTS,
     RADIUS_SCALES,
     fit_shrunk_model,
     shrunk_player_model,
 )
+
+from app.config import Settings
+from app.core.players.crowd_play import PlayCounts
+from app.core.players.player_models import heuristic_player_model
 from app.db.sessions import transaction
 from app.services.loading import open_graph
 from app.store.play_counts import publication_play_counts

@@ -28,7 +28,7 @@ from pathlib import Path
 
 import numpy as np
 
-from app.core.seed_interval import seed_interval
+from app.core.evaluation.seed_interval import seed_interval
 
 RESULTS = Path(__file__).resolve().parent.parent
 

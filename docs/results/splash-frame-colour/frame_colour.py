@@ -14,8 +14,8 @@ import sys
 import numpy as np
 
 import app.render.mitsuba_scene as look
-from app.core.silhouette import silhouette_projector, silhouettes, tank_camera
-from app.core.surface import dequantise_sdf
+from app.core.liquid.silhouette import silhouette_projector, silhouettes, tank_camera
+from app.core.liquid.surface import dequantise_sdf
 from app.liquid.adapter import LiquidDynamics
 from app.render.look import dark_fractions, dark_inside
 

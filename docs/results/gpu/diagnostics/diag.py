@@ -1,12 +1,16 @@
 """GPU diagnostics: host enqueue vs device time for paper high frames."""
-import json, sys, time
+import json
+import os
+import sys
+import time
+
 import numpy as np
 import pyopencl as cl
-from app.core.scene import tilt_tank
-from app.kernels.sph import SphSimulator
-import app.kernels.launcher as launcher
 
-import os
+import app.kernels.launcher as launcher
+from app.core.liquid.scene import tilt_tank
+from app.kernels.sph import SphSimulator
+
 dev = os.environ.get("SRG_OPENCL_DEVICE", "NVIDIA")
 P, Q = (sys.argv[1], sys.argv[2]) if len(sys.argv) > 2 else ("paper", "small")
 out = {}

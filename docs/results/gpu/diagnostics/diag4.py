@@ -1,9 +1,13 @@
 """Careful loop queued `ahead` iterations ahead, on the GPU."""
-import json, os, sys, time
+import json
+import os
+import sys
+import time
+
 import app.kernels.sph as sph
-from app.core.scene import tilt_tank
-from app.kernels.sph import SphSimulator
 from app.bench.sph_batch import bench_batch
+from app.core.liquid.scene import tilt_tank
+from app.kernels.sph import SphSimulator
 
 dev = os.environ.get("SRG_OPENCL_DEVICE", "NVIDIA")
 P, Q = (sys.argv[1], sys.argv[2]) if len(sys.argv) > 2 else ("paper", "small")

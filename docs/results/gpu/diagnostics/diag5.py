@@ -1,9 +1,13 @@
 """Profile of small clips alone and in a batch of 12, on the GPU."""
-import json, os, sys, time
-from app.core.scene import tilt_tank
-from app.kernels.sph import SphSimulator
+import json
+import os
+import sys
+import time
+
 from app.bench.sph_batch import expansion_clips
 from app.bench.sph_profile import launch_times, summarise
+from app.core.liquid.scene import tilt_tank
+from app.kernels.sph import SphSimulator
 
 dev = os.environ.get("SRG_OPENCL_DEVICE", "NVIDIA")
 Q = sys.argv[1] if len(sys.argv) > 1 else "small"

@@ -1,8 +1,10 @@
 """GPU_SCAN_BLOCK on the GPU: small batches and a paper frame."""
-import json, os, sys, time
+import os
+import sys
+
 import app.kernels.launch_shapes as ls
-from app.bench.sph_batch import bench_batch
 from app.bench.gpu import frame_seconds
+from app.bench.sph_batch import bench_batch
 
 dev = os.environ.get("SRG_OPENCL_DEVICE", "NVIDIA")
 P, Q = (sys.argv[1], sys.argv[2]) if len(sys.argv) > 2 else ("paper", "small")

@@ -1,0 +1,1 @@
+"""Evaluation: what players met on a publication, and strategies compared over worlds."""

@@ -1,0 +1,1 @@
+"""The state graph, its published copies, STATERANK, and the one protocol a game implements."""

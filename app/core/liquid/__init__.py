@@ -1,0 +1,1 @@
+"""The liquid's maths: scenes, the PCISPH twin, surfaces, silhouettes and what a player sees."""

@@ -1,0 +1,1 @@
+"""Players: who played, the player models P(c|v) growth ranks with, and the synthetic bots."""
