@@ -40,7 +40,7 @@ from app.core.graph.dynamics import ClipFeatures, SimClip
 from app.core.liquid.particle_lattice import snap_state
 from app.core.liquid.silhouette import silhouette_projector, silhouettes, tank_camera
 from app.core.liquid.surface import dequantise_sdf
-from app.kernels.sph import SphSimulator
+from app.kernels.pcisph import PcisphSolver
 from app.liquid.adapter import LiquidCalibration, LiquidDynamics, MissingCalibration
 from app.liquid.devices import LiquidDevices
 from app.render.animation import encode_poster, encode_strip
@@ -138,7 +138,7 @@ def _writer_seconds(
         }
 
 
-def _iterations(sim: SphSimulator) -> tuple[int, int]:
+def _iterations(sim: PcisphSolver) -> tuple[int, int]:
     """Pressure iterations and substeps the simulator has run so far."""
     return sim.stats.iterations, sim.stats.substeps
 
@@ -177,7 +177,8 @@ def bench_clip(
         explain them (particles, voxels, image size).
     """
     dyn, calibration = _dynamics(preset, fluid, devices)
-    sim = dyn.simulator
+    sim = dyn.solver
+    assert isinstance(sim, PcisphSolver), "the pressure iterations timed are PCISPH's"
     k = dyn.frames_per_clip
     n = min(frames or k, k)
     state = sim.settle(seconds=settle, damped_seconds=settle / 2)

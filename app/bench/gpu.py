@@ -21,7 +21,7 @@ import numpy as np
 from app.bench.sph_batch import bench_batch
 from app.bench.sph_profile import profile_sph
 from app.core.liquid.scene import tilt_tank
-from app.kernels.sph import SphSimulator
+from app.kernels.pcisph import PcisphSolver
 
 log = logging.getLogger(__name__)
 
@@ -36,10 +36,10 @@ def frame_seconds(preset: str, fluid: str, device: str) -> dict[str, Any]:
     """Seconds a frame of the tank tilting, after a short settle, the careful way (the
     default) and queued a frame at once; and whether the two agree bit for bit."""
     scene = tilt_tank(preset, fluid)
-    rest = SphSimulator(scene, device=device).settle(seconds=0.3, damped_seconds=0.2)
+    rest = PcisphSolver(scene, device=device).settle(seconds=0.3, damped_seconds=0.2)
 
-    def timed(queue_frames: bool) -> tuple[float, np.ndarray, np.ndarray, SphSimulator]:
-        sim = SphSimulator(scene, device=device, queue_frames=queue_frames)
+    def timed(queue_frames: bool) -> tuple[float, np.ndarray, np.ndarray, PcisphSolver]:
+        sim = PcisphSolver(scene, device=device, queue_frames=queue_frames)
         sim.run(rest, 1, 1)
         start = time.perf_counter()
         frames, end = sim.run(rest, 1, TIMED_FRAMES)

@@ -20,7 +20,7 @@ from pathlib import Path
 from typing import Any
 
 from app.core.liquid.scene import Scene, tilt_tank
-from app.kernels.sph import SphSimulator
+from app.kernels.pcisph import PcisphSolver
 
 GL_PRELOAD = "/lib/x86_64-linux-gnu/libGLdispatch.so.0"
 _UNIT_BOX = """v -0.5 -0.5 -0.5\nv 0.5 -0.5 -0.5\nv 0.5 0.5 -0.5\nv -0.5 0.5 -0.5
@@ -30,7 +30,7 @@ f 1 5 8\nf 1 8 4\nf 2 3 7\nf 2 7 6
 """
 
 
-def _time_steps(sim: SphSimulator, state: Any, steps: int) -> tuple[float, Any]:
+def _time_steps(sim: PcisphSolver, state: Any, steps: int) -> tuple[float, Any]:
     frames = max(1, steps // sim.scene.substeps)
     start = time.perf_counter()
     _, end = sim.run(state, 0, frames)
@@ -38,8 +38,8 @@ def _time_steps(sim: SphSimulator, state: Any, steps: int) -> tuple[float, Any]:
 
 
 def _ours(scene: Scene, steps: int, fixed_iterations: int | None, device: str) -> dict[str, Any]:
-    sim = SphSimulator(scene, fixed_iterations=fixed_iterations, device=device)
-    rest = SphSimulator(scene, device=device).settle(seconds=1.0, damped_seconds=0.5)
+    sim = PcisphSolver(scene, fixed_iterations=fixed_iterations, device=device)
+    rest = PcisphSolver(scene, device=device).settle(seconds=1.0, damped_seconds=0.5)
     seconds, _ = _time_steps(sim, rest, steps)
     substeps, iterations = sim.stats.substeps, sim.stats.mean_iterations
     clip_start = time.perf_counter()
@@ -145,7 +145,7 @@ def bench_sph(
     result: dict[str, Any] = {
         "preset": preset,
         "fluid": fluid,
-        "particles": SphSimulator(scene, device=device).n,
+        "particles": PcisphSolver(scene, device=device).n,
         "dt": scene.dt,
         "converged": _ours(scene, steps, None, device),
         "fixed_3_iterations": _ours(scene, steps, 3, device),

@@ -15,10 +15,10 @@ from typing import Any
 import numpy as np
 
 from app.core.liquid.scene import tilt_tank
-from app.kernels.sph import SphSimulator
+from app.kernels.pcisph import PcisphSolver
 
 
-def expansion_clips(sim: SphSimulator, rest: np.ndarray, count: int) -> list[tuple[Any, int]]:
+def expansion_clips(sim: PcisphSolver, rest: np.ndarray, count: int) -> list[tuple[Any, int]]:
     """``count`` (start state, control) pairs: states one frame of tilt apart, each
     under every control in turn, as successive expansions ask."""
     controls = len(sim.scene.gravity)
@@ -33,7 +33,7 @@ def bench_batch(preset: str, fluid: str, sizes: list[int], device: str) -> dict[
     second of each (on a GPU the wall is the device's), and whether every clip of every
     batch equals its solo run bit for bit."""
     scene = tilt_tank(preset, fluid)
-    solo = SphSimulator(scene, device=device)
+    solo = PcisphSolver(scene, device=device)
     rest = solo.settle(seconds=1.0, damped_seconds=0.5)
     clips = expansion_clips(solo, rest, max(sizes))
     frames = scene.frames_per_clip
@@ -47,7 +47,7 @@ def bench_batch(preset: str, fluid: str, sizes: list[int], device: str) -> dict[
     alone, wall, cpu = timed(lambda: [solo.run(s, c, frames) for s, c in clips])
     rows = [_row(1, len(clips), frames, wall, cpu, identical=True)]
     for size in sorted(set(sizes) - {1}):
-        sim = SphSimulator(scene, device=device, batch=size)
+        sim = PcisphSolver(scene, device=device, batch=size)
         states, controls = zip(*clips[:size], strict=True)
         sim.run_batch(states, controls, 1)
         (positions, ends), wall, cpu = timed(sim.run_batch, states, controls, frames)

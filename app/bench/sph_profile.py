@@ -1,6 +1,6 @@
 """Where a PCISPH substep goes (`srg bench sph --profile`): device time per kernel and gaps.
 
-The simulator runs on a profiling queue of its own (``SphSimulator(profile=True)``); every
+The simulator runs on a profiling queue of its own (``PcisphSolver(profile=True)``); every
 kernel launch is kept with its event, whose device timestamps give each kernel's time.
 The queue is in order, so what separates one kernel's end from the next one's start is
 time the device did not compute: the host enqueuing, waiting on a read of the
@@ -16,7 +16,7 @@ from typing import Any
 import pyopencl as cl
 
 from app.core.liquid.scene import tilt_tank
-from app.kernels.sph import SphSimulator
+from app.kernels.pcisph import PcisphSolver
 
 #: the kernels of the pressure loop (the rest run once a substep)
 PRESSURE_LOOP = ("pressure_predict", "density_pressure")
@@ -68,8 +68,8 @@ def summarise(times: list[tuple[str, int, int]], substeps: int) -> dict[str, Any
 def profile_sph(preset: str, fluid: str, steps: int, device: str) -> dict[str, Any]:
     """Profile ``steps`` substeps (whole frames) of the tilt tank after a short settle."""
     scene = tilt_tank(preset, fluid)
-    rest = SphSimulator(scene, device=device).settle(seconds=1.0, damped_seconds=0.5)
-    sim = SphSimulator(scene, device=device, profile=True)
+    rest = PcisphSolver(scene, device=device).settle(seconds=1.0, damped_seconds=0.5)
+    sim = PcisphSolver(scene, device=device, profile=True)
     frames = max(1, steps // scene.substeps)
     start = time.perf_counter()
     sim.run(rest, 1, frames)

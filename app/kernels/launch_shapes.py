@@ -40,7 +40,7 @@ def scan_block(device: cl.Device, n_cells: int) -> int:
 
 
 def build_options(device: cl.Device) -> tuple[str, ...]:
-    """How ``sph.cl`` is built for the device: a GPU's neighbour lists are built one
+    """How ``pcisph.cl`` is built for the device: a GPU's neighbour lists are built one
     candidate a work-item (``-DLANE_BUILD``), its lanes being the work-items, where a
     CPU's take eight candidates a vector; the same lists either way."""
     return () if device.type & cl.device_type.CPU else ("-DLANE_BUILD",)

@@ -1,5 +1,5 @@
 """How the SPH kernels' data lies on the device: neighbour list rows, float4 rows, and
-the lane table of the AVX2 list build (``app/kernels/sph.cl``)."""
+the lane table of the AVX2 list build (``app/kernels/pcisph.cl``)."""
 
 from __future__ import annotations
 
@@ -24,7 +24,7 @@ def compaction_table() -> np.ndarray:
     """(256, 8) int32: for each 8-bit lane mask, its set lanes in order, then zeros.
 
     ``find_neighbours`` permutes a block of eight candidates by the row of its hit mask
-    to put the hits first (see ``sph.cl``).
+    to put the hits first (see ``pcisph.cl``).
     """
     table = np.zeros((256, 8), dtype=np.int32)
     for mask in range(256):

@@ -1,6 +1,6 @@
 """``LiquidDynamics``: the tilt-tank liquid as a :class:`~app.core.graph.dynamics.Dynamics`.
 
-It composes the PCISPH simulator (``app.kernels.sph``), the Zhu-Bridson SDF kernel
+It composes the solver its scene names (``app.kernels.solvers``), the Zhu-Bridson SDF kernel
 (``app.kernels.sdf``), the paper's metrics and blend (``app.core.liquid.liquid_metrics``) and
 the Mitsuba renderer (``app.render``). A clip's ``frames`` are its SDFs quantised to
 int8 (``app.core.liquid.surface.quantise_sdf``): the store keeps them as they are, and blends
@@ -35,6 +35,7 @@ from app.core.liquid.liquid_metrics import (
 )
 from app.core.liquid.particle_lattice import ParticleLattice, particle_lattice, snap_state
 from app.core.liquid.scene import Scene, kinetic_energy, potential_energies, tilt_tank
+from app.core.liquid.solver import LiquidSolver
 from app.core.liquid.surface import (
     SurfaceGrid,
     clip_descriptor,
@@ -47,7 +48,7 @@ from app.core.liquid.surface import (
 )
 from app.kernels.context import runtime
 from app.kernels.sdf import SdfKernel
-from app.kernels.sph import SphSimulator
+from app.kernels.solvers import make_solver
 from app.liquid.devices import LiquidDevices
 from app.render.mitsuba_scene import LiquidRenderer, RenderQuality, pick_variant
 
@@ -105,11 +106,13 @@ def _described(steps: dict[str, int] | None) -> str:
 def load_calibration(
     preset: str, fluid: str = "low", directory: Path = CALIBRATION_DIR
 ) -> LiquidCalibration:
-    """The stored constants, if they were measured on frames stepped as the scene is now.
+    """The stored constants, if they were measured on frames made as the scene makes them
+    now: by the same solver, stepped the same way.
 
-    Constants measured on other frames (another stepping, docs/sph.md "Viscosity in
-    steps of its own") would blend and judge today's clips by yesterday's liquid, so such
-    a file is refused like a missing one, with the command that measures it again.
+    Constants measured on other frames (another solver, docs/sph.md "Solvers"; another
+    stepping, "Viscosity in steps of its own") would blend and judge today's clips by
+    yesterday's liquid, so such a file is refused like a missing one, with the command
+    that measures it again.
     """
     path = calibration_path(preset, fluid, directory)
     option = "" if fluid == "low" else f" --fluid {fluid}"
@@ -117,7 +120,14 @@ def load_calibration(
     if not path.exists():
         raise MissingCalibration(f"no calibration for preset {preset!r}; {again}")
     data = json.loads(path.read_text())
-    now = stepping(tilt_tank(preset, fluid))
+    scene = tilt_tank(preset, fluid)
+    if data.get("solver") != scene.solver:
+        measured = data.get("solver") or "an unrecorded solver"
+        raise MissingCalibration(
+            f"the calibration of preset {preset!r} was measured with {measured}, "
+            f"the scene now takes {scene.solver}; {again}"
+        )
+    now = stepping(scene)
     if data.get("stepping") != now:
         raise MissingCalibration(
             f"the calibration of preset {preset!r} was measured on "
@@ -130,13 +140,15 @@ def load_calibration(
 def calibration_json(
     preset: str, calibration: LiquidCalibration, details: dict, fluid: str = "low"
 ) -> str:
-    """The stored form: the four constants, the stepping they were measured on, and how."""
-    head = {"preset": preset, "fluid": fluid, "stepping": stepping(tilt_tank(preset, fluid))}
+    """The stored form: the four constants, the solver and stepping they were measured
+    on, and how."""
+    scene = tilt_tank(preset, fluid)
+    head = {"preset": preset, "fluid": fluid, "solver": scene.solver, "stepping": stepping(scene)}
     return json.dumps({**head, **asdict(calibration), **details}, indent=2) + "\n"
 
 
 class LiquidDynamics:
-    """PCISPH liquid in the tilting tank, clips as SDF frames (paper section 5).
+    """Liquid in the tilting tank, clips as SDF frames (paper section 5).
 
     Parameters
     ----------
@@ -180,7 +192,7 @@ class LiquidDynamics:
             energy_weight=self.calibration.energy_weight,
             voxel_volume=self.grid.voxel_volume,
         )
-        self._simulator: SphSimulator | None = None
+        self._solver: LiquidSolver | None = None
         self._sdf: SdfKernel | None = None
         self._renderer: LiquidRenderer | None = None
         #: the settled tank of each world seed asked for (None: the plain lattice's)
@@ -224,13 +236,11 @@ class LiquidDynamics:
         return max(self.n_controls, self.devices.simulate_batch)
 
     @property
-    def simulator(self) -> SphSimulator:
-        """The scene's simulator, with room for :attr:`batch` clips in one launch sequence."""
-        if self._simulator is None:
-            self._simulator = SphSimulator(
-                self.scene, device=self.devices.opencl_device, batch=self.batch
-            )
-        return self._simulator
+    def solver(self) -> LiquidSolver:
+        """The solver the scene names, with room for :attr:`batch` clips at once."""
+        if self._solver is None:
+            self._solver = make_solver(self.scene, self.devices.opencl_device, self.batch)
+        return self._solver
 
     @property
     def sdf_kernel(self) -> SdfKernel:
@@ -252,7 +262,7 @@ class LiquidDynamics:
         Computed once per instance and world: a few seconds of simulation.
         """
         if world not in self._rest:
-            self._rest[world] = self.simulator.settle(world=world)
+            self._rest[world] = self.solver.settle(world=world)
         return self._rest[world].copy()
 
     def surface_frames(self, positions: np.ndarray) -> np.ndarray:
@@ -262,7 +272,7 @@ class LiquidDynamics:
     def simulate_particles(
         self, states: Sequence[np.ndarray], controls: Sequence[int]
     ) -> list[tuple[np.ndarray, np.ndarray]]:
-        """PCISPH only: per clip (a start state and a control), the (k, n, 3) particle
+        """Per clip (a start state and a control), the (k, n, 3) particle
         positions of its frames and its end state.
 
         The clips run in batches of up to :attr:`batch`, each bit-identical to its run
@@ -270,7 +280,7 @@ class LiquidDynamics:
         particles in Morton order: the frames keep the particle order of their start
         state, clips simulated from the end state its own.
         """
-        sim, k = self.simulator, self.scene.frames_per_clip
+        sim, k = self.solver, self.scene.frames_per_clip
         out = []
         for first in range(0, len(states), self.batch):
             chunk = slice(first, first + self.batch)

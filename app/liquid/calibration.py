@@ -86,7 +86,7 @@ def calibrate(
     """
     probe = LiquidDynamics(preset, fluid, LiquidCalibration(0.0, 1.0, 0.0, 0.0), devices=devices)
     # T0 over the last second of a 3 s settle
-    rest, measured_t0 = measure_rest_kinetic(probe.simulator, probe.simulator.settle(seconds=2.0))
+    rest, measured_t0 = measure_rest_kinetic(probe.solver, probe.solver.settle(seconds=2.0))
     t0 = probe.scene.rest_kinetic or measured_t0
     dyn = LiquidDynamics(preset, fluid, LiquidCalibration(t0, 1.0, 0.0, 0.0), devices=devices)
 

@@ -19,7 +19,7 @@ from typing import Any
 import numpy as np
 from scipy.spatial import cKDTree
 
-from app.core.liquid import sph as twin
+from app.core.liquid import pcisph as twin
 from app.core.liquid.scene import (
     GRAVITY,
     Scene,
@@ -28,8 +28,9 @@ from app.core.liquid.scene import (
     kinetic_energy,
     tilt_tank,
 )
+from app.core.liquid.solver import LiquidSolver
 from app.core.liquid.sph_grid import sort_by_cell
-from app.kernels.sph import SphSimulator
+from app.kernels.pcisph import PcisphSolver
 
 #: dam-break resolution per preset: cells across the column width a (and in depth)
 DAM_BREAK_CELLS = {"tiny": (10, 5), "small": (20, 10), "paper": (30, 15)}
@@ -70,13 +71,13 @@ def _pairs_within(
     return np.array(pairs, dtype=np.int64).reshape(-1, 2)
 
 
-def floor_gauge(sim: SphSimulator, seconds: float = GAUGE_SECONDS) -> dict[str, float]:
+def floor_gauge(sim: PcisphSolver, seconds: float = GAUGE_SECONDS) -> dict[str, float]:
     """Time-averaged load per area on a central floor patch, continuing the loaded state.
 
     An experimenter reads the bottom pressure off a gauge in the floor, not off the
     fluid. Here the gauge is the floor's boundary particles at least one support radius
     from the side walls: every substep, the vertical Akinci force the fluid exerts on
-    them (:func:`app.core.liquid.sph.wall_pressure_forces`, at the positions and with the
+    them (:func:`app.core.liquid.pcisph.wall_pressure_forces`, at the positions and with the
     pressures that substep used) is summed and divided by the patch area. The clamp a
     quarter spacing above the floor also holds particles up; its share is measured
     separately (from the velocity it removed: m ((v' - v) / dt - a_np - a_p) for the
@@ -84,7 +85,7 @@ def floor_gauge(sim: SphSimulator, seconds: float = GAUGE_SECONDS) -> dict[str, 
     the column breathes, so both are averaged over every substep of ``seconds``.
 
     Runs ``seconds`` more of the simulation from the simulator's current device state
-    (call it right after :meth:`SphSimulator.run`, which leaves the warm pressures).
+    (call it right after :meth:`PcisphSolver.run`, which leaves the warm pressures).
     """
     scene, k = sim.scene, sim.kernels
     h, dx, m = scene.support, scene.spacing, scene.particle_mass
@@ -137,7 +138,7 @@ def floor_gauge(sim: SphSimulator, seconds: float = GAUGE_SECONDS) -> dict[str, 
 
 
 def check_hydrostatic(
-    sim: SphSimulator,
+    sim: PcisphSolver,
     rest: np.ndarray,
     seconds: float = 5.0,
     gauge_seconds: float = GAUGE_SECONDS,
@@ -212,7 +213,7 @@ def check_dam_break(preset: str, device: str = "") -> dict[str, Any]:
     base_substeps = scene.substeps * scene.fps
     scene = replace(scene, fps=DAM_BREAK_FPS, substeps=math.ceil(base_substeps / DAM_BREAK_FPS))
     a = scene.extra["column_width"]
-    sim = SphSimulator(scene, device=device)
+    sim = PcisphSolver(scene, device=device)
     t_end = 2.7 / math.sqrt(2 * GRAVITY / a)
     frames, _ = sim.run(initial_particles(scene), 0, math.ceil(t_end * scene.fps))
     t = np.arange(1, len(frames) + 1) / scene.fps
@@ -235,7 +236,7 @@ def check_dam_break(preset: str, device: str = "") -> dict[str, Any]:
 
 
 def measure_rest_kinetic(
-    sim: SphSimulator, rest: np.ndarray, seconds: float = 1.0
+    sim: LiquidSolver, rest: np.ndarray, seconds: float = 1.0
 ) -> tuple[np.ndarray, float]:
     """T0: the largest kinetic energy over ``seconds`` of the settled tank (control 0).
 
@@ -245,13 +246,13 @@ def measure_rest_kinetic(
     frames = round(seconds * sim.scene.fps)
     state, energies = rest, []
     for _ in range(frames):
-        _, state = sim.run(state, 0, 1)
+        _, (state,) = sim.run_batch([state], [0], 1)
         energies.append(kinetic_energy(sim.scene, state))
     return state, float(max(energies))
 
 
 def check_tilt_release(
-    sim: SphSimulator,
+    sim: PcisphSolver,
     rest: np.ndarray,
     rest_kinetic: float,
     tilt_seconds: float = 1.0,
@@ -295,13 +296,13 @@ def check_twins(scene: Scene, seed: int = 0, device: str = "") -> dict[str, Any]
 
     Relative errors are ``max |kernel - twin| / max |twin|`` per quantity.
     """
-    from app.kernels.sph_kernels import SphKernels
+    from app.kernels.pcisph_kernels import PcisphKernels
 
     rng = np.random.default_rng(seed)
     state = initial_particles(scene)
     state[:, :3] += rng.normal(0, 0.05 * scene.spacing, (len(state), 3))
     state[:, 3:] = rng.normal(0, 0.1, (len(state), 3))
-    k = SphKernels(scene, len(state), device=device)
+    k = PcisphKernels(scene, len(state), device=device)
     k.load(state)
     k.sort()
     k.find_neighbours()
@@ -338,7 +339,7 @@ def check_twins(scene: Scene, seed: int = 0, device: str = "") -> dict[str, Any]
     return {"relative_errors": errors, "passed": bool(max(errors.values()) < 1e-4)}
 
 
-def check_determinism(sim: SphSimulator, rest: np.ndarray, control: int = 1) -> dict[str, Any]:
+def check_determinism(sim: PcisphSolver, rest: np.ndarray, control: int = 1) -> dict[str, Any]:
     """Two clips from the same state and control must be bit-identical."""
     a_frames, a_end = sim.simulate_clip(rest, control)
     b_frames, b_end = sim.simulate_clip(rest, control)
@@ -366,7 +367,7 @@ def validate(preset: str, fluid: str, *, device: str) -> dict[str, Any]:
     (``app.kernels.context.select_device``).
     """
     scene = tilt_tank(preset, fluid)
-    sim = SphSimulator(scene, device=device)
+    sim = PcisphSolver(scene, device=device)
     rest = sim.settle()
     _, rest_kinetic = measure_rest_kinetic(sim, rest)
     checks = {

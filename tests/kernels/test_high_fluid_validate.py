@@ -13,8 +13,8 @@ import pytest
 
 from app.core.liquid.scene import Box, tilt_tank
 from app.core.liquid.surface import clip_score, occupancy, surface_grid
+from app.kernels.pcisph import PcisphSolver
 from app.kernels.sdf import SdfKernel
-from app.kernels.sph import SphSimulator
 from app.liquid.validation import check_passed, validate
 
 SCENE = tilt_tank("tiny", "high")
@@ -40,7 +40,7 @@ def test_the_high_fluid_passes_validation() -> None:
 @pytest.fixture(scope="module")
 def held_tilts() -> dict[int, np.ndarray]:
     """Occupancy frames of the last two of ``REACH_CLIPS`` clips per control, from rest."""
-    sim = SphSimulator(SCENE)
+    sim = PcisphSolver(SCENE)
     sdf = SdfKernel(GRID)
     rest = sim.settle(seconds=1.0, damped_seconds=0.5)
     runs = {}

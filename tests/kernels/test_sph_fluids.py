@@ -13,7 +13,7 @@ import numpy as np
 import pytest
 
 from app.core.liquid.scene import kinetic_energy, tilt_tank
-from app.kernels.sph import SphSimulator
+from app.kernels.pcisph import PcisphSolver
 
 #: one clip of tilt, then one clip level: the slosh starts and swings back
 TILT_FRAMES, RELEASE_FRAMES = 10, 10
@@ -32,7 +32,7 @@ class TiltRun:
 
 def tilt_and_release(fluid: str) -> TiltRun:
     scene = tilt_tank("tiny", fluid)
-    sim = SphSimulator(scene)
+    sim = PcisphSolver(scene)
     rest = sim.settle(seconds=1.0, damped_seconds=0.5)
     tilt, mid = sim.run(rest, 1, TILT_FRAMES)
     release, end = sim.run(mid, 0, RELEASE_FRAMES)

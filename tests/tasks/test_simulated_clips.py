@@ -14,6 +14,7 @@ from sqlalchemy.orm import Session
 from app.config import Settings, get_settings
 from app.core.graph.toy import ToyDynamics
 from app.db.sessions import transaction
+from app.kernels.pcisph import PcisphSolver
 from app.liquid.adapter import LiquidDynamics
 from app.models import Clip, Graph, SimulatedClip
 from app.services import clips, epochs, growing
@@ -44,7 +45,8 @@ def _substeps(settings: Settings, name: str) -> int:
     with transaction(get_settings()) as session:
         dynamics = graph_dynamics(graph_entry(session, name), settings)
     assert isinstance(dynamics, LiquidDynamics)
-    return dynamics.simulator.stats.substeps
+    assert isinstance(dynamics.solver, PcisphSolver)
+    return dynamics.solver.stats.substeps
 
 
 def _bundles(name: str) -> list[str]:

@@ -1,11 +1,11 @@
 """The layers of ``app`` (docs/design.md, "Runtime"), held by import-linter's contracts.
 
 The contracts live in ``pyproject.toml`` (``[tool.importlinter]``): the core imports
-nothing of ``app``, its five domains import only those below them, the learned player models import no bot's policy (every model the
-registry holds, checked here), nothing imports the
-CLI, services import neither the shells nor the benchmarks, the API, the tasks and the CLI
-reach the store only through services, no import circles at any depth, and the layers
-from the CLI down to the core.
+nothing of ``app``, its five domains import only those below them, the learned player
+models import no bot's policy (every model the registry holds, checked here), nothing
+imports the CLI, services import neither the shells nor the benchmarks, the API, the tasks
+and the CLI reach the store only through services, no import circles at any depth, and the
+layers from the CLI down to the core.
 Function-level imports count: an arrow hidden inside a function is still an arrow.
 
 Import-linter sees packages, not statements, so one rule is checked here by reading the

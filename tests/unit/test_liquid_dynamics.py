@@ -100,7 +100,7 @@ def test_settled_clips_of_one_control_are_at_distance_zero(
 
 def test_blend_of_nearby_clips(dyn: LiquidDynamics, rest: np.ndarray, tilted: SimClip) -> None:
     """Ends on the endpoints; volume never exceeds the larger endpoint by 10 %."""
-    _, later_state = dyn.simulator.run(rest, 1, 1)  # the same tilt one frame later
+    _, (later_state,) = dyn.solver.run_batch([rest], [1], 1)  # the same tilt a frame later
     later = dyn.simulate(later_state, 1)
     blended = dyn.blend(tilted.frames, later.frames)
     assert np.array_equal(blended[0], tilted.frames[0])

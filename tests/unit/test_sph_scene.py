@@ -8,7 +8,7 @@ import math
 import numpy as np
 import pytest
 
-from app.core.liquid import sph
+from app.core.liquid import pcisph
 from app.core.liquid.scene import (
     FLUIDS,
     VISCOUS_STEP,
@@ -106,10 +106,10 @@ def test_viscous_bound_matches_the_largest_eigenvalue_of_the_viscosity_operator(
     pos = initial_particles(scene)[:, :3].astype(np.float64)
     walls = wall_particles(scene)
     psi = wall_volumes(walls, scene)
-    nb = sph.find_neighbours(pos, walls, scene.support)
+    nb = pcisph.find_neighbours(pos, walls, scene.support)
     v = np.random.default_rng(0).normal(size=pos.shape)
     for _ in range(60):
-        a = sph.viscous_accel(pos, v, nb, walls, psi, scene)
+        a = pcisph.viscous_accel(pos, v, nb, walls, psi, scene)
         lam = float(np.sum(a * v) / np.sum(v * v))
         v = a / np.linalg.norm(a)
     assert lam < 0
@@ -155,8 +155,8 @@ def test_walls_fill_the_density_of_the_first_layer() -> None:
     pos = initial_particles(scene)[:, :3]
     walls = wall_particles(scene)
     psi = wall_volumes(walls, scene)
-    nb = sph.find_neighbours(pos, walls, scene.support)
-    rho = sph.density(pos, nb, walls, psi, scene)
+    nb = pcisph.find_neighbours(pos, walls, scene.support)
+    rho = pcisph.density(pos, nb, walls, psi, scene)
     below_surface = pos[:, 1] < pos[:, 1].max() - scene.support
     rel = rho[below_surface] / scene.rest_density - 1
     assert np.max(np.abs(rel)) < 0.02 and abs(np.mean(rel)) < 0.002
@@ -175,7 +175,9 @@ def test_kernel_is_normalised() -> None:
     dx = h / 8
     axis = np.arange(-8, 9) * dx
     d = np.stack(np.meshgrid(axis, axis, axis), axis=-1).reshape(-1, 3)
-    assert np.sum(sph.cubic_kernel(np.linalg.norm(d, axis=1), h)) * dx**3 == pytest.approx(1, 1e-3)
+    assert np.sum(pcisph.cubic_kernel(np.linalg.norm(d, axis=1), h)) * dx**3 == pytest.approx(
+        1, 1e-3
+    )
 
 
 def test_martin_moyce_data_loads() -> None:

@@ -87,14 +87,14 @@ def tiny() -> LiquidDynamics:
 
 
 def short_settle(dyn: LiquidDynamics, world: int | None) -> np.ndarray:
-    return dyn.simulator.settle(seconds=0.4, damped_seconds=0.2, world=world)
+    return dyn.solver.settle(seconds=0.4, damped_seconds=0.2, world=world)
 
 
 def test_a_liquid_world_settles_to_its_own_tank_bit_for_bit(tiny: LiquidDynamics) -> None:
     plain, one, again = (short_settle(tiny, w) for w in (None, 1, 1))
     assert np.array_equal(one, again)
     assert not np.array_equal(one, plain)
-    assert np.array_equal(plain, tiny.simulator.settle(seconds=0.4, damped_seconds=0.2))
+    assert np.array_equal(plain, tiny.solver.settle(seconds=0.4, damped_seconds=0.2))
 
 
 def test_the_liquid_settles_each_world_once(
@@ -107,7 +107,7 @@ def test_the_liquid_settles_each_world_once(
         return initial_particles(tiny.scene, world)
 
     monkeypatch.setattr(tiny, "_rest", {})
-    monkeypatch.setattr(tiny.simulator, "settle", settle)
+    monkeypatch.setattr(tiny.solver, "settle", settle)
     starts = [tiny.initial_state(w) for w in (None, 1, 1, None, 2)]
     assert settled == [None, 1, 2]
     assert np.array_equal(starts[1], starts[2]) and np.array_equal(starts[0], starts[3])

@@ -75,6 +75,9 @@ class Scene:
     rest_kinetic : float
         T0, the residual kinetic energy (J) of the settled tank, measured by
         ``app.liquid.validation.measure_rest_kinetic`` and stored with the preset.
+    solver : str
+        The liquid solver that moves the particles (:mod:`app.core.liquid.solver`); part
+        of the scene, so a clip's simulation key and a calibration name it.
     """
 
     name: str
@@ -94,6 +97,7 @@ class Scene:
     min_iterations: int = 3
     max_iterations: int = 50
     rest_kinetic: float = 0.0
+    solver: str = "pcisph"
     extra: dict[str, float] = field(default_factory=dict)
 
     @property
@@ -149,7 +153,7 @@ def viscous_substeps(spacing: float, viscosity: float, fps: int) -> int:
     """Explicit viscosity steps per frame so that each is ``<= VISCOUS_STEP * dx^2 / nu``
     long (a scene takes them inside its substeps: ``Scene.viscosity_steps``).
 
-    The viscosity of ``app.core.liquid.sph`` is an explicit SPH Laplacian. Its largest
+    The viscosity of ``app.core.liquid.pcisph`` is an explicit SPH Laplacian. Its largest
     eigenvalue on the settled lattice is about ``-14 nu / dx^2`` (power iteration on
     the NumPy twin, tiny and small presets alike), so an explicit step is stable for
     ``dt < 0.144 dx^2 / nu``; the pressure solve stayed converged up to half of that

@@ -1,6 +1,6 @@
 """Geometry of the PCISPH solver: uniform grid, cell sort, neighbours, walls.
 
-NumPy reference (twin) of the grid kernels in ``app/kernels/sph.cl`` and the set-up
+NumPy reference (twin) of the grid kernels in ``app/kernels/pcisph.cl`` and the set-up
 computations done once per scene (wall particles, their volumes, the PCISPH factor).
 The kernels sort particles by cell with a counting sort whose ties are broken by the
 previous array index; :func:`sort_by_cell` is that order (a stable sort by cell).
@@ -14,8 +14,8 @@ from dataclasses import dataclass
 import numpy as np
 from scipy.spatial import cKDTree
 
+from app.core.liquid.pcisph import cubic_kernel, cubic_kernel_gradient
 from app.core.liquid.scene import Scene
-from app.core.liquid.sph import cubic_kernel, cubic_kernel_gradient
 
 
 @dataclass(frozen=True)

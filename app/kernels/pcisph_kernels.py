@@ -1,9 +1,9 @@
 """Device buffers of one PCISPH scene and one method per kernel launch.
 
-:class:`SphKernels` holds the particle arrays on the device in cell-sorted order and
+:class:`PcisphKernels` holds the particle arrays on the device in cell-sorted order and
 exposes each stage of a substep (sort, neighbours, non-pressure forces, pressure
 prediction, density/pressure update) so that tests can hold every kernel to its NumPy
-twin in ``app/core``. :class:`app.kernels.sph.SphSimulator` strings the stages together.
+twin in ``app/core``. :class:`app.kernels.pcisph.PcisphSolver` strings the stages together.
 """
 
 from __future__ import annotations
@@ -15,8 +15,8 @@ import numpy as np
 import pyopencl as cl
 import pyopencl.cltypes as cltypes
 
+from app.core.liquid.pcisph import WALL_MARGIN
 from app.core.liquid.scene import Scene
-from app.core.liquid.sph import WALL_MARGIN
 from app.core.liquid.sph_grid import (
     make_grid,
     pcisph_delta,
@@ -42,7 +42,7 @@ ALWAYS = 2**30
 _I32, _F32 = np.int32, np.float32
 
 
-class SphKernels(Launcher):
+class PcisphKernels(Launcher):
     """Particle buffers and kernel launches for one scene on the OpenCL ``device``.
 
     ``device`` is as in :func:`app.kernels.context.select_device`. The buffers hold up
@@ -62,7 +62,7 @@ class SphKernels(Launcher):
     ) -> None:
         rt = runtime(device)
         options = (*launch_shapes.build_options(rt.device), *build_options)
-        super().__init__(rt, rt.program("sph.cl", options), profile)
+        super().__init__(rt, rt.program("pcisph.cl", options), profile)
         self.scene, self.n_clip, self.capacity = scene, n_particles, batch
         #: clips loaded (:meth:`load`) and their rows in all
         self.batch, self.n = 1, n_particles
@@ -114,7 +114,7 @@ class SphKernels(Launcher):
         self.cells_per_scan = cells_per_scan
         self.block_first = const(np.zeros(nc, dtype=_I32))  # at most a block per cell
         self.nb, self.nb_count = buf(4 * n * MAX_NEIGHBOURS), buf(4 * n)
-        # x(t)-geometry of the pressure loop, written by nonpressure_accel (see sph.cl)
+        # x(t)-geometry of the pressure loop, written by nonpressure_accel (see pcisph.cl)
         self.pair_scale, self.wall_grad = buf(4 * n * MAX_NEIGHBOURS), buf(16 * n)
         self.wall_nb, self.wall_nb_count = buf(4 * n * MAX_WALL_NEIGHBOURS), buf(4 * n)
         # room for a frame's substeps queued at once, each with every iteration allowed,
@@ -239,7 +239,7 @@ class SphKernels(Launcher):
 
     @property
     def neighbour_args(self) -> tuple[object, ...]:
-        """Both neighbour lists and the walls, as ``NEIGHBOUR_ARGS`` in sph.cl takes them."""
+        """Both neighbour lists and the walls, as ``NEIGHBOUR_ARGS`` in pcisph.cl takes them."""
         return (
             self.nb,
             self.nb_count,
@@ -306,7 +306,7 @@ class SphKernels(Launcher):
         """Predicted x*, v* from the pressures; needs :meth:`nonpressure_accel` first.
 
         A no-op on the device if ``iteration >= check_from`` and the max compression of
-        ``iteration - 1`` is below eta (the loop has converged; see ``sph.cl``).
+        ``iteration - 1`` is below eta (the loop has converged; see ``pcisph.cl``).
         """
         s = self.scene
         self._run(

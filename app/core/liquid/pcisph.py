@@ -1,4 +1,4 @@
-"""NumPy reference (twin) of the PCISPH kernels in ``app/kernels/sph.cl``.
+"""NumPy reference (twin) of the PCISPH kernels in ``app/kernels/pcisph.cl``.
 
 Pure and slow on purpose: pair lists from a k-d tree, float64 sums. Tests hold each
 OpenCL kernel to its twin here. The method (Solenthaler and Pajarola 2009, PCISPH; walls

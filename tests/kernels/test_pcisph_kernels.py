@@ -6,26 +6,26 @@ import numpy as np
 import pyopencl as cl
 import pytest
 
-from app.core.liquid import sph as twin
+from app.core.liquid import pcisph as twin
 from app.core.liquid.scene import initial_particles, kinetic_energy, tilt_tank
 from app.kernels.context import runtime
 from app.kernels.launch_shapes import GPU_SCAN_BLOCK
-from app.kernels.sph import SphSimulator, iterations_used
-from app.kernels.sph_kernels import SphKernels
+from app.kernels.pcisph import PcisphSolver, iterations_used
+from app.kernels.pcisph_kernels import PcisphKernels
 from app.kernels.sph_layout import MAX_NEIGHBOURS, MAX_WALL_NEIGHBOURS
 from app.liquid import validation as v
 
 
 @pytest.fixture(scope="module")
-def tiny_rest() -> tuple[SphSimulator, np.ndarray]:
-    sim = SphSimulator(tilt_tank("tiny"))
+def tiny_rest() -> tuple[PcisphSolver, np.ndarray]:
+    sim = PcisphSolver(tilt_tank("tiny"))
     return sim, sim.settle(seconds=2.0, damped_seconds=1.0)
 
 
 def test_runtime_is_per_process_and_memoises_programs() -> None:
     rt = runtime()
     assert runtime() is rt
-    assert rt.program("sph.cl") is rt.program("sph.cl")
+    assert rt.program("pcisph.cl") is rt.program("pcisph.cl")
 
 
 @pytest.mark.parametrize("fluid", ["low", "high"])
@@ -41,7 +41,7 @@ def test_neighbour_lists_match_twin() -> None:
     scene = tilt_tank("tiny")
     state = initial_particles(scene)
     state[:, :3] += np.random.default_rng(1).normal(0, 0.1 * scene.spacing, (len(state), 3))
-    k = SphKernels(scene, len(state))
+    k = PcisphKernels(scene, len(state))
     k.load(state)
     k.sort()
     k.find_neighbours()
@@ -66,7 +66,7 @@ def test_the_cell_scan_in_blocks_is_the_scan_in_one_walk() -> None:
     state[:, :3] += np.random.default_rng(2).normal(0, 0.1 * scene.spacing, (len(state), 3))
     sorted_by: dict[int | None, tuple[np.ndarray, ...]] = {}
     for block in (None, GPU_SCAN_BLOCK, 7, 1):
-        k = SphKernels(scene, len(state), cells_per_scan=block)
+        k = PcisphKernels(scene, len(state), cells_per_scan=block)
         k.load(state)
         k.sort()
         n_cells = k.grid.n_cells
@@ -91,7 +91,7 @@ def test_every_list_build_gives_the_same_lists(variant: str) -> None:
     state[:, :3] += np.random.default_rng(4).normal(0, 0.1 * scene.spacing, (len(state), 3))
     found = []
     for options in ((), (variant,)):
-        k = SphKernels(scene, len(state), build_options=options)
+        k = PcisphKernels(scene, len(state), build_options=options)
         k.load(state)
         k.sort()
         k.find_neighbours()
@@ -121,7 +121,7 @@ def test_pressure_loop_geometry_matches_twin() -> None:
     state = initial_particles(scene)
     state[:, :3] += np.random.default_rng(3).normal(0, 0.1 * scene.spacing, (len(state), 3))
     n = len(state)
-    k = SphKernels(scene, n)
+    k = PcisphKernels(scene, n)
     k.load(state)
     k.sort()
     k.find_neighbours()
@@ -148,12 +148,12 @@ def test_pressure_loop_geometry_matches_twin() -> None:
 
 
 def test_loop_enqueued_ahead_equals_testing_every_iteration(
-    tiny_rest: tuple[SphSimulator, np.ndarray],
+    tiny_rest: tuple[PcisphSolver, np.ndarray],
 ) -> None:
     """The iteration queued past convergence is a no-op: same state, same counts."""
     sim, rest = tiny_rest
     scene = sim.scene
-    ahead, plain = SphSimulator(scene), SphSimulator(scene)
+    ahead, plain = PcisphSolver(scene), PcisphSolver(scene)
     ahead.kernels.load(rest)
     plain.kernels.load(rest)
     gravity = scene.gravity[1]
@@ -180,20 +180,20 @@ def test_loop_enqueued_ahead_equals_testing_every_iteration(
         assert np.array_equal(a, b), name
 
 
-def test_clips_are_bit_identical(tiny_rest: tuple[SphSimulator, np.ndarray]) -> None:
+def test_clips_are_bit_identical(tiny_rest: tuple[PcisphSolver, np.ndarray]) -> None:
     sim, rest = tiny_rest
     a_frames, a_end = sim.simulate_clip(rest, 2)
-    b_frames, b_end = SphSimulator(sim.scene).simulate_clip(rest, 2)
+    b_frames, b_end = PcisphSolver(sim.scene).simulate_clip(rest, 2)
     assert a_frames.shape == (10, sim.n, 3) and a_frames.dtype == np.float32
     assert a_end.shape == (sim.n, 6)
     assert np.array_equal(a_frames, b_frames) and np.array_equal(a_end, b_end)
     assert not np.array_equal(a_frames[0], a_frames[-1])
     # a GPU's shapes on the CPU: the cell scan in blocks, lists built a candidate at a time
     for gpu_shaped in (
-        SphKernels(sim.scene, sim.n, cells_per_scan=GPU_SCAN_BLOCK),
-        SphKernels(sim.scene, sim.n, build_options=("-DLANE_BUILD",)),
+        PcisphKernels(sim.scene, sim.n, cells_per_scan=GPU_SCAN_BLOCK),
+        PcisphKernels(sim.scene, sim.n, build_options=("-DLANE_BUILD",)),
     ):
-        other = SphSimulator(sim.scene)
+        other = PcisphSolver(sim.scene)
         other.kernels = gpu_shaped
         c_frames, c_end = other.simulate_clip(rest, 2)
         assert np.array_equal(a_frames, c_frames) and np.array_equal(a_end, c_end)
@@ -201,18 +201,18 @@ def test_clips_are_bit_identical(tiny_rest: tuple[SphSimulator, np.ndarray]) -> 
 
 @pytest.mark.parametrize("budget", [1, 3, 8])
 def test_a_frame_queued_at_once_is_the_careful_frame(
-    tiny_rest: tuple[SphSimulator, np.ndarray], budget: int
+    tiny_rest: tuple[PcisphSolver, np.ndarray], budget: int
 ) -> None:
     """Substeps queued a frame at once, with budgets that the loop outgrows (the frame
     is then run again the careful way) and budgets that leave no-op iterations, give the
     careful way's frames and iteration counts."""
     sim, rest = tiny_rest
-    careful = SphSimulator(sim.scene, queue_frames=False)
-    ahead = SphSimulator(sim.scene, queue_frames=True)
+    careful = PcisphSolver(sim.scene, queue_frames=False)
+    ahead = PcisphSolver(sim.scene, queue_frames=True)
     ahead.budget = budget
     restored = []
     kernels = ahead.kernels
-    kernels.restore_state = lambda: (restored.append(1), SphKernels.restore_state(kernels))
+    kernels.restore_state = lambda: (restored.append(1), PcisphKernels.restore_state(kernels))
     a_frames, a_end = careful.run(rest, 1, 3)
     b_frames, b_end = ahead.run(rest, 1, 3)
     assert np.array_equal(a_frames, b_frames) and np.array_equal(a_end, b_end)
@@ -226,13 +226,13 @@ def test_a_frame_queued_at_once_is_the_careful_frame(
 
 @pytest.mark.parametrize("queue_frames", [False, True])
 def test_a_batch_of_clips_is_each_clip_alone(
-    tiny_rest: tuple[SphSimulator, np.ndarray], queue_frames: bool
+    tiny_rest: tuple[PcisphSolver, np.ndarray], queue_frames: bool
 ) -> None:
     """Clips from two start states under three controls, in one launch sequence, give
     each clip's solo frames, end state and iteration counts bit for bit, the careful
     way and queued a frame at once (with a budget that one frame outgrows)."""
     sim, rest = tiny_rest
-    solo = SphSimulator(sim.scene, queue_frames=False)
+    solo = PcisphSolver(sim.scene, queue_frames=False)
     _, moving = solo.run(rest, 1, 2)
     states, controls = [rest, moving, rest], [2, 0, 1]
     alone = []
@@ -240,7 +240,7 @@ def test_a_batch_of_clips_is_each_clip_alone(
         solo.stats.iteration_counts.clear()
         frames, end = solo.run(state, control, 3)
         alone.append((frames, end, list(solo.stats.iteration_counts)))
-    batch = SphSimulator(sim.scene, queue_frames=queue_frames, batch=4)
+    batch = PcisphSolver(sim.scene, queue_frames=queue_frames, batch=4)
     batch.budget = 2
     frames, ends = batch.run_batch(states, controls, 3)
     assert frames.shape == (3, 3, sim.n, 3) and ends.shape == (3, sim.n, 6)
@@ -253,10 +253,10 @@ def test_a_batch_of_clips_is_each_clip_alone(
 
 
 def test_a_batch_larger_than_the_buffers_is_refused(
-    tiny_rest: tuple[SphSimulator, np.ndarray],
+    tiny_rest: tuple[PcisphSolver, np.ndarray],
 ) -> None:
     sim, rest = tiny_rest
-    two = SphSimulator(sim.scene, batch=2)
+    two = PcisphSolver(sim.scene, batch=2)
     with pytest.raises(ValueError, match="not 1 to 2 clips"):
         two.run_batch([rest] * 3, [0, 1, 2], 1)
     with pytest.raises(ValueError, match="2 states for 1 controls"):
@@ -278,7 +278,7 @@ def test_iterations_used_reads_where_each_loop_stopped() -> None:
 
 
 def test_tilted_clip_stays_in_tank_and_moves_the_liquid(
-    tiny_rest: tuple[SphSimulator, np.ndarray],
+    tiny_rest: tuple[PcisphSolver, np.ndarray],
 ) -> None:
     sim, rest = tiny_rest
     frames, end = sim.simulate_clip(rest, 1)
@@ -289,7 +289,7 @@ def test_tilted_clip_stays_in_tank_and_moves_the_liquid(
     assert kinetic_energy(sim.scene, end) > 10 * kinetic_energy(sim.scene, rest)
 
 
-def test_hydrostatic_tank(tiny_rest: tuple[SphSimulator, np.ndarray]) -> None:
+def test_hydrostatic_tank(tiny_rest: tuple[PcisphSolver, np.ndarray]) -> None:
     sim, rest = tiny_rest
     result = v.check_hydrostatic(sim, rest, seconds=1.0, gauge_seconds=1.0)
     assert result["contained"]
@@ -303,7 +303,7 @@ def test_hydrostatic_tank(tiny_rest: tuple[SphSimulator, np.ndarray]) -> None:
 
 def test_floor_force_is_newtons_third_law_of_the_wall_term() -> None:
     scene = tilt_tank("tiny")
-    k = SphKernels(scene, 1)
+    k = PcisphKernels(scene, 1)
     rng = np.random.default_rng(2)
     pos = rng.uniform(0.0, 0.1, (50, 3))
     p = rng.uniform(0.0, 2000.0, 50)

@@ -1,8 +1,9 @@
-"""High-level PCISPH simulator of a liquid scene on an OpenCL device.
+"""PCISPH of a liquid scene on an OpenCL device: srg's liquid solver
+(``app.core.liquid.solver.LiquidSolver``; docs/sph.md, "Solvers").
 
 The API other layers use::
 
-    sim = SphSimulator(tilt_tank("small"), batch=3)
+    sim = PcisphSolver(tilt_tank("small"), batch=3)
     rest = sim.settle()                                # (n, 6) float32 state at rest
     frames, end = sim.simulate_clip(rest, control=1)   # (k, n, 3) positions, (n, 6)
     frames, ends = sim.run_batch([rest] * 3, [0, 1, 2], 10)  # (3, 10, n, 3), (3, n, 6)
@@ -16,12 +17,13 @@ from __future__ import annotations
 
 from collections.abc import Sequence
 from dataclasses import dataclass, field
+from typing import ClassVar
 
 import numpy as np
 import pyopencl as cl
 
 from app.core.liquid.scene import Scene, initial_particles
-from app.kernels.sph_kernels import SphKernels
+from app.kernels.pcisph_kernels import PcisphKernels
 
 
 class PressureSolveError(RuntimeError):
@@ -63,7 +65,7 @@ def iterations_used(errors: np.ndarray, lo: int, eta: float) -> list[int] | None
     return [lo + int(i) for i in np.argmax(below, axis=1)]
 
 
-class SphSimulator:
+class PcisphSolver:
     """PCISPH of one scene (tank, fluid block, gravity controls) on one device.
 
     Parameters
@@ -77,7 +79,7 @@ class SphSimulator:
         Substring of the OpenCL device's name; ``''`` prefers PoCL's CPU device
         (:func:`app.kernels.context.select_device`).
     profile : bool
-        Timestamp every kernel launch (``SphKernels.launches``; ``srg bench sph --profile``).
+        Timestamp every kernel launch (``PcisphKernels.launches``; ``srg bench sph --profile``).
     queue_frames : bool
         Queue each frame's substeps at once (:meth:`frame`). The frames are the same;
         off by default, since it was slower on every device measured, a GPU's included
@@ -86,6 +88,9 @@ class SphSimulator:
         Most clips simulated together (:meth:`run_batch`): one launch sequence runs them
         all, each as it runs alone (docs/sph.md, "Clips in batches").
     """
+
+    #: what a scene's ``solver`` says to have its clips made by this class
+    name: ClassVar[str] = "pcisph"
 
     def __init__(
         self,
@@ -98,7 +103,7 @@ class SphSimulator:
     ) -> None:
         self.scene = scene
         self.n = len(initial_particles(scene))
-        self.kernels = SphKernels(scene, self.n, device=device, profile=profile, batch=batch)
+        self.kernels = PcisphKernels(scene, self.n, device=device, profile=profile, batch=batch)
         self.fixed_iterations = fixed_iterations
         self.queue_frames = queue_frames
         self.stats = SolverStats()
