@@ -14,11 +14,13 @@ SRG_EXTRAS=all,test source infra/venv.sh
 bash infra/opencl.sh
 bash infra/services.sh
 echo "test: ruff"
-ruff check app tests
+ruff check app tests studies
 echo "test: mypy"
 mypy
 echo "test: docs"  # a broken link, anchor or page fails here (mkdocs.yml)
 NO_MKDOCS_2_WARNING=1 mkdocs build --strict  # not --quiet: it hides the warnings strict counts
+site_bytes=$(du -sb var/site | cut -f1)  # the manual, none of the studies' bulk
+if [ "$site_bytes" -ge 10000000 ]; then echo "test: the built site is $site_bytes bytes, 10 MB at most"; exit 1; fi
 echo "test: pytest ($tier)"
 limits=(--durations=25 --timeout="${SRG_TEST_TIMEOUT:-2400}")
 if [ "$tier" = fast ]; then

@@ -4,7 +4,7 @@ A figure is only worth quoting with what produced it: a ratio measured before a 
 reads the same as one measured after, and a timing on two loaded cores the same as one
 on an idle machine. So every result srg writes (``srg experiment`` and ``srg demo``'s
 ``result.json`` and ``report.md``, ``srg validate --result``, the JSON of ``srg bench``)
-carries one :class:`Provenance`, made here and nowhere else (docs/results/index.md).
+carries one :class:`Provenance`, made here and nowhere else (studies/README.md).
 """
 
 from __future__ import annotations

@@ -6,7 +6,7 @@ so what it meets is a model judged by a policy it never saw (plan.md, "Players")
 imports nothing of srg, reads publications only and uploads nothing (an upload would
 teach sr-crowd), so when it plays changes nothing it meets.
 
-The policy is the tilt holder of ``docs/results/judges/outside_player.py``, loaded from
+The policy is the tilt holder of ``studies/judges/outside_player.py``, loaded from
 that file rather than copied, so the two never differ: it holds a control for a
 geometric number of steps (mean 3); when it lets go it takes, with probability 0.7, the
 control whose next clip scores most (ties at random), otherwise any control; 30 sessions
@@ -42,7 +42,7 @@ from urllib.parse import quote
 import numpy as np
 
 STRATEGIES = ("baseline", "sr-heuristic", "sr-crowd")
-OUTSIDE_PLAYER = Path(__file__).resolve().parents[2] / "docs/results/judges/outside_player.py"
+OUTSIDE_PLAYER = Path(__file__).resolve().parents[2] / "studies/judges/outside_player.py"
 
 
 def outside_player() -> ModuleType:

@@ -1,4 +1,4 @@
-"""docs/results/baseline_from.py: a baseline paired from another run of the same worlds.
+"""studies/baseline_from.py: a baseline paired from another run of the same worlds.
 
 The README's rows marked ``*`` rest on it, so it is held to what a run that grew its own
 baseline reports, and to refusing runs whose worlds differ.
@@ -13,7 +13,7 @@ import sys
 from pathlib import Path
 
 ROOT = Path(__file__).resolve().parents[2]
-SCRIPT = ROOT / "docs/results/baseline_from.py"
+SCRIPT = ROOT / "studies/baseline_from.py"
 
 
 def pair(*args: str) -> subprocess.CompletedProcess[str]:
@@ -26,7 +26,7 @@ def pair(*args: str) -> subprocess.CompletedProcess[str]:
 def test_a_paired_baseline_gives_the_ratio_the_run_reported_with_its_own() -> None:
     done = pair("gd-mixed-error-20k-tiny", "gd-mixed-20k-tiny", "goal-directed")
     assert done.returncode == 0, done.stderr
-    result = json.loads((ROOT / "docs/results/gd-mixed-error-20k-tiny/result.json").read_text())
+    result = json.loads((ROOT / "studies/gd-mixed-error-20k-tiny/result.json").read_text())
     for point, line in zip(
         result["comparison"]["goal-directed"], done.stdout.splitlines(), strict=True
     ):

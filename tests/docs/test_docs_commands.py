@@ -4,7 +4,7 @@ Every ``srg ...`` in a code span or a code block of README.md and docs/*.md is r
 way a shell would and walked down the click command tree of ``srg``: an unknown command
 or an unknown ``--option`` of the command named fails, as does a shell example whose
 value holds a ``|`` (pasted into a shell it is a pipe). The per-run reports under
-docs/results/*/ keep the commands they were run with and are not read. The generated
+studies/*/ keep the commands they were run with and are not read. The generated
 pages (app/cli/reference.py) are checked to name every command, option and setting.
 """
 
@@ -24,7 +24,7 @@ ROOT = Path(__file__).resolve().parents[2]
 PAGES = [
     ROOT / "README.md",
     *sorted((ROOT / "docs").glob("*.md")),
-    ROOT / "docs/results/history.md",
+    ROOT / "studies/history.md",
 ]
 FENCED = re.compile(r"^```[^\n]*\n(.*?)^```", re.MULTILINE | re.DOTALL)
 INLINE = re.compile(r"`([^`]+)`")

@@ -1,4 +1,4 @@
-"""docs/results/targets.py: every bar judged on the runs the README quotes.
+"""studies/targets.py: every bar judged on the runs the README quotes.
 
 Where a run grew its own baseline, the script must judge exactly what the run's report
 judged; where it pairs a baseline from another run, it must refuse other worlds.
@@ -19,7 +19,7 @@ import pytest
 from app.core.evaluation.comparison import ratio_interval
 
 ROOT = Path(__file__).resolve().parents[2]
-RESULTS = ROOT / "docs/results"
+RESULTS = ROOT / "studies"
 
 
 @pytest.fixture

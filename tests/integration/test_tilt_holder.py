@@ -26,7 +26,7 @@ from app.store.publications import publish
 
 ROOT = Path(__file__).resolve().parents[2]
 TILT_HOLDER = ROOT / "studies/outside-the-loop/tilt_holder.py"
-OUTSIDE_PLAYER = ROOT / "docs/results/judges/outside_player.py"
+OUTSIDE_PLAYER = ROOT / "studies/judges/outside_player.py"
 STRATEGIES = ("baseline", "sr-heuristic", "sr-crowd")
 
 

@@ -1,6 +1,6 @@
 """Every product crowd model grows the toy exactly as it did when its figures were reported.
 
-The stored results (docs/results/) were grown by these models; a refactor of the models,
+The stored results (studies/) were grown by these models; a refactor of the models,
 their seam or the refiner that moves one bit of what they grow moves those figures too.
 So a toy sr-crowd graph is grown under each kept kind, three publications played by
 goal-directed bots and learnt (each with its publication, as growth learns them), and a

@@ -61,6 +61,7 @@ EPOCHS_LISTED = 100
     responses=error_responses(404, 413, s404="no such graph", s413="a body over max_body_bytes"),
 )
 def publish(name: str, request: Request, session: Session = Depends(get_session)) -> AdminResult:
+    """Publish the graph now (an admin token): relink, render what is missing, freeze."""
     from app.services.publishing import publish_in_transaction
 
     result = publish_in_transaction(session, request.app.state.settings, name)

@@ -110,6 +110,7 @@ FramesQuery = Annotated[int, Query(ge=1, le=1000, description="frames in the str
 
 @router.get("/{digest}", response_class=Response, responses=ANIMATION_RESPONSES)
 def animation(digest: str, request: Request, session: Session = Depends(get_session)) -> Response:
+    """An edge's animation strip by its digest (the publication names it), immutable."""
     body, media_type = _stored(session, request, digest)
     etag = f'"{digest}"'
     headers = {"ETag": etag, "Cache-Control": IMMUTABLE}

@@ -26,6 +26,7 @@ _ETAG_HEADER = {"ETag": {"description": "weak; send it back in If-None-Match"}}
 
 @router.get("")
 def graphs(session: Session = Depends(get_session)) -> list[GraphSummary]:
+    """Every graph with its latest publication, if any: what a client offers to play."""
     return list_graphs(session)
 
 

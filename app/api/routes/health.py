@@ -98,6 +98,7 @@ class SqliteIntegrity:
     ),
 )
 def health(request: Request, session: Session = Depends(get_session)) -> Health:
+    """Whether the database answers (and the broker, when set): for load balancers."""
     dialect = session.get_bind().dialect.name
     try:
         ping(session)

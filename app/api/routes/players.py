@@ -31,6 +31,8 @@ router = APIRouter(prefix="/api/players", tags=["players"])
 def register_player(
     body: PlayerRequest | None = None, session: Session = Depends(get_session)
 ) -> PlayerCreated:
+    """Register a player (a person unless the body says bot): its id and the token its
+    trace uploads carry."""
     player = register(session, body.kind if body else PlayerKind.PERSON)
     return PlayerCreated(
         player_id=player.id, name=player.name, kind=player.kind, token=player.token

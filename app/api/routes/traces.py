@@ -66,6 +66,9 @@ def upload_trace(
     body: bytes = Depends(raw_body),
     session: Session = Depends(get_session),
 ) -> TraceStored:
+    """Store one session's steps on a publication, once: a re-sent upload with the same
+    idempotency key answers 200 with the stored trace, every step checked to follow an
+    edge (docs/play.md, "Trace upload, check by check")."""
     try:
         upload = TraceUpload.model_validate_json(body)
     except ValidationError as exc:
