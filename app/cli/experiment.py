@@ -108,18 +108,11 @@ def experiment(
     figures are stored, so an interrupted experiment continues with --resume. With
     SRG_BROKER_URL set, growth runs on the Celery workers.
     """
-    import os
-    from functools import partial
-
     from app.config import get_settings
     from app.db.engines import require_intact
-    from app.reports.experiment import RATIO_LABELS, interval_text, write_report
-    from app.reports.provenance import with_provenance
-    from app.services.crowd_model_ablation import eq2_ingredients
-    from app.services.experiment.plan import create_experiment, stored_plan
-    from app.services.experiment.preregistration import check_preregistration
-    from app.services.experiment.runs import Grower, grow_in_process, run_experiment
-    from app.services.loading import artifact_store
+    from app.reports.experiment import RATIO_LABELS, interval_text
+    from app.services.experiment.conduct import conduct_experiment
+    from app.services.experiment.runs import Grower
 
     options = (dynamics, preset, fluid, strategies, seeds, checkpoints, sessions)
     model_options = (player_model, bots, judges, shares, preregistration, fixed_graph_sessions)
@@ -131,6 +124,7 @@ def experiment(
     if result_path is not None:
         _require_makeable("--result", result_path, directory=False)
     require_intact(settings)
+    plan = None
     if resume:
         flags = (quick, pooled, fresh_judges)
         if any(flags) or any(option is not None for option in (*options, *model_options)):
@@ -138,8 +132,6 @@ def experiment(
                 "--resume runs the stored plan: give only --name, --jobs, --through, --json, "
                 "--result, --out"
             )
-        plan = stored_plan(settings, name)
-        check_preregistration(plan)
     else:
         plan = _experiment_plan(
             scene[0],
@@ -158,34 +150,25 @@ def experiment(
             fresh_judges=fresh_judges,
             preregistration=preregistration,
         )
-    last = plan.checkpoint_index(through)  # refused before the plan is stored
+        plan.checkpoint_index(through)  # refused before the broker is asked
+    workers: Grower | None = None
     if not settings.eager:
         from app.tasks.celery_app import require_broker
-
-        require_broker(settings)
-    if not resume:
-        plan = create_experiment(settings, name, plan)
-    grower: Grower
-    if settings.eager:
-        grower = partial(grow_in_process, settings)
-        jobs = jobs or min(os.cpu_count() or 1, len(plan.runs))
-    else:
         from app.tasks.growth import grow_on_workers
 
-        grower = grow_on_workers
-        jobs = jobs or len(plan.runs)
-    total = len(plan.runs) * plan.checkpoints[last]
-    with progress_bar(total, f"{name}: frames grown") as advance:
-        stop = None if through is None else last
-        result = run_experiment(settings, name, grower, jobs=jobs, progress=advance, through=stop)
-    result = with_provenance(result, settings)
-    crowd = Strategy.SR_CROWD in plan.strategies and result["complete"]
-    report = write_report(
-        result,
-        report_dir,
-        artifact_store(settings).get_arrays,
-        ingredients=eq2_ingredients(settings, name) if crowd else None,
+        require_broker(settings)
+        workers = grow_on_workers
+    conducted = conduct_experiment(
+        settings,
+        name,
+        plan,
+        report_dir=report_dir,
+        workers=workers,
+        jobs=jobs,
+        through=through,
+        progress=lambda total: progress_bar(total, f"{name}: frames grown"),
     )
+    result = conducted.result
     if result_path is not None:
         write_result(result_path, result)
     if json_output:
@@ -207,10 +190,10 @@ def experiment(
             met = sum(target["met"] for target in measured)
             waiting = len(judged) - len(measured)
             unmeasured = f", {waiting} not measured" if waiting else ""
-            if len(plan.seeds) < 2 and waiting:
+            if len(conducted.plan.seeds) < 2 and waiting:
                 unmeasured = f", {waiting} need an interval over worlds"
             typer.echo(f"{bot}: {met} of {len(judged)} targets met{unmeasured}", err=json_output)
-    typer.echo(f"report: {report}", err=True)
+    typer.echo(f"report: {conducted.report}", err=True)
 
 
 def _require_makeable(option: str, path: Path, *, directory: bool) -> None:

@@ -27,7 +27,7 @@ from app.core.players.player_models import (
     robust_session_length,
 )
 from app.db.sessions import transaction
-from app.services.experiment.plan import stored_experiment_id, stored_plan
+from app.services.experiment.plan import ExperimentPlan, stored_experiment_id
 from app.services.loading import open_graph
 from app.services.refining import refiner_config
 from app.store.experiments import checkpoint_rows
@@ -48,13 +48,13 @@ VARIANTS = (
 )
 
 
-def eq2_ingredients(settings: Settings, name: str) -> list[dict[str, Any]]:
-    """One row per (crowd, seed, checkpoint, variant) of the experiment's sr-crowd runs.
+def eq2_ingredients(settings: Settings, name: str, plan: ExperimentPlan) -> list[dict[str, Any]]:
+    """One row per (crowd, seed, checkpoint, variant) of the sr-crowd runs of the
+    experiment ``name`` of ``plan``.
 
     Judges taught no run, so their rows have none; pooled crowds share their seed's run.
     """
     rows: list[dict[str, Any]] = []
-    plan = stored_plan(settings, name)
     graphs = {
         (crowd.value, run.seeds[0]): plan.run_graph(name, run)
         for run in plan.runs

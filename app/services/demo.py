@@ -100,13 +100,13 @@ def run_demo(
     try:
         stored = stored_plan(settings, name)
     except NothingToResume:
-        create_experiment(settings, name, plan)
+        stored = create_experiment(settings, name, plan)
     else:
         if replace(stored, high_error_threshold=None) != plan:
             raise ExperimentExists(
                 f"a demo named {name!r} was run with other settings: choose another --name"
             )
-    return run_experiment(settings, name, grower, jobs=jobs, progress=progress)
+    return run_experiment(settings, name, stored, grower, jobs=jobs, progress=progress)
 
 
 def publish_playable(

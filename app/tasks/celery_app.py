@@ -8,20 +8,24 @@ Delivery: ``acks_late`` with ``reject_on_worker_lost`` and a prefetch of one, so
 whose worker dies goes back to the queue instead of vanishing; the Redis visibility
 timeout (read by Celery from ``broker_transport_options``) is far above the hard time
 limit, so a message is never handed to a second worker while the first still runs it.
-Every task is idempotent, so a redelivery is harmless; :class:`BoundedTask` caps
-redeliveries so that a task that kills its worker every time does not loop forever.
+Every task is idempotent, so a redelivery is harmless; :class:`SrgTask` caps
+redeliveries so that a task that kills its worker every time does not loop forever, and
+holds what every task works in: the settings and one transaction.
 """
 
 from __future__ import annotations
 
 import logging
+from contextlib import AbstractContextManager
 from typing import Any
 
 from celery import Celery, Task
 from celery.exceptions import Reject
+from sqlalchemy.orm import Session
 
 from app.config import Settings, get_settings
 from app.core.errors import Unavailable
+from app.db.sessions import transaction
 
 log = logging.getLogger(__name__)
 DELIVERY_KEY = "srg:deliveries:"
@@ -78,13 +82,23 @@ def beat_schedule(settings: Settings) -> dict[str, dict[str, Any]]:
     return schedule
 
 
-class BoundedTask(Task):
-    """A task delivered at most ``task_max_retries + 1`` times (counted in Redis).
+class SrgTask(Task):
+    """Every srg task: delivered at most ``task_max_retries + 1`` times (counted in
+    Redis), working in the worker's settings and one transaction a step.
 
     acks_late redelivers a task whose worker died; if the task itself kills the worker
     (out of memory, a crash in native code) that would never end. The count is keyed by
     the task id (which a redelivery keeps) and the retry number.
     """
+
+    @property
+    def settings(self) -> Settings:
+        """The worker's settings, read once per process."""
+        return get_settings()
+
+    def unit_of_work(self) -> AbstractContextManager[Session]:
+        """One transaction on the settings' database, committed when the step ends well."""
+        return transaction(self.settings)
 
     def __call__(self, *args: Any, **kwargs: Any) -> Any:
         if not self.request.is_eager and self.request.id:
@@ -92,7 +106,7 @@ class BoundedTask(Task):
         return super().__call__(*args, **kwargs)
 
     def _count_delivery(self, task_id: str) -> None:
-        settings = get_settings()
+        settings = self.settings
         url = settings.resolved_redis_url
         if not url:
             return
@@ -153,7 +167,7 @@ def require_broker(settings: Settings, timeout: float = BROKER_CHECK_TIMEOUT) ->
 
 
 def make_celery(settings: Settings) -> Celery:
-    app = Celery("srg", task_cls=BoundedTask)
+    app = Celery("srg", task_cls=SrgTask)
     app.conf.update(celery_config(settings))
     return app
 

@@ -1,7 +1,8 @@
 """The growth tasks: thin wrappers of :mod:`app.services.epochs` and its steps, ids in
 and ids out.
 
-Each task opens one session, runs one step, commits. Arrays never travel through Redis:
+Each task opens one session (its base task's unit of work, :class:`SrgTask`), runs one
+step, commits. Arrays never travel through Redis:
 a step writes them to the artifact store and returns the digest. The epoch's canvas is
 flat (:func:`epoch_canvas`)::
 
@@ -20,7 +21,6 @@ from __future__ import annotations
 import time
 from collections.abc import Callable
 from dataclasses import asdict
-from typing import Any
 
 from celery import chain, chord, group
 from celery.canvas import Signature
@@ -38,7 +38,7 @@ from app.services.growth_tracking import (
     running_epoch_state,
     start_request,
 )
-from app.tasks.celery_app import celery_app
+from app.tasks.celery_app import SrgTask, celery_app
 
 log = get_task_logger(__name__)
 
@@ -46,43 +46,42 @@ log = get_task_logger(__name__)
 NOT_READY_DELAY = 2.0
 
 
-@celery_app.task(name="srg.simulate")
-def simulate(epoch_id: int, position: int, control: int) -> str:
+@celery_app.task(name="srg.simulate", bind=True)
+def simulate(self: SrgTask, epoch_id: int, position: int, control: int) -> str:
     """Simulate one clip of a planned expansion; the stage artifact's digest.
 
     Toy: the whole clip. Liquid: PCISPH only (particle positions and end state).
     """
-    settings = get_settings()
-    with transaction(settings) as session:
-        return clips.simulate_step(session, settings, epoch_id, position, control)
+    with self.unit_of_work() as session:
+        return clips.simulate_step(session, self.settings, epoch_id, position, control)
 
 
-@celery_app.task(name="srg.sdf")
-def sdf(stage: str, epoch_id: int, position: int, control: int) -> str:
+@celery_app.task(name="srg.sdf", bind=True)
+def sdf(self: SrgTask, stage: str, epoch_id: int, position: int, control: int) -> str:
     """Liquid: SDF frames and features of the simulated particles. Toy: pass-through.
 
     Records the clip on ``expansion_clips``; returns the clip artifact's digest.
     """
-    settings = get_settings()
-    with transaction(settings) as session:
-        return clips.sdf_step(session, settings, stage, epoch_id, position, control)
+    with self.unit_of_work() as session:
+        return clips.sdf_step(session, self.settings, stage, epoch_id, position, control)
 
 
-@celery_app.task(name="srg.render")
-def render(clip: str, epoch_id: int, position: int, control: int) -> str:
+@celery_app.task(name="srg.render", bind=True)
+def render(self: SrgTask, clip: str, epoch_id: int, position: int, control: int) -> str:
     """Render the clip's animation strip (stored, attached at integration)."""
-    settings = get_settings()
-    with transaction(settings) as session:
-        return clips.render_step(session, settings, clip, epoch_id, position, control)
+    with self.unit_of_work() as session:
+        return clips.render_step(session, self.settings, clip, epoch_id, position, control)
 
 
 @celery_app.task(name="srg.integrate", bind=True)
-def integrate(self: Any, epoch_id: int, position: int, renders: bool | None = None) -> int | None:
+def integrate(
+    self: SrgTask, epoch_id: int, position: int, renders: bool | None = None
+) -> int | None:
     """Swap one planned expansion into the graph (once); the new vertex's index."""
-    settings = get_settings()
+    settings = self.settings
     renders = settings.render.growth_renders if renders is None else renders
     try:
-        with transaction(settings) as session:
+        with self.unit_of_work() as session:
             outcome = epochs.integrate_step(session, settings, epoch_id, position)
     except epochs.ExpansionNotReady as exc:
         if exc.missing:
@@ -106,46 +105,43 @@ def integrate(self: Any, epoch_id: int, position: int, renders: bool | None = No
     return outcome.vertex
 
 
-@celery_app.task(name="srg.blend")
-def blend(epoch_id: int) -> int:
+@celery_app.task(name="srg.blend", bind=True)
+def blend(self: SrgTask, epoch_id: int) -> int:
     """Render eq. 8's blend of the epoch's new BLEND edges; how many were rendered."""
-    settings = get_settings()
-    with transaction(settings) as session:
-        return epochs.blend_step(session, settings, epoch_id)
+    with self.unit_of_work() as session:
+        return epochs.blend_step(session, self.settings, epoch_id)
 
 
-@celery_app.task(name="srg.rank")
-def rank(graph_id: int) -> str | None:
+@celery_app.task(name="srg.rank", bind=True)
+def rank(self: SrgTask, graph_id: int) -> str | None:
     """STATERANK of the graph now (warm-started), stored: the ``pi`` artifact's digest."""
-    settings = get_settings()
-    with transaction(settings) as session:
-        return rank_relink_publish.rank_graph(session, settings, graph_id)
+    with self.unit_of_work() as session:
+        return rank_relink_publish.rank_graph(session, self.settings, graph_id)
 
 
 @celery_app.task(name="srg.relink", bind=True)
-def relink(self: Any, graph_id: int) -> int:
+def relink(self: SrgTask, graph_id: int) -> int:
     """Relink every BLEND edge to its best target now (between epochs); how many moved."""
-    settings = get_settings()
     try:
-        with transaction(settings) as session:
-            return rank_relink_publish.relink_graph(session, settings, graph_id)
+        with self.unit_of_work() as session:
+            return rank_relink_publish.relink_graph(session, self.settings, graph_id)
     except rank_relink_publish.EpochRunning as exc:
-        raise self.retry(exc=exc, countdown=settings.runtime.beat_interval) from exc
+        raise self.retry(exc=exc, countdown=self.settings.runtime.beat_interval) from exc
 
 
 @celery_app.task(name="srg.publish", bind=True)
-def publish(self: Any, graph_id: int) -> int:
+def publish(self: SrgTask, graph_id: int) -> int:
     """Pre-publish relinking, missing animations, a frozen publication; its id."""
-    settings = get_settings()
     try:
-        with transaction(settings) as session:
-            return rank_relink_publish.publish_between_epochs(session, settings, graph_id)
+        with self.unit_of_work() as session:
+            return rank_relink_publish.publish_between_epochs(session, self.settings, graph_id)
     except rank_relink_publish.EpochRunning as exc:
-        raise self.retry(exc=exc, countdown=settings.runtime.beat_interval) from exc
+        raise self.retry(exc=exc, countdown=self.settings.runtime.beat_interval) from exc
 
 
-@celery_app.task(name="srg.grow_epoch")
+@celery_app.task(name="srg.grow_epoch", bind=True)
 def grow_epoch(
+    self: SrgTask,
     graph_id: int,
     count: int | None = None,
     renders: bool | None = None,
@@ -158,16 +154,15 @@ def grow_epoch(
     admin route's growth request, told which epoch serves it or why none does. Returns
     the epoch id, or None when an epoch of the graph is already running.
     """
-    settings = get_settings()
     try:
-        epoch_id = _plan_and_send(settings, graph_id, count, renders)
+        epoch_id = _plan_and_send(self, graph_id, count, renders)
     except Exception as exc:
         if request is not None:
-            with transaction(settings) as session:
+            with self.unit_of_work() as session:
                 end_request(session, request, failure=failure_reason(exc))
         raise
     if request is not None:
-        with transaction(settings) as session:
+        with self.unit_of_work() as session:
             if epoch_id is None:
                 end_request(session, request, failure="an epoch of the graph was running")
             else:
@@ -176,12 +171,12 @@ def grow_epoch(
 
 
 def _plan_and_send(
-    settings: Settings, graph_id: int, count: int | None, renders: bool | None
+    task: SrgTask, graph_id: int, count: int | None, renders: bool | None
 ) -> int | None:
-    renders = settings.render.growth_renders if renders is None else renders
+    renders = task.settings.render.growth_renders if renders is None else renders
     try:
-        with transaction(settings) as session:
-            plan = epochs.plan_epoch(session, settings, graph_id, count=count, renders=renders)
+        with task.unit_of_work() as session:
+            plan = epochs.plan_epoch(session, task.settings, graph_id, count=count, renders=renders)
     except epochs.EpochTaken:  # another tick opened the same epoch number first
         return None
     if plan is None:
@@ -196,28 +191,26 @@ def _plan_and_send(
         plan.relinks,
     )
     if plan.expansions:
-        with transaction(settings) as session:
+        with task.unit_of_work() as session:
             work = epochs.epoch_work(session, plan.epoch_id)
         epoch_canvas(work).apply_async()
     return plan.epoch_id
 
 
-@celery_app.task(name="srg.publish_if_due")
-def publish_if_due(graph_id: int) -> int | None:
+@celery_app.task(name="srg.publish_if_due", bind=True)
+def publish_if_due(self: SrgTask, graph_id: int) -> int | None:
     """Beat's publication of a growing graph due one; its id, or None (not due after all,
     or another writer holds the graph: the next tick asks again)."""
-    settings = get_settings()
-    with transaction(settings) as session:
-        return rank_relink_publish.publish_if_due(session, settings, graph_id)
+    with self.unit_of_work() as session:
+        return rank_relink_publish.publish_if_due(session, self.settings, graph_id)
 
 
-@celery_app.task(name="srg.schedule_growth")
-def schedule_growth() -> dict[str, list[int]]:
+@celery_app.task(name="srg.schedule_growth", bind=True)
+def schedule_growth(self: SrgTask) -> dict[str, list[int]]:
     """Beat's tick: for each graph with ``growing = true`` its publication when one is due
     (``SRG_PUBLISH_EVERY``), else a ``grow_epoch``; the ids of each."""
-    settings = get_settings()
-    with transaction(settings) as session:
-        tick = rank_relink_publish.beat_tick(session, settings)
+    with self.unit_of_work() as session:
+        tick = rank_relink_publish.beat_tick(session, self.settings)
     for graph_id in tick.publish:
         publish_if_due.delay(graph_id)
     for graph_id in tick.grow:

@@ -56,6 +56,6 @@ def test_world_20_regrows_to_the_studys_stored_figures(
     monkeypatch.delenv("SRG_DATABASE_URL", raising=False)
     migrate(get_settings().resolved_database_url)
     settings = get_settings()
-    create_experiment(settings, "world20", plan)
-    result = run_experiment(settings, "world20", partial(grow_in_process, settings), jobs=3)
+    plan = create_experiment(settings, "world20", plan)
+    result = run_experiment(settings, "world20", plan, partial(grow_in_process, settings), jobs=3)
     assert world_figures(result, "20", 2) == stored["figures"]

@@ -68,10 +68,10 @@ def test_prediction_is_for_the_publication_played_from_earlier_traces(
         mean_steps=30,
     )  # fmt: skip
     settings = get_settings()
-    create_experiment(settings, "prediction", plan)
+    plan = create_experiment(settings, "prediction", plan)
     progress: list[int] = []
     grower = partial(grow_in_process, settings)
-    result = run_experiment(settings, "prediction", grower, progress=progress.append)
+    result = run_experiment(settings, "prediction", plan, grower, progress=progress.append)
     rows = result["crowds"]["goal-directed"]["results"]["sr-crowd"]["1"]
     assert sum(progress) >= 1_500
     # sr-heuristic, sr-crowd's control, came with it and plays first at each checkpoint
@@ -117,14 +117,14 @@ def test_every_run_reaches_a_checkpoint_before_any_grows_towards_the_next(
         strategies=(Strategy.BASELINE, Strategy.SR_CROWD), seeds=(1,),
         checkpoints=(400, 700), sessions=4, mean_steps=10,
     )  # fmt: skip
-    create_experiment(settings, "waves", plan)
+    plan = create_experiment(settings, "waves", plan)
     grown: list[tuple[str, int]] = []
 
     def recording_grower(name: str, to_frames: int, batch: int, progress: Any) -> None:
         grown.append((name, to_frames))
         grow_in_process(settings, name, to_frames, batch, progress)
 
-    run_experiment(settings, "waves", recording_grower)
+    run_experiment(settings, "waves", plan, recording_grower)
     # baseline, sr-heuristic (sr-crowd's control, added) and sr-crowd
     assert [frames for _, frames in grown] == [400, 400, 400, 700, 700, 700]
     assert {name for name, _ in grown[:3]} == {name for name, _ in grown[3:]}
@@ -400,12 +400,15 @@ def test_judges_measure_every_run_and_teach_none(
         "strategies": (Strategy.SR_CROWD,), "seeds": (1,), "checkpoints": (400, 700),
         "sessions": 4, "mean_steps": 10,
     }  # fmt: skip
-    judged = ExperimentPlan(**common, judges=(BotKind.AVOIDER,))
-    create_experiment(settings, "judged", judged)
-    create_experiment(settings, "unjudged", ExperimentPlan(**common))
+    plans = {
+        "judged": create_experiment(
+            settings, "judged", ExperimentPlan(**common, judges=(BotKind.AVOIDER,))
+        ),
+        "unjudged": create_experiment(settings, "unjudged", ExperimentPlan(**common)),
+    }
     results = {
-        name: run_experiment(settings, name, partial(grow_in_process, settings))
-        for name in ("judged", "unjudged")
+        name: run_experiment(settings, name, plan, partial(grow_in_process, settings))
+        for name, plan in plans.items()
     }
     crowds = results["judged"]["crowds"]
     assert set(crowds) == {"goal-directed", "avoider"}
@@ -419,5 +422,5 @@ def test_judges_measure_every_run_and_teach_none(
     assert sizes["judged"] == sizes["unjudged"]
     assert results["judged"]["comparison"]["avoider"][0]["crowd_vs_heuristic"]["per_seed"]
     # the crowd model's ablation reads the crowd's rows and passes over the judge's
-    ablation = eq2_ingredients(settings, "judged")
+    ablation = eq2_ingredients(settings, "judged", plans["judged"])
     assert ablation and {row["bot"] for row in ablation} == {"goal-directed"}

@@ -88,8 +88,9 @@ def mixed_runs(tmp_path_factory: pytest.TempPathFactory) -> dict[str, Any]:
         }
         results = {}
         for name, plan in plans.items():
-            create_experiment(settings, name, plan)
-            results[name] = run_experiment(settings, name, partial(grow_in_process, settings))
+            stored = create_experiment(settings, name, plan)
+            grower = partial(grow_in_process, settings)
+            results[name] = run_experiment(settings, name, stored, grower)
         yield {"settings": settings, "results": results}
 
 

@@ -26,7 +26,7 @@ from app.core.evaluation.comparison import (
 from app.core.evaluation.error_origin import error_origin
 from app.core.evaluation.metrics import relative_difference
 from app.db.sessions import transaction
-from app.services.experiment.plan import ExperimentPlan, stored_experiment_id, stored_plan
+from app.services.experiment.plan import ExperimentPlan, stored_experiment_id
 from app.services.experiment.players import kind_of, with_populations
 from app.services.loading import artifact_store
 from app.store.experiments import checkpoint_rows
@@ -59,9 +59,14 @@ PREDICTION_KEYS = (
 
 
 def collect(
-    settings: Settings, name: str, seconds: float | None = None, through: int | None = None
+    settings: Settings,
+    name: str,
+    plan: ExperimentPlan,
+    seconds: float | None = None,
+    through: int | None = None,
 ) -> dict[str, Any]:
-    """Every stored checkpoint of the experiment (up to index ``through``, all when None)
+    """Every stored checkpoint of the experiment ``name`` of ``plan`` (up to index
+    ``through``, all when None)
     as the result dict the report reads; ``through`` reports an experiment run so far as
     one whose last checkpoint is that one.
 
@@ -71,7 +76,6 @@ def collect(
     sr-crowd against sr-heuristic and both against baseline at checkpoint i, over seeds
     with intervals, and the targets (:func:`compare_strategies`).
     """
-    plan = stored_plan(settings, name)
     final_frames = plan.checkpoints[-1]
     if through is not None:
         plan = replace(plan, checkpoints=plan.checkpoints[: through + 1])

@@ -29,11 +29,7 @@ from app.config import Settings
 from app.db.sessions import transaction
 from app.services.creation import init_graph
 from app.services.experiment.checkpoint import checkpoint_figures
-from app.services.experiment.plan import (
-    ExperimentPlan,
-    stored_experiment_id,
-    stored_plan,
-)
+from app.services.experiment.plan import ExperimentPlan, stored_experiment_id
 from app.services.experiment.results import collect
 from app.services.growing import grow_graph
 from app.services.loading import artifact_store
@@ -75,20 +71,22 @@ def grow_in_process(
 def run_experiment(
     settings: Settings,
     name: str,
+    plan: ExperimentPlan,
     grower: Grower,
     *,
     jobs: int = 1,
     progress: Advance | None = None,
     through: int | None = None,
 ) -> dict[str, Any]:
-    """Run (or finish) every run of a stored experiment, through checkpoint index
-    ``through`` (all when None); return :func:`collect`'s result up to there.
+    """Run (or finish) every run of the stored experiment ``name`` of ``plan``, through
+    checkpoint index ``through`` (all when None); return :func:`collect`'s result up to
+    there.
 
     ``jobs > 1`` runs that many (strategy, seed) runs at once in spawned processes
     (PyOpenCL contexts do not survive a fork); progress then comes from the database.
-    The stored plan is read once here and handed to every run, spawned ones included.
+    The plan, read or stored once by the caller, is handed to every run, spawned ones
+    included.
     """
-    plan = stored_plan(settings, name)
     started = time.perf_counter()
     reported = 0
     for last in range(len(plan.checkpoints) if through is None else through + 1):
@@ -99,7 +97,7 @@ def run_experiment(
             reported = _run_in_processes(
                 settings, name, plan, grower, jobs, progress, last, reported
             )
-    return collect(settings, name, seconds=time.perf_counter() - started, through=through)
+    return collect(settings, name, plan, seconds=time.perf_counter() - started, through=through)
 
 
 def _run_in_processes(
