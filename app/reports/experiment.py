@@ -356,7 +356,7 @@ def write_report(
     one section per crowd with its PNG plots (in ``out_dir/<crowd>/``); returns the
     markdown path.
 
-    ``ingredients``: rows of :func:`app.services.crowd_model_ablation.eq2_ingredients`, if wanted.
+    ``ingredients``: rows of :func:`app.services.experiment.ablation.eq2_ingredients`, if wanted.
     """
     out_dir.mkdir(parents=True, exist_ok=True)
     sections = [

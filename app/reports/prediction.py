@@ -53,7 +53,7 @@ def settings_section(result: dict[str, Any]) -> list[str]:
 
 
 def ingredients_section(rows: list[dict[str, Any]]) -> list[str]:
-    """Eq. 2 with one ingredient changed (app.services.crowd_model_ablation), seed means."""
+    """Eq. 2 with one ingredient changed (app.services.experiment.ablation), seed means."""
     if not rows:
         return []
     grouped: dict[tuple[str, int], list[dict[str, Any]]] = defaultdict(list)

@@ -67,13 +67,17 @@ def main() -> None:
     for graph in graphs:
         pub = publication(url, graph)
         errors = np.array(play(pub, np.random.default_rng(seed)))
-        print(json.dumps({
-            "graph": graph,
-            "size_frames": pub["size_frames"],
-            "steps": int(errors.size),
-            "mean_error": float(errors.mean()),
-            "high_error_fraction": float(np.mean(errors > threshold)),
-        }))
+        print(
+            json.dumps(
+                {
+                    "graph": graph,
+                    "size_frames": pub["size_frames"],
+                    "steps": int(errors.size),
+                    "mean_error": float(errors.mean()),
+                    "high_error_fraction": float(np.mean(errors > threshold)),
+                }
+            )
+        )
 
 
 if __name__ == "__main__":

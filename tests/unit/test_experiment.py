@@ -20,8 +20,8 @@ from app.core.players.bots import BotKind, play_sessions
 from app.core.players.player_models import PlayerModelKind, robust_session_length
 from app.db.engines import dispose_engines
 from app.services import play
-from app.services.crowd_model_ablation import eq2_ingredients
 from app.services.experiment import checkpoint
+from app.services.experiment.ablation import eq2_ingredients
 from app.services.experiment.plan import (
     SELECTION_SEEDS,
     ExperimentPlan,

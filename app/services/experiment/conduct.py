@@ -20,7 +20,7 @@ from app.config import Settings
 from app.core.growth.strategies import Strategy
 from app.reports.experiment import write_report
 from app.reports.provenance import with_provenance
-from app.services.crowd_model_ablation import eq2_ingredients
+from app.services.experiment.ablation import eq2_ingredients
 from app.services.experiment.plan import ExperimentPlan, create_experiment, stored_plan
 from app.services.experiment.preregistration import check_preregistration
 from app.services.experiment.runs import Grower, grow_in_process, run_experiment
