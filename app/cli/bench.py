@@ -42,6 +42,19 @@ def rank(
     emit_measured(bench_rank(n_edges=edges, n_controls=controls, seed=seed))
 
 
+@app.command("completion")
+def completion(
+    repeats: int = typer.Option(5, min=1, help="completions timed (the median is reported)"),
+    line: str = typer.Option("srg exp", help="the command line being completed"),
+) -> None:
+    """Wall and CPU time of one tab completion, and of importing the CLI; target 0.3 s."""
+    from app.bench.completion import bench_completion
+
+    if not line.startswith("srg"):
+        raise InvalidInput(f"--line completes an srg command line, not {line!r}")
+    emit_measured(bench_completion(repeats=repeats, line=line))
+
+
 @app.command(
     "experiment", context_settings={"allow_extra_args": True, "ignore_unknown_options": True}
 )

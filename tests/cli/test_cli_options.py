@@ -58,6 +58,7 @@ def test_benchmarks_take_no_json_option() -> None:
         "bytes",
         "client",
         "clip",
+        "completion",
         "dedup",
         "epoch-traces",
         "experiment",

@@ -1,0 +1,24 @@
+"""`srg bench completion`: a tab completion as the shell runs it, timed, and the
+candidates it printed; the figure is a benchmark's, never a test's bar."""
+
+from __future__ import annotations
+
+import json
+from pathlib import Path
+
+from cli_helpers import ok, one_line_error, srg
+
+
+def test_the_benchmark_completes_as_the_shell_would_and_reports_against_the_target(
+    tmp_path: Path,
+) -> None:
+    report = json.loads(ok(tmp_path, "bench", "completion", "--repeats", "1", "--line", "srg exp"))
+    assert report["candidates"] == ["experiment"]
+    assert report["target_seconds"] == 0.3
+    assert report["met"] == (report["completion_wall_seconds"] <= 0.3)
+    assert report["completion_cpu_seconds"] > 0 and report["import_cli_wall_seconds"] > 0
+    assert report["provenance"]["command"]
+
+
+def test_a_line_of_another_program_is_refused(tmp_path: Path) -> None:
+    one_line_error(srg(tmp_path, "bench", "completion", "--line", "ls -l"), "--line completes")
