@@ -177,7 +177,7 @@ def test_a_server_growth_beside_a_cli_grow_is_refused_for_the_true_reason_then_r
         while (answer := http.get(poll, headers=ADMIN).json())["running"]:
             assert time.monotonic() < deadline, answer
             time.sleep(0.1)
-    assert answer["growth"]["state"] == "finished", answer
+    assert answer["growth"]["state"] == "finished", str(answer["growth"])
     assert answer["growth"]["reason"] is None
     assert set(epochs(settings)) == {"finished"}
 

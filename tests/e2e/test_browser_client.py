@@ -61,15 +61,14 @@ def served(tmp_path: Path) -> Iterator[ClientSite]:
 def stored_traces(served: ClientSite, timeout: float = 10.0) -> list[np.ndarray]:
     """The traces on the publication, waiting for the page's last upload to land."""
     deadline = time.monotonic() + timeout
-    with session_factory(served.engine)() as session:
-        while True:
+    while True:  # a session a look: one read transaction would keep its first snapshot
+        with session_factory(served.engine)() as session:
             ids = session.scalars(
                 select(Trace.id).where(Trace.publication_id == served.publication_id)
             ).all()
             if ids or time.monotonic() > deadline:
-                break
-            time.sleep(0.2)
-        return [trace_steps(session, trace_id) for trace_id in ids]
+                return [trace_steps(session, trace_id) for trace_id in ids]
+        time.sleep(0.2)
 
 
 def tilt(page: Page, towards_right: float, angle: int = 0) -> None:
@@ -130,6 +129,8 @@ def test_the_client_plays_gaplessly_and_uploads_its_trace(
         )
         page.goto("about:blank")  # the page is hidden: it uploads its trace on the way out
         between = time.monotonic() - snapshot_at
+        # open until the upload has landed: closing the browser could cut it short
+        traces = stored_traces(served, timeout=60.0)
         browser.close()
 
     assert stats["size"] == size and stats["stripWidth"] == served.frame_width * scale
@@ -143,7 +144,6 @@ def test_the_client_plays_gaplessly_and_uploads_its_trace(
     assert len(undrawn) == 0, f"frames due at {undrawn} were not drawn"
     assert stats["lateUnasked"] == 0, f"{stats['lateUnasked']} clips were not asked ahead"
     assert stats["unanimated"] == 0  # every edge of the toy graph has its clip
-    traces = stored_traces(served)
     assert len(traces) == 1
     (trace,) = traces
     # the page plays on between the stats snapshot and leaving: the clips of that time,

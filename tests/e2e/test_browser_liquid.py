@@ -180,10 +180,10 @@ def test_the_menu_offers_animated_graphs_and_a_new_game_plays_the_latest_publica
     page.wait_for_function(f"srgStats.steps > {steps} + 3", timeout=10_000)
     page.goto(f"{served.base_url}/?graph={FOR_BOTS}")  # the page uploads its trace on the way
     status = page.wait_for_selector("#status:has-text('cannot play')").text_content()
+    traces = stored_traces(served.engine, [served.publication_id, newer])  # before it closes
     page.close()
 
     assert status is not None and "published without animations" in status
-    traces = stored_traces(served.engine, [served.publication_id, newer])
     assert sorted(traces) == [served.publication_id, newer]
     with session_factory(served.engine)() as session:
         for publication_id, steps in traces.items():
@@ -196,15 +196,11 @@ def stored_traces(
 ) -> dict[int, np.ndarray]:
     """The steps played on each of ``publications``, waiting for the uploads to land."""
     deadline = time.monotonic() + timeout
-    with session_factory(engine)() as session:
-        while True:
+    while True:  # a session a look: one read transaction would keep its first snapshot
+        with session_factory(engine)() as session:
             rows = session.execute(
                 select(Trace.id, Trace.publication_id).where(Trace.publication_id.in_(publications))
             ).all()
             if len({p for _, p in rows}) == len(publications) or time.monotonic() > deadline:
-                break
-            time.sleep(0.2)
-        steps: dict[int, np.ndarray] = {}
-        for trace_id, publication_id in rows:
-            steps[publication_id] = trace_steps(session, trace_id)
-        return steps
+                return {p: trace_steps(session, trace_id) for trace_id, p in rows}
+        time.sleep(0.2)
