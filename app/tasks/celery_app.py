@@ -91,16 +91,19 @@ class SrgTask(Task):
     the task id (which a redelivery keeps) and the retry number.
     """
 
+    _settings: Settings
+
     @property
     def settings(self) -> Settings:
-        """The worker's settings, read once per process."""
-        return get_settings()
+        """The settings this call works in, read once as it starts (:meth:`__call__`)."""
+        return self._settings
 
     def unit_of_work(self) -> AbstractContextManager[Session]:
         """One transaction on the settings' database, committed when the step ends well."""
         return transaction(self.settings)
 
     def __call__(self, *args: Any, **kwargs: Any) -> Any:
+        self._settings = get_settings()  # once a call: the environment of this delivery
         if not self.request.is_eager and self.request.id:
             self._count_delivery(f"{self.request.id}:{self.request.retries or 0}")
         return super().__call__(*args, **kwargs)
