@@ -60,12 +60,12 @@ def conduct_experiment(
     (a checkpoint not in the plan, a taken name, a changed pre-registration) comes before
     anything is written.
     """
+    resume = plan is None
     if plan is None:
         plan = stored_plan(settings, name)
         check_preregistration(plan)
-        last = plan.checkpoint_index(through)
-    else:
-        last = plan.checkpoint_index(through)
+    last = plan.checkpoint_index(through)  # refused before anything is stored
+    if not resume:
         plan = create_experiment(settings, name, plan)
     grower: Grower
     if workers is None:
