@@ -94,6 +94,11 @@ def experiment(
         help="stop after this checkpoint (frames, one of the plan's) and report up to it; "
         "--resume goes on later",
     ),
+    only_seeds: str | None = typer.Option(
+        None,
+        help="grow only the runs of these comma-separated seeds of the plan now, the rest on "
+        "a later --resume (a study longer than one machine's stay, world by world)",
+    ),
     json_output: bool = typer.Option(False, "--json", help=JSON_HELP),
     result_path: Path | None = typer.Option(
         None, "--result", help="also write the JSON result to this file"
@@ -129,8 +134,8 @@ def experiment(
         flags = (quick, pooled, fresh_judges)
         if any(flags) or any(option is not None for option in (*options, *model_options)):
             raise InvalidInput(
-                "--resume runs the stored plan: give only --name, --jobs, --through, --json, "
-                "--result, --out"
+                "--resume runs the stored plan: give only --name, --jobs, --through, "
+                "--only-seeds, --json, --result, --out"
             )
     else:
         plan = _experiment_plan(
@@ -166,6 +171,7 @@ def experiment(
         workers=workers,
         jobs=jobs,
         through=through,
+        only_seeds=None if only_seeds is None else _seed_list(only_seeds, "--only-seeds"),
         progress=lambda total: progress_bar(total, f"{name}: frames grown"),
     )
     result = conducted.result
@@ -235,10 +241,7 @@ def _experiment_plan(
     if strategies is not None:
         changes["strategies"] = tuple(strategies)
     if seeds is not None:
-        try:
-            changes["seeds"] = tuple(int(s) for s in seeds.split(","))
-        except ValueError:
-            raise InvalidInput(f"seeds must be comma-separated integers, got {seeds!r}") from None
+        changes["seeds"] = _seed_list(seeds, "--seeds")
     if checkpoints is not None:
         changes["checkpoints"] = parse_checkpoints(checkpoints)
     if sessions is not None:
@@ -265,3 +268,10 @@ def _experiment_plan(
     if quick:
         return ExperimentPlan.quick(dynamics, **changes)
     return ExperimentPlan(dynamics=dynamics, **changes)
+
+
+def _seed_list(text: str, option: str) -> tuple[int, ...]:
+    try:
+        return tuple(int(s) for s in text.split(","))
+    except ValueError:
+        raise InvalidInput(f"{option} must be comma-separated integers, got {text!r}") from None

@@ -8,9 +8,11 @@ from typing import TYPE_CHECKING
 import typer
 
 from app.cli.output import JSON_HELP, emit
+from app.core.errors import InvalidInput
 
 if TYPE_CHECKING:
     from app.core.evaluation.scoreboard import Bar
+    from app.services.experiment.scoreboard import StoredPlay
 
 app = typer.Typer(help="A stored experiment judged from its database.", no_args_is_help=True)
 
@@ -28,6 +30,12 @@ def scoreboard(
         help="an outside judge's JSON lines on the experiment's publications (one per "
         "world, strategy and publication: publication_id, mean_error, high_share)",
     ),
+    plays: list[Path] | None = typer.Option(
+        None,
+        "--from",
+        help="judge these play files (srg results export; repeat the option) instead of "
+        "the database: the parts of a study grown on several machines",
+    ),
     figures: Path | None = typer.Option(
         None,
         help="also draw the visibly-wrong share against frames and the error histograms "
@@ -41,13 +49,11 @@ def scoreboard(
     Bars that cannot fail (no error or no visibly wrong step in any world, every arm clean
     at the first checkpoint) are listed and left out of the count.
     """
-    from app.config import get_settings
-    from app.services.experiment.scoreboard import read_play, scoreboard_figures
     from app.services.experiment.scoreboard import scoreboard as judge
+    from app.services.experiment.scoreboard import scoreboard_figures
 
-    settings = get_settings()
-    play = read_play(settings, name)
-    board = judge(settings, name, primary_players=primary_players, outside=outside, play=play)
+    play = _play(name, outside, plays)
+    board = judge(play, primary_players=primary_players)
     if figures is not None:
         for drawn in scoreboard_figures(board, play, figures):
             typer.echo(f"figure: {drawn}", err=True)
@@ -68,6 +74,42 @@ def scoreboard(
         typer.echo(f"frames to under {clean.bar:.1%} visibly wrong, median (range): {spread}")
     met, judged = board.counted()
     typer.echo(f"{met} of {judged} bars that can fail met")
+
+
+@app.command("export")
+def export(
+    name: str = typer.Argument(..., help="the stored experiment"),
+    path: Path = typer.Argument(..., help="the play file to write (.npz)"),
+    outside: Path | None = typer.Option(
+        None, help="an outside judge's JSON lines on its publications, kept in the file"
+    ),
+) -> None:
+    """Write what the scoreboard reads of a stored experiment (every checkpoint row's
+    per-step errors, an outside judge's figures) to one small file, to judge later with
+    --from beside the parts grown elsewhere (docs/experiment.md, "A study over several
+    machines")."""
+    from app.services.experiment.play_files import write_play
+
+    play = _play(name, outside, None)
+    write_play(play, path)
+    typer.echo(f"{path}: {len(play.rows)} checkpoint rows, {len(play.outside)} outside figures")
+
+
+def _play(name: str, outside: Path | None, plays: list[Path] | None) -> StoredPlay:
+    """The play judged: read from the database, or merged from play files."""
+    if not plays:
+        from app.config import get_settings
+        from app.services.experiment.scoreboard import read_play
+
+        return read_play(get_settings(), name, outside)
+    from app.services.experiment.play_files import read_plays
+
+    if outside is not None:
+        raise InvalidInput("--outside is read when a play file is written (srg results export)")
+    play = read_plays(plays)
+    if play.name != name:
+        raise InvalidInput(f"{plays[0]} holds the experiment {play.name!r}, not {name!r}")
+    return play
 
 
 def _bar_line(bar: Bar, *, reached: bool) -> str:

@@ -258,6 +258,19 @@ def test_a_scoreboard_of_nothing_or_of_a_bad_judge_file_is_one_line(tmp_path: Pa
         srg(tmp_path, "results", "scoreboard", name, "--primary-players", "nobody"),
         "no players 'nobody'",
     )
+    junk = tmp_path / "junk.npz"
+    junk.write_text("not a play")
+    from_junk = ("results", "scoreboard", name, "--from", str(junk))
+    one_line_error(srg(tmp_path, *from_junk), "not a play file of srg")
+    one_line_error(srg(tmp_path, *from_junk, "--outside", str(bad)), "--outside is read when")
+    play = tmp_path / "play.npz"
+    ok(tmp_path, "results", "export", name, str(play))
+    one_line_error(
+        srg(tmp_path, "results", "scoreboard", "other", "--from", str(play)),
+        "holds the experiment 'experiment-toy', not 'other'",
+    )
+    judged = ("results", "scoreboard", name, "--json")
+    assert ok(tmp_path, *judged, "--from", str(play)) == ok(tmp_path, *judged)
 
 
 # ---- init options ----------------------------------------------------------------------

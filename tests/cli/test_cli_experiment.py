@@ -260,6 +260,8 @@ def test_baseline_shared_by_crowds_gives_the_numbers_of_baseline_grown_per_crowd
         (("--resume", "--bots", "random"), "--resume runs the stored plan"),
         (("--resume", "--fixed-graph-sessions", "5"), "--resume runs the stored plan"),
         (("--name", "a/b"), "no '/'"),
+        (("--only-seeds", "x"), "--only-seeds must be comma-separated integers"),
+        (("--seeds", "0,1", "--only-seeds", "0,5"), "--only-seeds must name seeds of the plan"),
     ],
 )
 def test_bad_experiment_input_is_one_line_and_writes_nothing(

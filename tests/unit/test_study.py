@@ -3,6 +3,8 @@ pre-registered plan bound to the run, and the scoreboard's bars and frames to cl
 
 from __future__ import annotations
 
+import json
+from dataclasses import replace
 from functools import partial
 from pathlib import Path
 from typing import Any
@@ -21,8 +23,9 @@ from app.core.players.bots import BotKind
 from app.db.sessions import transaction
 from app.models import Trace
 from app.services.experiment.plan import ExperimentPlan, create_experiment
+from app.services.experiment.play_files import read_plays, write_play
 from app.services.experiment.preregistration import check_preregistration, preregistration_of
-from app.services.experiment.runs import grow_in_process, run_experiment
+from app.services.experiment.runs import grow_in_process, run_experiment, runs_of_seeds
 from app.services.experiment.scoreboard import read_play, scoreboard, scoreboard_figures
 from app.services.loading import artifact_store
 from app.store.experiments import checkpoint_rows
@@ -87,11 +90,20 @@ def mixed_runs(tmp_path_factory: pytest.TempPathFactory) -> dict[str, Any]:
             "alone": ExperimentPlan(**common),
         }
         results = {}
+        grower = partial(grow_in_process, settings)
         for name, plan in plans.items():
             stored = create_experiment(settings, name, plan)
-            grower = partial(grow_in_process, settings)
             results[name] = run_experiment(settings, name, stored, grower)
-        yield {"settings": settings, "results": results}
+        # "judged" grown a world at a time, the later world first, a play file of each part
+        split = create_experiment(settings, "split", plans["judged"])
+        parts = []
+        for seed in (21, 20):
+            run_experiment(settings, "split", split, grower, runs=runs_of_seeds(split, (seed,)))
+            play = read_play(settings, "split")
+            rows = {key: steps for key, steps in play.rows.items() if key[2] == seed}
+            parts.append(var / f"part-{seed}.npz")
+            write_play(replace(play, rows=rows), parts[-1])
+        yield {"settings": settings, "results": results, "parts": parts}
 
 
 def test_the_crowd_stores_exactly_its_shares_at_every_checkpoint(
@@ -140,7 +152,7 @@ def test_the_primary_is_the_fresh_populations_pooled_steps(mixed_runs: dict[str,
     """The scoreboard's primary recomputed from the stored step arrays: each world's
     fresh kinds' steps together, sr-crowd's mean over sr-heuristic's."""
     settings = mixed_runs["settings"]
-    board = scoreboard(settings, "judged")
+    board = scoreboard(read_play(settings, "judged"))
     assert board.primary.players == "fresh-population" and board.primary.frames == 500
     with transaction(settings) as session:
         rows = checkpoint_rows(session, _experiment_id(session, "judged"))
@@ -167,10 +179,48 @@ def test_the_scoreboard_draws_figs_6_and_7_of_the_primarys_players(
     mixed_runs: dict[str, Any], tmp_path: Path
 ) -> None:
     play = read_play(mixed_runs["settings"], "judged")
-    board = scoreboard(mixed_runs["settings"], "judged", play=play)
+    board = scoreboard(play)
     drawn = scoreboard_figures(board, play, tmp_path / "figures")
     assert [p.name for p in drawn] == ["visibly-wrong.png", "error-histograms.png"]
     assert all(p.read_bytes().startswith(b"\x89PNG") for p in drawn)
+
+
+# ---- a study grown world by world --------------------------------------------------------
+def test_worlds_grown_apart_store_the_rows_of_worlds_grown_together(
+    mixed_runs: dict[str, Any],
+) -> None:
+    """Every checkpoint row of the experiment grown a world at a time (the later first)
+    holds the per-step errors of the one grown whole: a world does not depend on which
+    others were grown beside it."""
+    settings = mixed_runs["settings"]
+    whole, split = read_play(settings, "judged"), read_play(settings, "split")
+    assert whole.rows.keys() == split.rows.keys() and len(whole.rows) == 3 * 2 * 2 * 7
+    for key, steps in whole.rows.items():
+        assert np.array_equal(steps, split.rows[key]), key
+
+
+def test_play_files_of_the_parts_judge_as_the_whole(mixed_runs: dict[str, Any]) -> None:
+    whole = scoreboard(read_play(mixed_runs["settings"], "judged")).to_dict()
+    merged = scoreboard(read_plays(mixed_runs["parts"])).to_dict()
+    assert merged.pop("name") == "split" and whole.pop("name") == "judged"
+    assert json.dumps(merged, sort_keys=True) == json.dumps(whole, sort_keys=True)
+
+
+def test_play_files_that_overlap_or_differ_are_refused(
+    mixed_runs: dict[str, Any], tmp_path: Path
+) -> None:
+    first, second = mixed_runs["parts"]
+    with pytest.raises(InvalidInput, match="rows an earlier file holds"):
+        read_plays([first, second, first])
+    other = tmp_path / "other.npz"
+    write_play(read_play(mixed_runs["settings"], "alone"), other)
+    with pytest.raises(InvalidInput, match="another experiment's play"):
+        read_plays([first, other])
+    (tmp_path / "junk.npz").write_bytes(b"not a zip")
+    with pytest.raises(InvalidInput, match="not a play file of srg"):
+        read_plays([tmp_path / "junk.npz"])
+    with pytest.raises(InvalidInput, match="--only-seeds must name seeds of the plan"):
+        runs_of_seeds(read_play(mixed_runs["settings"], "judged").plan, (20, 99))
 
 
 def _experiment_id(session: Any, name: str) -> int:
@@ -251,4 +301,4 @@ def test_the_scoreboard_refuses_an_experiment_without_the_three_arms(
     settings = get_settings()
     create_experiment(settings, "two", ExperimentPlan(strategies=(Strategy.SR_CROWD,)))
     with pytest.raises(InvalidInput, match="baseline, sr-heuristic and sr-crowd"):
-        scoreboard(settings, "two")
+        scoreboard(read_play(settings, "two"))

@@ -23,7 +23,7 @@ from app.reports.provenance import with_provenance
 from app.services.experiment.ablation import eq2_ingredients
 from app.services.experiment.plan import ExperimentPlan, create_experiment, stored_plan
 from app.services.experiment.preregistration import check_preregistration
-from app.services.experiment.runs import Grower, grow_in_process, run_experiment
+from app.services.experiment.runs import Grower, grow_in_process, run_experiment, runs_of_seeds
 from app.services.loading import artifact_store
 from app.services.progress import Advance
 
@@ -50,6 +50,7 @@ def conduct_experiment(
     jobs: int | None = None,
     through: int | None = None,
     progress: ProgressFor | None = None,
+    only_seeds: tuple[int, ...] | None = None,
 ) -> Conducted:
     """Store ``plan`` as the experiment ``name`` (None: resume the stored one, its
     pre-registered file checked first), grow and measure every run through the checkpoint
@@ -65,19 +66,20 @@ def conduct_experiment(
         plan = stored_plan(settings, name)
         check_preregistration(plan)
     last = plan.checkpoint_index(through)  # refused before anything is stored
+    runs = runs_of_seeds(plan, only_seeds)
     if not resume:
         plan = create_experiment(settings, name, plan)
     grower: Grower
     if workers is None:
         grower = partial(grow_in_process, settings)
-        jobs = jobs or min(os.cpu_count() or 1, len(plan.runs))
+        jobs = jobs or min(os.cpu_count() or 1, len(runs))
     else:
-        grower, jobs = workers, jobs or len(plan.runs)
+        grower, jobs = workers, jobs or len(runs)
     display = progress or (lambda total: nullcontext(None))
-    with display(len(plan.runs) * plan.checkpoints[last]) as advance:
+    with display(len(runs) * plan.checkpoints[last]) as advance:
         stop = None if through is None else last
         result = run_experiment(
-            settings, name, plan, grower, jobs=jobs, progress=advance, through=stop
+            settings, name, plan, grower, jobs=jobs, progress=advance, through=stop, runs=runs
         )
     result = with_provenance(result, settings)
     crowd = Strategy.SR_CROWD in plan.strategies and result["complete"]

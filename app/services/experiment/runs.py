@@ -18,7 +18,7 @@ import signal
 import sys
 import threading
 import time
-from collections.abc import Callable
+from collections.abc import Callable, Sequence
 from functools import partial
 from multiprocessing import get_context
 from multiprocessing.connection import Connection
@@ -26,6 +26,7 @@ from multiprocessing.process import BaseProcess
 from typing import Any
 
 from app.config import Settings
+from app.core.errors import InvalidInput
 from app.db.sessions import transaction
 from app.services.creation import init_graph
 from app.services.experiment.checkpoint import checkpoint_figures
@@ -77,10 +78,11 @@ def run_experiment(
     jobs: int = 1,
     progress: Advance | None = None,
     through: int | None = None,
+    runs: Sequence[int] | None = None,
 ) -> dict[str, Any]:
-    """Run (or finish) every run of the stored experiment ``name`` of ``plan``, through
-    checkpoint index ``through`` (all when None); return :func:`collect`'s result up to
-    there.
+    """Run (or finish) the runs ``runs`` (indices into ``plan.runs``; all when None) of
+    the stored experiment ``name`` of ``plan``, through checkpoint index ``through`` (all
+    when None); return :func:`collect`'s result up to there.
 
     ``jobs > 1`` runs that many (strategy, seed) runs at once in spawned processes
     (PyOpenCL contexts do not survive a fork); progress then comes from the database.
@@ -89,15 +91,26 @@ def run_experiment(
     """
     started = time.perf_counter()
     reported = 0
+    chosen = list(range(len(plan.runs)) if runs is None else runs)
     for last in range(len(plan.checkpoints) if through is None else through + 1):
         if jobs <= 1:
-            for run in range(len(plan.runs)):
+            for run in chosen:
                 run_one(settings, name, plan, run, grower, progress, last=last)
         else:
             reported = _run_in_processes(
-                settings, name, plan, grower, jobs, progress, last, reported
+                settings, name, plan, grower, jobs, progress, last, reported, chosen
             )
     return collect(settings, name, plan, seconds=time.perf_counter() - started, through=through)
+
+
+def runs_of_seeds(plan: ExperimentPlan, seeds: tuple[int, ...] | None) -> list[int]:
+    """The indices of ``plan``'s runs that any of ``seeds`` plays (every run when None)."""
+    if seeds is None:
+        return list(range(len(plan.runs)))
+    if not seeds or set(seeds) - set(plan.seeds):
+        known = ", ".join(str(s) for s in plan.seeds)
+        raise InvalidInput(f"--only-seeds must name seeds of the plan ({known})")
+    return [i for i, run in enumerate(plan.runs) if set(run.seeds) & set(seeds)]
 
 
 def _run_in_processes(
@@ -109,8 +122,9 @@ def _run_in_processes(
     progress: Advance | None,
     last: int,
     reported: int,
+    chosen: list[int],
 ) -> int:
-    """The runs through checkpoint ``last`` in at most ``jobs`` spawned processes at a
+    """The runs ``chosen`` through checkpoint ``last`` in at most ``jobs`` spawned processes at a
     time; the first failure stops them all (what they finished is stored, so ``--resume``
     goes on from there). Returns the frames reported to ``progress`` so far,
     ``reported`` included.
@@ -121,7 +135,7 @@ def _run_in_processes(
     while waiting for work, holding the pool's queue lock, and the pool never closed.
     """
     context = get_context("spawn")
-    waiting = list(range(len(plan.runs)))
+    waiting = list(chosen)
     running: dict[int, tuple[BaseProcess, Connection]] = {}
     try:
         while waiting or running:
@@ -150,7 +164,7 @@ def _run_in_processes(
                 if error is not None:
                     raise error
             if progress is not None:
-                grown = frames_grown(settings, name, plan)
+                grown = frames_grown(settings, name, plan, chosen)
                 progress(grown - reported)
                 reported = grown
     finally:
@@ -212,10 +226,11 @@ def _exit_when_orphaned(parent: int) -> None:
     os._exit(1)
 
 
-def frames_grown(settings: Settings, name: str, plan: ExperimentPlan) -> int:
-    """Frames stored so far over every run's graph (what the progress bar counts)."""
+def frames_grown(settings: Settings, name: str, plan: ExperimentPlan, runs: Sequence[int]) -> int:
+    """Frames stored so far over the graphs of ``runs`` (what the progress bar counts)."""
+    graphs = [plan.run_graph(name, plan.runs[run]) for run in runs]
     with transaction(settings) as session:
-        return frames_of_graphs(session, [plan.run_graph(name, run) for run in plan.runs])
+        return frames_of_graphs(session, graphs)
 
 
 def run_one(

@@ -10,7 +10,8 @@ from __future__ import annotations
 
 import json
 from collections.abc import Iterable
-from dataclasses import dataclass, replace
+from dataclasses import dataclass, field, replace
+from functools import cached_property
 from pathlib import Path
 from typing import Any
 
@@ -84,26 +85,17 @@ class Scoreboard:
         }
 
 
-def scoreboard(
-    settings: Settings,
-    name: str,
-    *,
-    primary_players: str | None = None,
-    outside: Path | None = None,
-    play: StoredPlay | None = None,
-) -> Scoreboard:
-    """Judge the stored experiment ``name`` (it needs baseline, sr-heuristic and
+def scoreboard(play: StoredPlay, *, primary_players: str | None = None) -> Scoreboard:
+    """Judge the stored experiment of ``play`` (it needs baseline, sr-heuristic and
     sr-crowd). ``primary_players``: whose error the primary endpoint is (default: the
-    fresh population, else the population, else the first crowd). ``play``: its
-    :func:`read_play`, when the caller has it already."""
-    play = play or read_play(settings, name)
-    plan = play.plan
+    fresh population, else the population, else the first crowd)."""
+    plan, name = play.plan, play.name
     if {BASELINE, HEURISTIC, CROWD} - {s.value for s in plan.strategies}:
         raise InvalidInput(f"{name} did not grow baseline, sr-heuristic and sr-crowd")
     figures = play.figures()
     players = [*plan.players, *plan.populations]
-    if outside is not None:
-        figures.update(outside_figures(settings, name, outside))
+    if play.outside:
+        figures.update(play.outside)
         players.append(OUTSIDE)
     primary_players = primary_players or next(
         p for p in (FRESH + POPULATION, POPULATION, *plan.players) if p in players
@@ -205,21 +197,31 @@ def clean_game(
 
 @dataclass(frozen=True)
 class StoredPlay:
-    """An experiment's plan and every stored row's per-step errors (and each population's)
-    by (players, strategy, seed, checkpoint index), read once for the bars and figures."""
+    """An experiment's plan and every stored row's per-step errors by (players, strategy,
+    seed, checkpoint index), read once for the bars and figures, with an outside judge's
+    figures where one was given."""
 
+    name: str
     plan: ExperimentPlan
-    steps: dict[tuple[str, str, int, int], np.ndarray]
+    #: each stored row's per-step errors, by (crowd or judge, strategy, seed, index)
+    rows: dict[tuple[str, str, int, int], np.ndarray]
     #: the visibility threshold, fixed in the plan when the experiment was made
     threshold: float
+    outside: Figures = field(default_factory=dict)
+
+    @cached_property
+    def steps(self) -> dict[tuple[str, str, int, int], np.ndarray]:
+        """The rows' steps and each population's (:func:`with_populations`)."""
+        return with_populations(self.plan.populations, self.rows)
 
     def figures(self) -> Figures:
         """Each row's mean error per step and visibly-wrong share."""
         return {key: _figures(errors, self.threshold) for key, errors in self.steps.items()}
 
 
-def read_play(settings: Settings, name: str) -> StoredPlay:
-    """The stored experiment ``name``'s play (:class:`StoredPlay`)."""
+def read_play(settings: Settings, name: str, outside: Path | None = None) -> StoredPlay:
+    """The stored experiment ``name``'s play (:class:`StoredPlay`), with the outside
+    judge's lines at ``outside`` (:func:`outside_figures`)."""
     plan = stored_plan(settings, name)
     with transaction(settings) as session:
         rows = checkpoint_rows(session, stored_experiment_id(session, name))
@@ -232,7 +234,8 @@ def read_play(settings: Settings, name: str) -> StoredPlay:
     }
     # one threshold, fixed in the plan when the experiment was made, on every row
     threshold = float(rows[0].figures["high_error_threshold"]) if rows else 0.0
-    return StoredPlay(plan, with_populations(plan.populations, steps), threshold)
+    judged = {} if outside is None else outside_figures(settings, name, outside)
+    return StoredPlay(name, plan, steps, threshold, judged)
 
 
 def outside_figures(settings: Settings, name: str, path: Path) -> Figures:
