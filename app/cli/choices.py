@@ -116,3 +116,11 @@ def choice_list(kind: type[E], *, what: str, help: str) -> Any:  # noqa: A002 (t
         metavar=f"{what.upper()},...",  # the help lists the values: no fold mid-word
         help=f"{help} (comma-separated: {', '.join(values)})",
     )
+
+
+def seed_list(text: str, option: str) -> tuple[int, ...]:
+    """Comma-separated integer seeds, as ``--seeds 20,21`` writes them."""
+    try:
+        return tuple(int(s) for s in text.split(","))
+    except ValueError:
+        raise InvalidInput(f"{option} must be comma-separated integers, got {text!r}") from None

@@ -8,7 +8,7 @@ from typing import TYPE_CHECKING, Any
 
 import typer
 
-from app.cli.choices import DynamicsName, Fluid, LiquidPreset, choice_list, value_of
+from app.cli.choices import DynamicsName, Fluid, LiquidPreset, choice_list, seed_list, value_of
 from app.cli.output import JSON_HELP, emit, progress_bar, write_result
 from app.core.errors import InvalidInput
 from app.core.growth.strategies import Strategy
@@ -171,7 +171,7 @@ def experiment(
         workers=workers,
         jobs=jobs,
         through=through,
-        only_seeds=None if only_seeds is None else _seed_list(only_seeds, "--only-seeds"),
+        only_seeds=None if only_seeds is None else seed_list(only_seeds, "--only-seeds"),
         progress=lambda total: progress_bar(total, f"{name}: frames grown"),
     )
     result = conducted.result
@@ -241,7 +241,7 @@ def _experiment_plan(
     if strategies is not None:
         changes["strategies"] = tuple(strategies)
     if seeds is not None:
-        changes["seeds"] = _seed_list(seeds, "--seeds")
+        changes["seeds"] = seed_list(seeds, "--seeds")
     if checkpoints is not None:
         changes["checkpoints"] = parse_checkpoints(checkpoints)
     if sessions is not None:
@@ -268,10 +268,3 @@ def _experiment_plan(
     if quick:
         return ExperimentPlan.quick(dynamics, **changes)
     return ExperimentPlan(dynamics=dynamics, **changes)
-
-
-def _seed_list(text: str, option: str) -> tuple[int, ...]:
-    try:
-        return tuple(int(s) for s in text.split(","))
-    except ValueError:
-        raise InvalidInput(f"{option} must be comma-separated integers, got {text!r}") from None

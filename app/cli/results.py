@@ -7,6 +7,7 @@ from typing import TYPE_CHECKING
 
 import typer
 
+from app.cli.choices import seed_list
 from app.cli.output import JSON_HELP, emit
 from app.core.errors import InvalidInput
 
@@ -83,14 +84,19 @@ def export(
     outside: Path | None = typer.Option(
         None, help="an outside judge's JSON lines on its publications, kept in the file"
     ),
+    only_seeds: str | None = typer.Option(
+        None, help="only the rows of these comma-separated seeds (the worlds grown here)"
+    ),
 ) -> None:
     """Write what the scoreboard reads of a stored experiment (every checkpoint row's
     per-step errors, an outside judge's figures) to one small file, to judge later with
     --from beside the parts grown elsewhere (docs/experiment.md, "A study over several
     machines")."""
-    from app.services.experiment.play_files import write_play
+    from app.services.experiment.play_files import of_seeds, write_play
 
     play = _play(name, outside, None)
+    if only_seeds is not None:
+        play = of_seeds(play, seed_list(only_seeds, "--only-seeds"))
     write_play(play, path)
     typer.echo(f"{path}: {len(play.rows)} checkpoint rows, {len(play.outside)} outside figures")
 

@@ -271,6 +271,14 @@ def test_a_scoreboard_of_nothing_or_of_a_bad_judge_file_is_one_line(tmp_path: Pa
     )
     judged = ("results", "scoreboard", name, "--json")
     assert ok(tmp_path, *judged, "--from", str(play)) == ok(tmp_path, *judged)
+    one_line_error(
+        srg(tmp_path, "results", "export", name, str(play), "--only-seeds", "0,7"),
+        "--only-seeds must name seeds of the plan (0, 1)",
+    )
+    ok(tmp_path, "results", "export", name, str(tmp_path / "0.npz"), "--only-seeds", "0")
+    ok(tmp_path, "results", "export", name, str(tmp_path / "1.npz"), "--only-seeds", "1")
+    parts = ("--from", str(tmp_path / "1.npz"), "--from", str(tmp_path / "0.npz"))
+    assert ok(tmp_path, *judged, *parts) == ok(tmp_path, *judged)
 
 
 # ---- init options ----------------------------------------------------------------------

@@ -15,6 +15,7 @@ import json
 import os
 import zipfile
 from collections.abc import Sequence
+from dataclasses import replace
 from pathlib import Path
 from typing import Any
 
@@ -43,6 +44,16 @@ def write_play(play: StoredPlay, path: Path) -> None:
     with partial.open("wb") as handle:
         np.savez_compressed(handle, meta=np.array(json.dumps(meta)), **arrays)
     os.replace(partial, path)
+
+
+def of_seeds(play: StoredPlay, seeds: tuple[int, ...]) -> StoredPlay:
+    """``play`` with only the rows (and outside figures) of ``seeds``, each of the plan's."""
+    if not seeds or set(seeds) - set(play.plan.seeds):
+        known = ", ".join(str(s) for s in play.plan.seeds)
+        raise InvalidInput(f"--only-seeds must name seeds of the plan ({known})")
+    rows = {key: steps for key, steps in play.rows.items() if key[2] in seeds}
+    outside = {key: figures for key, figures in play.outside.items() if key[2] in seeds}
+    return replace(play, rows=rows, outside=outside)
 
 
 def read_plays(paths: Sequence[Path]) -> StoredPlay:
