@@ -40,7 +40,7 @@ from app.config_types import (
     WebOrigins,
 )
 from app.core.errors import InvalidInput
-from app.core.players.player_models import PlayerModelKind
+from app.core.players.kinds import PlayerModelKind
 
 _SOURCES = SettingsConfigDict(
     env_prefix="SRG_",

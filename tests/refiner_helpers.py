@@ -5,9 +5,9 @@ from __future__ import annotations
 from app.core.graph.clipbank import MemoryClipBank
 from app.core.graph.toy import ToyDynamics
 from app.core.growth.expansion import initial_tree
+from app.core.growth.kinds import Strategy
 from app.core.growth.refinement import Refiner, RefinerConfig
-from app.core.growth.strategies import Strategy
-from app.core.players.player_models import PlayerModelKind
+from app.core.players.kinds import PlayerModelKind
 
 
 def toy_refiners(*kinds: PlayerModelKind, strategy: Strategy = Strategy.SR_CROWD) -> list[Refiner]:

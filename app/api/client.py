@@ -24,8 +24,8 @@ from tenacity import (
 from app.core.errors import SrgError
 from app.core.graph.publication import Publication
 from app.core.graph.state_graph import EdgeKind
-from app.core.players.bots import BotKind, play_sessions
-from app.core.players.kinds import PlayerKind
+from app.core.players.bots import play_sessions
+from app.core.players.kinds import BotKind, PlayerKind
 
 #: attempts per upload on transport errors and 429 (idempotent, so retrying is safe)
 UPLOAD_ATTEMPTS = 3

@@ -22,9 +22,10 @@ from typing import Any
 
 from app.bench.scratch import scratch_database
 from app.config import Settings
+from app.core.growth.kinds import Strategy
 from app.core.growth.refinement import Refiner
-from app.core.growth.strategies import Strategy
-from app.core.players.bots import BotKind, play_sessions
+from app.core.players.bots import play_sessions
+from app.core.players.kinds import BotKind
 from app.db.engines import make_engine
 from app.db.sessions import session_factory, transaction
 from app.services.analytics import played_graph_analytics

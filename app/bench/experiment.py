@@ -19,7 +19,7 @@ from pathlib import Path
 from typing import Any
 
 from app.core.errors import InvalidInput
-from app.core.growth.strategies import parse_strategy
+from app.core.growth.kinds import parse_strategy
 from app.db.engines import make_engine
 from app.db.sessions import session_factory
 from app.store.simulated_clips import reuse_counts

@@ -32,7 +32,8 @@ from app.core.graph.graph_entry import GraphScene
 from app.core.graph.state_graph import StateGraph
 from app.core.graph.toy import ToyDynamics
 from app.core.growth.expansion import expand_blend_edge, initial_tree
-from app.core.players.bots import BotKind, play_sessions
+from app.core.players.bots import play_sessions
+from app.core.players.kinds import BotKind
 from app.db.engines import make_engine
 from app.db.sessions import session_factory
 from app.models import Base

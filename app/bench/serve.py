@@ -48,8 +48,8 @@ from app.bench.ingest import build_toy_graph
 from app.bench.scratch import scratch_database
 from app.config import Settings
 from app.core.errors import Unavailable
-from app.core.players.bots import BotKind, play_sessions
-from app.core.players.kinds import PlayerKind
+from app.core.players.bots import play_sessions
+from app.core.players.kinds import BotKind, PlayerKind
 from app.db.engines import make_engine
 from app.db.sessions import session_factory
 from app.store.animations import set_animations

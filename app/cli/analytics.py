@@ -6,8 +6,7 @@ import typer
 
 from app.cli.choices import positive_finite
 from app.cli.output import JSON_HELP, emit
-from app.core.players.kinds import PlayerSelection
-from app.core.players.player_models import PlayerModelKind
+from app.core.players.kinds import PlayerModelKind, PlayerSelection
 
 
 def analytics(

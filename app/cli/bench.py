@@ -96,8 +96,9 @@ def grow(
     """Expansions per minute on 1 and 2 worker processes; integration time vs graph size."""
     from app.bench.grow import bench_grow
     from app.config import get_settings
+    from app.core.liquid.defaults import QUICK_LIQUID_PRESET
     from app.liquid.devices import LiquidDevices
-    from app.services.dynamics import QUICK_LIQUID_PRESET, make_dynamics
+    from app.services.dynamics import make_dynamics
 
     if sizes is not None and frames is not None:
         raise InvalidInput("give --sizes (edges) or --frames, not both")

@@ -9,8 +9,7 @@ from app.cli.choices import Fluid, LiquidPreset, positive_finite, positive_ints
 from app.cli.liquid import FLUID_HELP, PRESET_HELP
 from app.cli.output import emit_measured
 from app.core.errors import InvalidInput
-from app.core.liquid.scene import DEFAULT_FLUID
-from app.services.dynamics import DEFAULT_LIQUID_PRESET
+from app.core.liquid.defaults import DEFAULT_FLUID, DEFAULT_LIQUID_PRESET
 
 
 def sph(

@@ -11,7 +11,7 @@ import typer
 
 from app.cli.choices import DynamicsName, Fluid, LiquidPreset, value_of
 from app.cli.output import JSON_HELP, emit, progress_bar, write_result
-from app.services.dynamics import QUICK_LIQUID_PRESET
+from app.core.liquid.defaults import QUICK_LIQUID_PRESET
 
 
 def demo(
@@ -37,7 +37,7 @@ def demo(
     Ends with the SR-CROWD graph published with its animations, ready to play.
     """
     from app.config import get_settings
-    from app.core.players.player_models import parse_player_model
+    from app.core.players.kinds import parse_player_model
     from app.db.engines import require_intact
     from app.liquid.devices import LiquidDevices
     from app.reports.provenance import with_provenance

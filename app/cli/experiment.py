@@ -11,9 +11,8 @@ import typer
 from app.cli.choices import DynamicsName, Fluid, LiquidPreset, choice_list, seed_list, value_of
 from app.cli.output import JSON_HELP, emit, progress_bar, write_result
 from app.core.errors import InvalidInput
-from app.core.growth.strategies import Strategy
-from app.core.players.bots import BotKind
-from app.core.players.player_models import PlayerModelKind
+from app.core.growth.kinds import Strategy
+from app.core.players.kinds import BotKind, PlayerModelKind
 
 if TYPE_CHECKING:
     from app.services.experiment.plan import ExperimentPlan
@@ -233,7 +232,7 @@ def _experiment_plan(
     fresh_judges: bool = False,
     preregistration: Path | None = None,
 ) -> ExperimentPlan:
-    from app.core.players.player_models import parse_player_model
+    from app.core.players.kinds import parse_player_model
     from app.services.experiment.plan import ExperimentPlan, parse_checkpoints
     from app.services.experiment.preregistration import preregistration_of
 

@@ -15,13 +15,9 @@ import typer
 from app.cli.choices import DynamicsName, Fluid, LiquidPreset, value_of
 from app.cli.output import JSON_HELP, emit, progress_bar
 from app.core.errors import InvalidInput
-from app.core.growth.strategies import Strategy
-from app.core.players.bots import BotKind
-from app.core.players.player_models import PlayerModelKind
-from app.db.engines import require_intact
-from app.db.sessions import transaction
-from app.services.catalogue import MAX_ROW_ID
-from app.services.creation import MAX_WORLD
+from app.core.growth.kinds import Strategy
+from app.core.players.kinds import BotKind, PlayerModelKind
+from app.db.limits import MAX_ROW_ID, MAX_WORLD
 
 
 def init(
@@ -47,8 +43,11 @@ def init(
     """Create a graph: the initial tree of the dynamics, its leaves blended back."""
     from app.config import get_settings
     from app.core.growth.expansion import initial_tree_clips
+    from app.core.liquid.defaults import DEFAULT_LIQUID_PRESET
+    from app.db.engines import require_intact
+    from app.db.sessions import transaction
     from app.services.creation import init_graph
-    from app.services.dynamics import DEFAULT_LIQUID_PRESET, control_count
+    from app.services.dynamics import control_count
     from app.services.progress import Advance
 
     scene_preset = value_of(preset)
@@ -93,6 +92,8 @@ def grow(
 ) -> None:
     """Grow a graph in-process (eagerly) by a budget of frames or expansions."""
     from app.config import get_settings
+    from app.db.engines import require_intact
+    from app.db.sessions import transaction
     from app.services.growing import grow_graph
 
     if frames is not None and expansions is not None:
@@ -127,6 +128,8 @@ def publish(
     """Relink every blend, render what is missing (strips whose file is missing or
     corrupt included), freeze a publication for players."""
     from app.config import get_settings
+    from app.db.engines import require_intact
+    from app.db.sessions import transaction
     from app.services.catalogue import missing_animations
     from app.services.publishing import publish_graph
 
@@ -155,6 +158,8 @@ def play(
     """Bots play the latest publication; their traces are stored like players' uploads,
     under a bot player."""
     from app.config import get_settings
+    from app.db.engines import require_intact
+    from app.db.sessions import transaction
     from app.services.play import fresh_seed, play_graph
 
     seed = fresh_seed() if seed is None else seed
@@ -189,6 +194,7 @@ def status(
 ) -> None:
     """Sizes, publications, epochs and play (traces, players, last upload) of one graph or all."""
     from app.config import get_settings
+    from app.db.sessions import transaction
     from app.services.catalogue import graph_ids
     from app.services.status import graph_summary
 
@@ -225,6 +231,7 @@ def gc(
     srg beat also runs it every SRG_ARTIFACT_GC_INTERVAL seconds.
     """
     from app.config import get_settings
+    from app.db.engines import require_intact
     from app.services.artifact_gc import collect_artifacts, count_fanout_directories, grace_seconds
 
     settings = get_settings()

@@ -16,8 +16,7 @@ import typer
 from app.cli.choices import Fluid, LiquidPreset
 from app.cli.output import JSON_HELP, emit, write_result
 from app.core.errors import InvalidInput
-from app.core.liquid.scene import DEFAULT_FLUID
-from app.services.dynamics import DEFAULT_LIQUID_PRESET
+from app.core.liquid.defaults import DEFAULT_FLUID, DEFAULT_LIQUID_PRESET
 
 PRESET_HELP = "tilt-tank preset"
 FLUID_HELP = "fluid: low or high viscosity"

@@ -8,7 +8,6 @@ from __future__ import annotations
 
 import sys
 from collections.abc import Callable
-from importlib.metadata import version
 from typing import Any
 
 import typer
@@ -37,6 +36,8 @@ app = typer.Typer(
 
 def _print_version(asked: bool) -> None:
     """``srg --version``: the installed distribution's version, as pip shows it."""
+    from importlib.metadata import version
+
     if asked:
         typer.echo(f"srg {version('srg')}")
         raise typer.Exit()

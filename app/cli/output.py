@@ -23,18 +23,6 @@ from pathlib import Path
 from typing import TYPE_CHECKING, Any
 
 import typer
-from rich import box
-from rich.console import Console
-from rich.progress import (
-    BarColumn,
-    MofNCompleteColumn,
-    Progress,
-    TextColumn,
-    TimeElapsedColumn,
-    TimeRemainingColumn,
-)
-from rich.table import Table
-from rich.text import Text
 
 from app.cli.extras import missing_extra_message
 from app.core.errors import SrgError
@@ -55,6 +43,16 @@ def progress_bar(total: int, label: str) -> Iterator[Callable[[int], None]]:
     time left is rich's estimate from the recent rate: long runs (an experiment takes
     hours) say when they will end.
     """
+    from rich.console import Console
+    from rich.progress import (
+        BarColumn,
+        MofNCompleteColumn,
+        Progress,
+        TextColumn,
+        TimeElapsedColumn,
+        TimeRemainingColumn,
+    )
+
     total = max(total, 0)
     done = 0
     columns = (
@@ -95,6 +93,11 @@ def emit(result: Any, as_json: bool, title: str | None = None) -> None:
     if as_json:
         typer.echo(_to_json(data))
         return
+    from rich import box
+    from rich.console import Console
+    from rich.table import Table
+    from rich.text import Text
+
     table = Table(title=None if title is None else Text(title), box=box.SIMPLE_HEAD)
     table.add_column("figure")
     table.add_column("value", overflow="fold")

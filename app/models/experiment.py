@@ -45,7 +45,7 @@ class ExperimentCheckpoint(Base):
     experiment_id: Mapped[int] = mapped_column(ForeignKey("experiments.id", ondelete="CASCADE"))
     strategy: Mapped[str] = mapped_column(String(32))
     seed: Mapped[int] = mapped_column(Integer)
-    #: the crowd that played this row (app.core.players.bots.BotKind)
+    #: the crowd that played this row (app.core.players.kinds.BotKind)
     bot: Mapped[str] = mapped_column(String(32), server_default="goal-directed")
     #: index into the plan's checkpoints
     checkpoint: Mapped[int] = mapped_column(Integer)

@@ -53,7 +53,7 @@ class Graph(Base):
     #: the world seed of the start state (``Dynamics.initial_state``); NULL: the canonical one
     world: Mapped[int | None] = mapped_column(Integer)
     strategy: Mapped[str] = mapped_column(String(32))
-    #: the crowd model sr-crowd learns (app.core.players.player_models.PlayerModelKind)
+    #: the crowd model sr-crowd learns (app.core.players.kinds.PlayerModelKind)
     player_model: Mapped[str] = mapped_column(String(16), default="eq2", server_default="eq2")
     growing: Mapped[bool] = mapped_column(Boolean, default=False)
     #: bumped by every save; a save that finds another revision lost a race or a rollback

@@ -14,8 +14,7 @@ from sqlalchemy.orm import Session
 
 from app.config import Settings
 from app.core.evaluation.session_figures import MAX_RELATIVE_SE, MIN_SESSIONS, SessionFigure
-from app.core.players.kinds import PlayerSelection
-from app.core.players.player_models import parse_player_model
+from app.core.players.kinds import PlayerSelection, parse_player_model
 from app.services.loading import graph_context
 from app.services.prediction import latest_play_prediction
 from app.store.analytics import graph_analytics

@@ -13,8 +13,8 @@ from sqlalchemy.orm import Session
 
 from app.core.graph.graph_entry import GraphEntry
 from app.store.animations import count_missing_animations
-from app.store.graph_catalogue import MAX_ROW_ID, graph_ids, size_frames
 from app.store.graph_catalogue import graph_entry as find_graph
+from app.store.graph_catalogue import graph_ids, size_frames
 from app.store.publications import (
     GraphListing,
     PublicationSummary,
@@ -28,7 +28,6 @@ from app.store.publications import (
 )
 
 __all__ = [
-    "MAX_ROW_ID",
     "GraphEntry",
     "GraphListing",
     "PublicationSummary",

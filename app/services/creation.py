@@ -9,9 +9,10 @@ from app.core.errors import InvalidInput
 from app.core.graph.clipbank import MemoryClipBank
 from app.core.graph.graph_entry import GraphScene
 from app.core.growth.expansion import initial_tree
-from app.core.growth.strategies import parse_strategy
+from app.core.growth.kinds import parse_strategy
 from app.core.names import check_name
-from app.core.players.player_models import parse_player_model
+from app.core.players.kinds import parse_player_model
+from app.db.limits import MAX_WORLD
 from app.liquid.devices import LiquidDevices
 from app.services.dynamics import make_dynamics
 from app.services.loading import artifact_store
@@ -23,8 +24,6 @@ from app.store.graph_persistence import save_graph
 #: the most simulated clips ``srg init --depth`` may ask of the initial tree; past it the
 #: tree grows as N^depth and a typo would run for ever (growth refines from there)
 MAX_INITIAL_CLIPS = 1_000
-#: the largest world seed the graphs' integer column holds on every backend
-MAX_WORLD = 2**31 - 1
 
 
 def check_initial_depth(depth: int, n_controls: int) -> None:

@@ -20,14 +20,14 @@ from sqlalchemy.orm import Session
 
 from app.config import Settings
 from app.core.graph.state_graph import EdgeKind
-from app.core.growth.strategies import Strategy
-from app.core.players.player_models import PlayerModelKind
+from app.core.growth.kinds import Strategy
+from app.core.liquid.defaults import QUICK_LIQUID_PRESET
+from app.core.players.kinds import PlayerModelKind
 from app.db.sessions import transaction
 from app.reports.contact_sheet import Tile, contact_sheet
 from app.reports.experiment import write_report
 from app.reports.figures import ArraysLoader
 from app.services.catalogue import missing_animations
-from app.services.dynamics import QUICK_LIQUID_PRESET
 from app.services.experiment.plan import (
     ExperimentExists,
     ExperimentPlan,

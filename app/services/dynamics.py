@@ -12,19 +12,13 @@ from app.core.choices import unknown_choice
 from app.core.errors import InvalidInput
 from app.core.graph.dynamics import Dynamics
 from app.core.graph.toy import ToyDynamics
-from app.core.liquid.scene import DEFAULT_FLUID, FLUIDS, TILT_DEGREES, TILT_TANK_SPACINGS
+from app.core.liquid.defaults import DEFAULT_FLUID, DEFAULT_LIQUID_PRESET
+from app.core.liquid.scene import FLUIDS, TILT_DEGREES, TILT_TANK_SPACINGS
 from app.liquid.devices import LiquidDevices
 
 DYNAMICS_NAMES = ("toy", "liquid")
 #: presets of the liquid (``app.core.liquid.scene.tilt_tank``), smallest first
 LIQUID_PRESETS = tuple(sorted(TILT_TANK_SPACINGS, key=TILT_TANK_SPACINGS.__getitem__, reverse=True))
-#: the liquid preset wherever none is named (`srg init`, `srg experiment`, `srg calibrate`,
-#: `srg validate`, a stored graph without one): the one calibrated and validated in full
-#: (docs/liquid.md)
-DEFAULT_LIQUID_PRESET = "small"
-#: the preset of the runs meant to take minutes on a laptop: `srg demo` and the liquid
-#: runs of `srg bench grow` (1.9k particles: the two strategies part within 1.5k frames)
-QUICK_LIQUID_PRESET = "tiny"
 #: fluids of the liquid (``app.core.liquid.scene.FLUIDS``): the paper's low and high viscosity
 LIQUID_FLUIDS = tuple(FLUIDS)
 

@@ -32,7 +32,7 @@ from app.config import Settings
 from app.core.graph.graph_entry import GraphEntry
 from app.core.graph.state_graph import EdgeKind, edge_index
 from app.core.growth.expansion import integrate_expansion
-from app.core.growth.strategies import Strategy
+from app.core.growth.kinds import Strategy
 from app.db.sessions import Scope
 from app.services.animations import blend_strip
 from app.services.clips import (

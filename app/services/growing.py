@@ -13,7 +13,7 @@ from app.config import Settings
 from app.core.errors import Conflict
 from app.core.graph.graph_entry import GraphEntry
 from app.core.growth.expansion import GrowthBudget
-from app.core.growth.strategies import Strategy, parse_strategy
+from app.core.growth.kinds import Strategy, parse_strategy
 from app.db.sessions import Scope
 from app.services.epochs import plan_epoch, run_epoch
 from app.services.progress import Advance

@@ -22,7 +22,8 @@ from app.config import Settings
 from app.core.errors import InvalidInput
 from app.core.evaluation.metrics import high_error_fraction, observed_mean_error
 from app.core.graph.publication import Publication
-from app.core.players.bots import BotKind, parse_bot, play_sessions
+from app.core.players.bots import play_sessions
+from app.core.players.kinds import BotKind, parse_bot
 from app.services.loading import graph_context
 from app.store.graph_catalogue import graph_entry
 from app.store.publications import latest_publication_id, load_publication

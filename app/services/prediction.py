@@ -20,11 +20,10 @@ from app.core.evaluation.prediction import (
     split_half_correlation,
 )
 from app.core.graph.publication import Publication
+from app.core.growth.kinds import Strategy
 from app.core.growth.refinement import Refiner
-from app.core.growth.strategies import Strategy
-from app.core.players.bots import BotKind, play_sessions
-from app.core.players.kinds import PlayerSelection
-from app.core.players.player_models import PlayerModelKind, parse_player_model
+from app.core.players.bots import play_sessions
+from app.core.players.kinds import BotKind, PlayerModelKind, PlayerSelection, parse_player_model
 from app.services.loading import LoadedGraph, open_graph
 from app.services.refining import learn_play, refiner_config
 from app.store.play_counts import played_sessions

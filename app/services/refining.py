@@ -11,11 +11,11 @@ from sqlalchemy.orm import Session
 
 from app.config import Settings
 from app.core.graph.dynamics import Dynamics
+from app.core.growth.kinds import Strategy, parse_strategy
 from app.core.growth.refinement import Refiner, RefinerConfig
-from app.core.growth.strategies import EdgeWeights, Strategy, parse_strategy
+from app.core.growth.strategies import EdgeWeights
 from app.core.players.crowd_models.registry import CROWD_MODELS
-from app.core.players.kinds import PlayerSelection
-from app.core.players.player_models import PlayerModelKind, parse_player_model
+from app.core.players.kinds import PlayerModelKind, PlayerSelection, parse_player_model
 from app.services.loading import LoadedGraph
 from app.store.epochs import latest_warm_start
 from app.store.play_counts import graph_play_counts, publication_play_counts

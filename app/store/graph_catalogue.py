@@ -18,6 +18,7 @@ from sqlalchemy.orm import Session
 from app.core.errors import Conflict, NotFound
 from app.core.graph.graph_entry import GraphEntry, GraphScene
 from app.core.graph.state_graph import edge_vertex_control
+from app.db.limits import MAX_ROW_ID
 from app.models import Clip, Edge, Graph
 
 
@@ -68,8 +69,6 @@ def create_graph(
     return row.id
 
 
-#: the largest id an ``Integer`` primary key holds on every backend (PostgreSQL's int4)
-MAX_ROW_ID = 2**31 - 1
 MAX_ID_DIGITS = len(str(MAX_ROW_ID))
 _ASCII_DIGITS = re.compile(r"[0-9]+")
 

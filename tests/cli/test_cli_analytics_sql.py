@@ -19,8 +19,8 @@ from sqlalchemy.orm import Session
 
 from app.config import Settings
 from app.core.graph.state_graph import EdgeKind
-from app.core.players.bots import BotKind, play_sessions
-from app.core.players.kinds import PlayerKind
+from app.core.players.bots import play_sessions
+from app.core.players.kinds import BotKind, PlayerKind
 from app.db.engines import make_engine
 from app.models import Graph
 from app.store.publications import latest_publication, load_publication

@@ -4,6 +4,8 @@ candidates it printed; the figure is a benchmark's, never a test's bar."""
 from __future__ import annotations
 
 import json
+import subprocess
+import sys
 from pathlib import Path
 
 from cli_helpers import ok, one_line_error, srg
@@ -22,3 +24,14 @@ def test_the_benchmark_completes_as_the_shell_would_and_reports_against_the_targ
 
 def test_a_line_of_another_program_is_refused(tmp_path: Path) -> None:
     one_line_error(srg(tmp_path, "bench", "completion", "--line", "ls -l"), "--line completes")
+
+
+def test_the_cli_is_declared_without_the_numerics_or_the_database() -> None:
+    """What a tab completion imports: the command tree and its options' choices and
+    ranges, never NumPy, SciPy, SQLAlchemy, the settings or rich (each imported by the
+    command that runs, not by the declaration every completion reads)."""
+    heavy = ("numpy", "scipy", "sqlalchemy", "pydantic_settings", "app.config", "rich")
+    probe = f"import sys, app.cli.main; print([m for m in {heavy!r} if m in sys.modules])"
+    found = subprocess.run([sys.executable, "-c", probe], capture_output=True, text=True)
+    assert found.returncode == 0, found.stderr
+    assert found.stdout.strip() == "[]"

@@ -14,10 +14,8 @@ from cli_helpers import one_line_error, srg
 
 from app.cli.choices import DynamicsName, Fluid, LiquidPreset, LogLevel
 from app.cli.main import app
-from app.core.growth.strategies import Strategy
-from app.core.players.bots import BotKind
-from app.core.players.kinds import PlayerSelection
-from app.core.players.player_models import PlayerModelKind
+from app.core.growth.kinds import Strategy
+from app.core.players.kinds import BotKind, PlayerModelKind, PlayerSelection
 from app.services.dynamics import DYNAMICS_NAMES, LIQUID_FLUIDS, LIQUID_PRESETS
 
 

@@ -18,7 +18,8 @@ from app.api.app import create_app
 from app.api.client import publication_from_json
 from app.api.local_server import serve_in_thread
 from app.config import Settings
-from app.core.players.bots import BotKind, play_sessions
+from app.core.players.bots import play_sessions
+from app.core.players.kinds import BotKind
 from app.db.engines import make_engine
 from app.store.traces import load_traces
 

@@ -20,13 +20,14 @@ from sqlalchemy.orm import Session
 from alembic import command
 from app.config import Settings
 from app.core.evaluation.prediction import PlayedSessions, prediction_figures
+from app.core.growth.kinds import Strategy, parse_strategy
 from app.core.growth.refinement import Refiner
-from app.core.growth.strategies import Strategy, parse_strategy
-from app.core.players.bots import BotKind, play_sessions
+from app.core.players.bots import play_sessions
 from app.core.players.crowd_models.mixed_error import FittedMixedError, fit_error_share
 from app.core.players.crowd_models.shrunk import FittedShrunk, ShrunkFit, shrunk_player_model
 from app.core.players.crowd_play import PlayCounts
-from app.core.players.player_models import PlayerModelKind, observed_control_counts
+from app.core.players.kinds import BotKind, PlayerModelKind
+from app.core.players.player_models import observed_control_counts
 from app.core.players.session_folds import FOLDS, SessionFolds
 from app.db.engines import make_engine
 from app.db.foreign_keys import foreign_keys_off

@@ -17,8 +17,8 @@ from app.config import Settings
 from app.core.errors import InvalidInput
 from app.core.evaluation.session_figures import MAX_RELATIVE_SE, MIN_SESSIONS
 from app.core.graph.toy import ToyDynamics
-from app.core.players.bots import BotKind, play_sessions
-from app.core.players.kinds import PlayerKind, PlayerSelection
+from app.core.players.bots import play_sessions
+from app.core.players.kinds import BotKind, PlayerKind, PlayerSelection
 from app.services.analytics import played_graph_analytics
 from app.services.catalogue import find_graph
 from app.services.creation import init_graph

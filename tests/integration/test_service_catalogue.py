@@ -14,8 +14,8 @@ from sqlalchemy.orm import Session
 from app.config import Settings
 from app.core.graph.toy import ToyDynamics
 from app.core.growth.expansion import initial_tree_clips
+from app.db.limits import MAX_ROW_ID
 from app.services.catalogue import (
-    MAX_ROW_ID,
     GraphEntry,
     find_graph,
     get_publication,

@@ -19,8 +19,9 @@ from service_settings import committed_settings
 
 from app.config import Settings
 from app.core.errors import InvalidInput
-from app.core.growth.strategies import Strategy
-from app.core.players.player_models import PlayerModelKind
+from app.core.growth.kinds import Strategy
+from app.core.liquid.defaults import QUICK_LIQUID_PRESET
+from app.core.players.kinds import PlayerModelKind
 from app.db.sessions import transaction
 from app.reports.provenance import with_provenance
 from app.services.catalogue import find_graph, latest_publication_id, missing_animations
@@ -36,7 +37,7 @@ from app.services.demo import (
     visited_frames,
     write_demo_report,
 )
-from app.services.dynamics import QUICK_LIQUID_PRESET, UnknownDynamics
+from app.services.dynamics import UnknownDynamics
 from app.services.experiment.plan import ExperimentExists, ExperimentPlan, stored_plan
 from app.services.experiment.runs import grow_in_process
 from app.services.loading import artifact_store

@@ -15,8 +15,8 @@ from sqlalchemy import func, select
 from sqlalchemy.orm import Session
 
 from app.config import Settings
-from app.core.growth.strategies import Strategy
-from app.core.players.bots import BotKind
+from app.core.growth.kinds import Strategy
+from app.core.players.kinds import BotKind
 from app.models import Player, Trace
 from app.services.creation import init_graph
 from app.services.experiment.checkpoint import BOT_PLAYER, checkpoint_figures

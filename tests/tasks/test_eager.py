@@ -22,7 +22,7 @@ from app.core.graph.state_graph import EdgeKind
 from app.core.graph.toy import ToyDynamics
 from app.core.growth.expansion import expand_blend_edge, initial_tree
 from app.core.growth.refinement import RefinerConfig
-from app.core.players.player_models import PlayerModelKind
+from app.core.players.kinds import PlayerModelKind
 from app.db.engines import make_engine
 from app.db.sessions import database_sessions, session_factory, transaction
 from app.models import Clip, Graph, GrowthEpoch, GrowthRequest, Publication, PublicationEdge

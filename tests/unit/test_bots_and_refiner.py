@@ -10,15 +10,11 @@ from app.core.graph.clipbank import MemoryClipBank
 from app.core.graph.publication import Publication
 from app.core.graph.toy import ToyDynamics
 from app.core.growth.expansion import initial_tree
+from app.core.growth.kinds import Strategy, parse_strategy
 from app.core.growth.refinement import Refiner, RefinerConfig
-from app.core.growth.strategies import (
-    EdgeWeights,
-    Strategy,
-    edge_weights,
-    mixed_weights,
-    parse_strategy,
-)
-from app.core.players.bots import LEVEL_CONTROL, AvoiderBot, BotKind, HesitantBot, play_sessions
+from app.core.growth.strategies import EdgeWeights, edge_weights, mixed_weights
+from app.core.players.bots import LEVEL_CONTROL, AvoiderBot, HesitantBot, play_sessions
+from app.core.players.kinds import BotKind
 
 DYN = ToyDynamics()
 

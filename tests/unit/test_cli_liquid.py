@@ -14,10 +14,10 @@ from typer.testing import CliRunner
 
 from app.cli.main import app as srg_app
 from app.core.errors import InvalidInput
+from app.core.liquid.defaults import DEFAULT_FLUID
 from app.liquid import adapter as liquid
 from app.liquid.devices import LiquidDevices
 from app.services.dynamics import (
-    DEFAULT_FLUID,
     DYNAMICS_NAMES,
     LIQUID_FLUIDS,
     LIQUID_PRESETS,

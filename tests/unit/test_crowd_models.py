@@ -15,9 +15,9 @@ from app.core.graph.clipbank import MemoryClipBank
 from app.core.graph.publication import Publication
 from app.core.graph.toy import ToyDynamics
 from app.core.growth.expansion import initial_tree
+from app.core.growth.kinds import Strategy
 from app.core.growth.refinement import Refiner, RefinerConfig
-from app.core.growth.strategies import Strategy
-from app.core.players.bots import BotKind, play_sessions
+from app.core.players.bots import play_sessions
 from app.core.players.crowd_models import candidates
 from app.core.players.crowd_models.candidates import candidate_models
 from app.core.players.crowd_models.eq2 import Eq2
@@ -25,7 +25,7 @@ from app.core.players.crowd_models.estimator import CrowdGraph, CrowdModel, Crow
 from app.core.players.crowd_models.registry import CROWD_MODELS, by_kind, crowd_model
 from app.core.players.crowd_models.shrunk import Shrunk
 from app.core.players.crowd_play import PlayCounts
-from app.core.players.player_models import PlayerModelKind
+from app.core.players.kinds import BotKind, PlayerModelKind
 
 DYN = ToyDynamics()
 #: the control group no session of :func:`played` visits

@@ -20,10 +20,10 @@ import pytest
 from app.core.graph.clipbank import MemoryClipBank
 from app.core.graph.toy import ToyDynamics
 from app.core.growth.expansion import initial_tree
+from app.core.growth.kinds import Strategy
 from app.core.growth.refinement import Refiner, RefinerConfig
-from app.core.growth.strategies import Strategy
-from app.core.players.bots import BotKind, play_sessions
-from app.core.players.player_models import PlayerModelKind
+from app.core.players.bots import play_sessions
+from app.core.players.kinds import BotKind, PlayerModelKind
 
 #: sha256 of :func:`grown`'s arrays per kind, recorded at commit d10dfb4
 PINNED = {

@@ -15,9 +15,10 @@ from app.config import get_settings
 from app.core.errors import InvalidInput
 from app.core.evaluation.metrics import CheckpointReport, evaluate_checkpoint
 from app.core.graph.publication import Publication
-from app.core.growth.strategies import Strategy
-from app.core.players.bots import BotKind, play_sessions
-from app.core.players.player_models import PlayerModelKind, robust_session_length
+from app.core.growth.kinds import Strategy
+from app.core.players.bots import play_sessions
+from app.core.players.kinds import BotKind, PlayerModelKind
+from app.core.players.player_models import robust_session_length
 from app.db.engines import dispose_engines
 from app.services import play
 from app.services.experiment import checkpoint

@@ -13,7 +13,7 @@ import math
 import pytest
 
 from app.core.errors import InvalidInput
-from app.core.players.bots import BotKind
+from app.core.players.kinds import BotKind
 from app.services.experiment.players import (
     FRESH,
     POPULATION,

@@ -12,8 +12,9 @@ from refiner_helpers import toy_refiners
 
 from app.core.graph.publication import Publication, freeze
 from app.core.graph.staterank import predicted_edge_probabilities
+from app.core.growth.kinds import Strategy
 from app.core.growth.refinement import Refiner
-from app.core.growth.strategies import Strategy, edge_weights, mixed_weights
+from app.core.growth.strategies import edge_weights, mixed_weights
 from app.core.players.crowd_models.mixed import UNSEEN_SHARE
 from app.core.players.crowd_models.mixed_error import (
     SHARES,
@@ -23,7 +24,7 @@ from app.core.players.crowd_models.mixed_error import (
     fit_error_share,
 )
 from app.core.players.crowd_play import PlayCounts
-from app.core.players.player_models import PlayerModelKind
+from app.core.players.kinds import PlayerModelKind
 
 
 def test_the_score_is_the_error_weighted_mean_log_share_by_hand() -> None:

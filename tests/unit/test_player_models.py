@@ -12,14 +12,13 @@ from app.core.players.crowd_models.kernel import (
     kernel_support,
     nearest_visited_distance,
 )
+from app.core.players.kinds import PlayerModelKind, parse_player_model
 from app.core.players.player_models import (
-    PlayerModelKind,
     Trace,
     heuristic_player_model,
     mean_session_length,
     observed_control_counts,
     observed_player_model,
-    parse_player_model,
     robust_session_length,
     trace_edges,
 )

@@ -18,10 +18,11 @@ from app.core.graph.publication import Publication
 from app.core.graph.staterank import predicted_edge_probabilities
 from app.core.graph.toy import ToyDynamics
 from app.core.growth.expansion import initial_tree
+from app.core.growth.kinds import Strategy
 from app.core.growth.refinement import Refiner, RefinerConfig
-from app.core.growth.strategies import Strategy
-from app.core.players.bots import BotKind, play_sessions
+from app.core.players.bots import play_sessions
 from app.core.players.crowd_play import PlayCounts
+from app.core.players.kinds import BotKind
 from app.core.players.player_models import (
     mean_session_length,
     observed_control_counts,

@@ -10,11 +10,12 @@ from refiner_helpers import toy_refiners
 from app.core.graph.clipbank import MemoryClipBank
 from app.core.graph.toy import ToyDynamics
 from app.core.growth.expansion import initial_tree
+from app.core.growth.kinds import Strategy
 from app.core.growth.refinement import Refiner, RefinerConfig
-from app.core.growth.strategies import Strategy
 from app.core.players.crowd_models.shrunk import FittedShrunk, fit_shrunk_model, shrunk_player_model
 from app.core.players.crowd_play import PlayCounts
-from app.core.players.player_models import PlayerModelKind, heuristic_player_model
+from app.core.players.kinds import PlayerModelKind
+from app.core.players.player_models import heuristic_player_model
 from app.core.players.session_folds import SessionFolds
 
 

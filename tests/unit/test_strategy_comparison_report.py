@@ -8,8 +8,8 @@ import math
 import numpy as np
 import pytest
 
-from app.core.growth.strategies import Strategy
-from app.core.players.bots import BotKind
+from app.core.growth.kinds import Strategy
+from app.core.players.kinds import BotKind
 from app.reports.experiment import comparison_section
 from app.services.experiment.plan import ExperimentPlan
 from app.services.experiment.results import compare_strategies

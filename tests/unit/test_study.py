@@ -18,8 +18,8 @@ from app.config import get_settings
 from app.core.errors import InvalidInput
 from app.core.evaluation.comparison import ratio_interval
 from app.core.evaluation.scoreboard import CleanGame, difference_bar, frames_to_clean, ratio_bar
-from app.core.growth.strategies import Strategy
-from app.core.players.bots import BotKind
+from app.core.growth.kinds import Strategy
+from app.core.players.kinds import BotKind
 from app.db.sessions import transaction
 from app.models import Trace
 from app.services.experiment.plan import ExperimentPlan, create_experiment

@@ -8,8 +8,8 @@ import pytest
 from app.core.graph.clipbank import MemoryClipBank
 from app.core.graph.toy import ToyDynamics
 from app.core.growth.expansion import initial_tree
+from app.core.growth.kinds import Strategy
 from app.core.growth.refinement import Refiner, RefinerConfig
-from app.core.growth.strategies import Strategy
 from app.core.liquid.scene import WORLD_JITTER, initial_particles, tilt_tank
 from app.liquid.adapter import LiquidDynamics
 

@@ -19,8 +19,8 @@ from dataclasses import dataclass
 import numpy as np
 
 from app.core.evaluation.seed_interval import seed_interval
-from app.core.growth.strategies import Strategy
-from app.core.players.bots import BotKind
+from app.core.growth.kinds import Strategy
+from app.core.players.kinds import BotKind
 
 #: coverage of every interval reported
 LEVEL = 0.95

@@ -26,15 +26,13 @@ from app.core.growth.expansion import (
     relink_blend_edge,
     select_for_expansion,
 )
-from app.core.growth.strategies import EdgeWeights, Strategy, edge_weights, mixed_weights
+from app.core.growth.kinds import Strategy
+from app.core.growth.strategies import EdgeWeights, edge_weights, mixed_weights
 from app.core.players.crowd_models.estimator import CrowdGraph, CrowdPlay, FittedCrowdModel
 from app.core.players.crowd_models.registry import crowd_model
 from app.core.players.crowd_play import PlayCounts
-from app.core.players.player_models import (
-    PlayerModelKind,
-    heuristic_player_model,
-    session_length_of_median,
-)
+from app.core.players.kinds import PlayerModelKind
+from app.core.players.player_models import heuristic_player_model, session_length_of_median
 
 Trace = np.ndarray
 

@@ -9,11 +9,9 @@ probability P(e) = pi(v) P(c|v) under the heuristic or the learned crowd model.
 from __future__ import annotations
 
 from dataclasses import dataclass
-from enum import StrEnum
 
 import numpy as np
 
-from app.core.choices import parse_choice
 from app.core.graph.state_graph import StateGraph
 from app.core.graph.staterank import (
     STATERANK_MAX_ITER,
@@ -21,25 +19,7 @@ from app.core.graph.staterank import (
     StateRankResult,
     staterank,
 )
-
-
-class Strategy(StrEnum):
-    MAX_ERROR = "max-error"
-    BASELINE = "baseline"
-    SR_HEURISTIC = "sr-heuristic"
-    SR_CROWD = "sr-crowd"
-
-    @property
-    def uses_staterank(self) -> bool:
-        return self in (Strategy.SR_HEURISTIC, Strategy.SR_CROWD)
-
-    @property
-    def learns_from_traces(self) -> bool:
-        return self is Strategy.SR_CROWD
-
-
-def parse_strategy(name: str) -> Strategy:
-    return parse_choice(Strategy, name, what="strategy")
+from app.core.growth.kinds import Strategy
 
 
 @dataclass(frozen=True)

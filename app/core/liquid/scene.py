@@ -18,6 +18,7 @@ from typing import Any
 import numpy as np
 
 from app.core.errors import InvalidInput
+from app.core.liquid.defaults import DEFAULT_FLUID
 
 GRAVITY = 9.81
 #: tilt of the controls about the viewing axis, degrees (index 0 = level)
@@ -200,8 +201,6 @@ FLUIDS = {
         target=Box((0.0, 0.34, 0.0), TILT_TANK_SIZE),
     ),
 }
-#: the fluid wherever none is named: water; its scenes and calibrations carry no suffix
-DEFAULT_FLUID = "low"
 
 
 #: particle spacing of the tilt-tank presets (particle counts 1920, 8064, 43824)

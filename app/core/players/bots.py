@@ -14,29 +14,15 @@ model can be tested against crowds it was not tuned on.
 from __future__ import annotations
 
 from dataclasses import dataclass
-from enum import StrEnum
 
 import numpy as np
 
-from app.core.choices import parse_choice
 from app.core.graph.publication import Publication
+from app.core.players.kinds import BotKind
 from app.core.players.lookahead import lookahead_values, scaled_per_vertex
 
 #: the control that leaves the tank level (toy and liquid alike: the tilts are 1 and 2)
 LEVEL_CONTROL = 0
-
-
-class BotKind(StrEnum):
-    GOAL_DIRECTED = "goal-directed"
-    HEURISTIC = "heuristic"
-    RANDOM = "random"
-    HESITANT = "hesitant"
-    AVOIDER = "avoider"
-
-
-def parse_bot(name: str) -> BotKind:
-    """The bot called ``name``; :class:`InvalidInput` naming the known ones otherwise."""
-    return parse_choice(BotKind, name, what="bot")
 
 
 def lookahead_policy(

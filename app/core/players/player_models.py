@@ -4,36 +4,14 @@ of a dense (V, N) array. The heuristic one bootstraps a graph; the crowd ones le
 from __future__ import annotations
 
 from collections.abc import Iterable, Sequence
-from enum import StrEnum
 
 import numpy as np
 
-from app.core.choices import parse_choice
 from app.core.graph.state_graph import edge_index
 from app.core.players.model_checks import check_counts, checked_controls
 
 #: One step of a trace: the vertex the player was at and the control they took there.
 Trace = Sequence[tuple[int, int]] | np.ndarray
-
-
-class PlayerModelKind(StrEnum):
-    """The crowd model sr-crowd learns: the product's choices (docs/player-models.md), each
-    an estimator in app.core.players.crowd_models. Candidates that lost their selection left it."""
-
-    #: the paper's kernel density estimate, with its eps prior (crowd_models.eq2)
-    EQ2 = "eq2"
-    #: eq. 2's kernel counts over the heuristic model as a prior (crowd_models.shrunk)
-    SHRUNK = "shrunk"
-    #: ``shrunk``'s P(c|v) with heuristic players mixed in (crowd_models.mixed)
-    MIXED = "mixed"
-    #: ``mixed``, its share of heuristic players chosen where players met error
-    #: (crowd_models.mixed_error)
-    MIXED_ERROR = "mixed-error"
-
-
-def parse_player_model(name: str) -> PlayerModelKind:
-    """The player model called ``name``; :class:`InvalidInput` naming the known ones otherwise."""
-    return parse_choice(PlayerModelKind, name, what="player model")
 
 
 def heuristic_player_model(vertex_control: np.ndarray, n_controls: int, alpha: float) -> np.ndarray:

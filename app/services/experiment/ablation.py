@@ -17,7 +17,7 @@ import numpy as np
 
 from app.config import Settings
 from app.core.evaluation.prediction import PlayedSessions, prediction_figures
-from app.core.growth.strategies import Strategy
+from app.core.growth.kinds import Strategy
 from app.core.players.crowd_models.eq2 import crowd_player_model
 from app.core.players.crowd_play import PlayCounts
 from app.core.players.player_models import (

@@ -24,8 +24,8 @@ from app.core.evaluation.metrics import (
 from app.core.evaluation.prediction import PlayedSessions
 from app.core.graph.publication import Publication
 from app.core.graph.staterank import predicted_edge_probabilities
+from app.core.growth.kinds import Strategy
 from app.core.growth.refinement import Refiner
-from app.core.growth.strategies import Strategy
 from app.core.players.bots import play_sessions
 from app.core.players.crowd_models.kernel import kernel_support, nearest_visited_distance
 from app.core.players.player_models import (

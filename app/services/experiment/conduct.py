@@ -17,7 +17,7 @@ from pathlib import Path
 from typing import Any
 
 from app.config import Settings
-from app.core.growth.strategies import Strategy
+from app.core.growth.kinds import Strategy
 from app.reports.experiment import write_report
 from app.reports.provenance import with_provenance
 from app.services.experiment.ablation import eq2_ingredients

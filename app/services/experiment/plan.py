@@ -22,13 +22,12 @@ from sqlalchemy.orm import Session
 
 from app.config import Settings
 from app.core.errors import Conflict, InvalidInput, NotFound
-from app.core.growth.strategies import Strategy, parse_strategy
+from app.core.growth.kinds import Strategy, parse_strategy
 from app.core.names import check_name
-from app.core.players.bots import BotKind, parse_bot
-from app.core.players.player_models import PlayerModelKind, parse_player_model
+from app.core.players.kinds import BotKind, PlayerModelKind, parse_bot, parse_player_model
+from app.db.limits import MAX_WORLD
 from app.db.sessions import transaction
 from app.liquid.devices import LiquidDevices
-from app.services.creation import MAX_WORLD
 from app.services.dynamics import (
     DYNAMICS_NAMES,
     UnknownDynamics,

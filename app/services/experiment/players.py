@@ -12,7 +12,7 @@ from typing import Any
 import numpy as np
 
 from app.core.errors import InvalidInput
-from app.core.players.bots import BotKind
+from app.core.players.kinds import BotKind
 
 #: the label of a fresh judge of a crowd's kind is the kind's name after this
 FRESH = "fresh-"

@@ -12,8 +12,8 @@ import numpy as np
 
 from app.core.players.crowd_models.estimator import CrowdGraph, CrowdPlay
 from app.core.players.crowd_models.kernel import kernel_counts
+from app.core.players.kinds import PlayerModelKind
 from app.core.players.model_checks import check_counts, check_distributions, checked_controls
-from app.core.players.player_models import PlayerModelKind
 
 
 def crowd_player_model(

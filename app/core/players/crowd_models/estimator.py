@@ -20,7 +20,7 @@ import numpy as np
 
 from app.core.graph.publication import Publication
 from app.core.players.crowd_play import PlayCounts
-from app.core.players.player_models import PlayerModelKind
+from app.core.players.kinds import PlayerModelKind
 
 
 @dataclass(frozen=True)

@@ -16,7 +16,7 @@ from typing import ClassVar
 
 from app.core.players.crowd_models.estimator import CrowdGraph, CrowdPlay
 from app.core.players.crowd_models.shrunk import FittedShrunk, Shrunk
-from app.core.players.player_models import PlayerModelKind
+from app.core.players.kinds import PlayerModelKind
 
 #: the share of the population ``mixed`` ranks for as heuristic players: players the
 #: traces have not seen. Fixed beforehand as half (docs/player-models.md, "`mixed`");

@@ -26,7 +26,7 @@ from app.core.players.crowd_models.estimator import CrowdGraph, CrowdPlay
 from app.core.players.crowd_models.mixed import UNSEEN_SHARE
 from app.core.players.crowd_models.shrunk import FittedShrunk, Shrunk
 from app.core.players.crowd_play import PlayCounts
-from app.core.players.player_models import PlayerModelKind
+from app.core.players.kinds import PlayerModelKind
 
 #: shares of heuristic players tried; ``mixed``'s (UNSEEN_SHARE) among them
 SHARES = (0.25, 0.5, 0.75, 0.9)

@@ -14,7 +14,7 @@ from app.core.players.crowd_models.estimator import CrowdModel
 from app.core.players.crowd_models.mixed import Mixed
 from app.core.players.crowd_models.mixed_error import MixedError
 from app.core.players.crowd_models.shrunk import Shrunk
-from app.core.players.player_models import PlayerModelKind
+from app.core.players.kinds import PlayerModelKind
 
 #: the models the product offers: the paper's eq. 2, and those a selection kept
 #: (docs/player-models.md): ``mixed-error``, the default, and what it builds on

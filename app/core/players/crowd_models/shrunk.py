@@ -30,8 +30,8 @@ import numpy as np
 from app.core.players.crowd_models.estimator import CrowdGraph, CrowdPlay
 from app.core.players.crowd_models.kernel import kernel_counts
 from app.core.players.crowd_play import PlayCounts
+from app.core.players.kinds import PlayerModelKind
 from app.core.players.model_checks import check_counts, check_distributions
-from app.core.players.player_models import PlayerModelKind
 from app.core.players.session_folds import FOLDS, LearnedModel, SessionFolds
 
 #: kernel radii tried, in multiples of the dynamics' eq. 2 radius

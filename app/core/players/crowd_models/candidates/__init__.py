@@ -2,7 +2,7 @@
 
 A candidate is one module here defining its class, an estimator of
 :class:`~app.core.players.crowd_models.estimator.CrowdModel` whose ``kind`` is the candidate's
-name in :class:`~app.core.players.player_models.PlayerModelKind`, and naming it ``CANDIDATE``.
+name in :class:`~app.core.players.kinds.PlayerModelKind`, and naming it ``CANDIDATE``.
 The registry takes every module of this package in, so nothing else lists it; the import
 contract that keeps learned models from the bots' policies covers this package, and the
 shared checks of tests/unit/test_crowd_models.py run over it like over every product
