@@ -23,7 +23,7 @@ from starlette.requests import ClientDisconnect
 
 from app.api.errors import ApiError
 from app.config import Settings
-from app.db.sessions import Scope, unit_of_work
+from app.db.sessions import Transactions, unit_of_work
 from app.services.players import player_for_token
 
 BEARER_CHALLENGE = {"WWW-Authenticate": "Bearer"}
@@ -97,7 +97,7 @@ def require_admin(
         raise ApiError(403, "admin token required")
 
 
-def growth_scope(request: Request) -> Scope:
+def growth_transactions(request: Request) -> Transactions:
     """The unit of work of growth run off the request: a transaction per step, on the
     app's database, so each finished step is kept whatever happens to the server."""
     factory = request.app.state.session_factory

@@ -16,7 +16,7 @@ import logging
 import threading
 
 from app.config import Settings
-from app.db.sessions import Scope
+from app.db.sessions import Transactions
 from app.services.growth_tracking import end_request, failure_reason, start_request
 
 log = logging.getLogger(__name__)
@@ -50,7 +50,7 @@ class GrowthJobs:
 
 def grow_in_background(
     jobs: GrowthJobs,
-    scope: Scope,
+    transactions: Transactions,
     settings: Settings,
     graph_id: int,
     expansions: int,
@@ -62,14 +62,14 @@ def grow_in_background(
     from app.services import growing  # growth is loaded when something grows
 
     try:
-        with scope() as session:
+        with transactions() as session:
             start_request(session, request_id)
-        result = growing.grow_graph(scope, settings, name=graph_id, expansions=expansions)
+        result = growing.grow_graph(transactions, settings, name=graph_id, expansions=expansions)
     except Exception as exc:
         log.exception("background growth of graph %d failed", graph_id)
-        _record_failure(scope, request_id, exc)
+        _record_failure(transactions, request_id, exc)
     else:
-        with scope() as session:
+        with transactions() as session:
             end_request(session, request_id, done=result.expansions)
         log.info(
             "graph %d grew by %d expansions in %d epochs (%d frames)",
@@ -82,9 +82,9 @@ def grow_in_background(
         jobs.release(graph_id)
 
 
-def _record_failure(scope: Scope, request_id: int, exc: Exception) -> None:
+def _record_failure(transactions: Transactions, request_id: int, exc: Exception) -> None:
     try:
-        with scope() as session:
+        with transactions() as session:
             end_request(session, request_id, failure=failure_reason(exc))
     except Exception:  # the database itself failed: the poll then reports a lost job
         log.exception("could not record the failure of growth request %d", request_id)

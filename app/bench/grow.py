@@ -40,6 +40,7 @@ from app.core.growth.expansion import expand_blend_edge, initial_tree
 from app.db.engines import make_engine
 from app.db.sessions import session_factory
 from app.liquid.devices import LiquidDevices
+from app.services.scope import Scope
 from app.store.epochs import finished_epoch_count
 
 ROOT = Path(__file__).resolve().parents[2]
@@ -177,7 +178,7 @@ def _integrate_in_fresh_process(
     for position in range(count):
         t0 = time.perf_counter()
         with sessions() as session:
-            epochs.integrate_step(session, settings, epoch_id, position)
+            epochs.integrate_step(Scope.of(session, settings), epoch_id, position)
             session.commit()
         times.append(time.perf_counter() - t0)
     return {
@@ -253,14 +254,18 @@ def _integration(
         size = {"frames": graph.size_frames, "edges": graph.n_edges, "clips": graph.n_clips}
         del graph, bank
         with sessions() as session:
-            plan = epochs.plan_epoch(session, settings, graph_id)
+            plan = epochs.plan_epoch(Scope.of(session, settings), graph_id)
             session.commit()
         assert plan is not None
         with sessions() as session:
             for position in range(len(plan.expansions)):
                 for control in range(dynamics.n_controls):
-                    stage = clips.simulate_step(session, settings, plan.epoch_id, position, control)
-                    clips.sdf_step(session, settings, stage, plan.epoch_id, position, control)
+                    stage = clips.simulate_step(
+                        Scope.of(session, settings), plan.epoch_id, position, control
+                    )
+                    clips.sdf_step(
+                        Scope.of(session, settings), stage, plan.epoch_id, position, control
+                    )
             session.commit()
         spawn = multiprocessing.get_context("spawn")
         with ProcessPoolExecutor(max_workers=1, mp_context=spawn) as pool:

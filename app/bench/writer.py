@@ -38,6 +38,7 @@ from app.bench.scratch import scratch_database
 from app.config import Settings
 from app.db.engines import make_engine
 from app.db.sessions import session_factory
+from app.services.scope import Scope
 from app.store.graph_catalogue import get_graph_row, size_frames
 
 
@@ -160,7 +161,7 @@ def _grow(
     while size < frames:
         t0 = time.perf_counter()
         with sessions() as session:
-            plan = epochs.plan_epoch(session, settings, graph_id, renders=False)
+            plan = epochs.plan_epoch(Scope.of(session, settings), graph_id, renders=False)
             session.commit()
         plan_s = time.perf_counter() - t0
         if plan is None or not plan.expansions:
@@ -168,14 +169,18 @@ def _grow(
         with sessions() as session:  # the workers' part: not on the writer's clock
             for position in range(len(plan.expansions)):
                 for control in range(n_controls):
-                    stage = clips.simulate_step(session, settings, plan.epoch_id, position, control)
-                    clips.sdf_step(session, settings, stage, plan.epoch_id, position, control)
+                    stage = clips.simulate_step(
+                        Scope.of(session, settings), plan.epoch_id, position, control
+                    )
+                    clips.sdf_step(
+                        Scope.of(session, settings), stage, plan.epoch_id, position, control
+                    )
             session.commit()
         integrations = []
         for position in range(len(plan.expansions)):
             t0 = time.perf_counter()
             with sessions() as session:
-                epochs.integrate_step(session, settings, plan.epoch_id, position)
+                epochs.integrate_step(Scope.of(session, settings), plan.epoch_id, position)
                 session.commit()
             integrations.append(time.perf_counter() - t0)
         with sessions() as session:

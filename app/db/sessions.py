@@ -1,8 +1,8 @@
 """Sessions, and the unit of work of one step: callers own transactions.
 
 The shell that runs a use case hands the service its :class:`~app.config.Settings`; the
-service opens :func:`transaction` on the settings' database, or is handed a :data:`Scope`
-that opens one per step (a server's own sessions: :func:`unit_of_work`).
+service opens :func:`transaction` on the settings' database, or is handed
+:data:`Transactions` that open one per step (a server's own sessions: :func:`unit_of_work`).
 """
 
 from __future__ import annotations
@@ -29,7 +29,7 @@ def database_sessions(settings: Settings) -> sessionmaker[Session]:
 
 #: opens the unit of work of one step: :func:`transaction` (a fresh, durable one) or the
 #: caller's own (``app.services.epochs.in_session``)
-Scope = Callable[[], AbstractContextManager[Session]]
+Transactions = Callable[[], AbstractContextManager[Session]]
 
 
 def transaction(settings: Settings) -> AbstractContextManager[Session]:

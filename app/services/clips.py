@@ -18,12 +18,12 @@ from typing import Protocol, runtime_checkable
 import numpy as np
 from sqlalchemy.orm import Session
 
-from app.config import Settings
 from app.core.errors import NotFound
 from app.core.graph.dynamics import ClipFeatures, Dynamics, SimClip
 from app.core.graph.graph_entry import GraphEntry
 from app.services.animations import AnimationReuse, frames_strip, reuse_error_limit
-from app.services.loading import artifact_store, graph_context, graph_dynamics
+from app.services.loading import graph_context, graph_dynamics
+from app.services.scope import Scope
 from app.store.animations import clip_features, set_animations, stored_clip
 from app.store.array_codec import ARRAYS_MEDIA_TYPE
 from app.store.artifacts import ArtifactCorrupt, ArtifactNotFound
@@ -70,24 +70,20 @@ def planned_clip(session: Session, epoch_id: int, position: int) -> tuple[GraphE
     return entry, epoch.plan[position][1]
 
 
-def clip_job(
-    session: Session, settings: Settings, epoch_id: int, position: int, control: int
-) -> ClipJob | str:
+def clip_job(scope: Scope, epoch_id: int, position: int, control: int) -> ClipJob | str:
     """The start state and dynamics of a planned clip, or its digest once recorded."""
-    if (stored := expansion_clip(session, epoch_id, position, control)) is not None:
+    if (stored := expansion_clip(scope.session, epoch_id, position, control)) is not None:
         return stored  # a redelivery after the clip was recorded
-    return _planned_job(session, settings, epoch_id, position, control)
+    return _planned_job(scope, epoch_id, position, control)
 
 
-def _planned_job(
-    session: Session, settings: Settings, epoch_id: int, position: int, control: int
-) -> ClipJob:
-    entry, dead_end = planned_clip(session, epoch_id, position)
-    bundle = clip_bundle_digest(session, entry.id, dead_end)
+def _planned_job(scope: Scope, epoch_id: int, position: int, control: int) -> ClipJob:
+    entry, dead_end = planned_clip(scope.session, epoch_id, position)
+    bundle = clip_bundle_digest(scope.session, entry.id, dead_end)
     if bundle is None:
         raise NotFound(f"graph {entry.id} has no clip {dead_end}")
-    state = artifact_store(settings).get_arrays(bundle, ("end_state",))["end_state"]
-    return ClipJob(graph_dynamics(entry, settings), state, control)
+    state = scope.artifacts.get_arrays(bundle, ("end_state",))["end_state"]
+    return ClipJob(graph_dynamics(entry, scope.settings), state, control)
 
 
 def simulation_key(job: ClipJob) -> str | None:
@@ -102,30 +98,29 @@ def simulation_key(job: ClipJob) -> str | None:
     return digest.hexdigest()
 
 
-def remembered_clip(session: Session, settings: Settings, job: ClipJob) -> str | None:
+def remembered_clip(scope: Scope, job: ClipJob) -> str | None:
     """The clip of an identical simulation done before, registered again in this
     transaction (docs/runtime.md, "Each simulation once"); None: simulate it.
 
     Its file is read and checked, which also marks it as in use for ``srg gc``; one that
     was collected or fails its hash is a miss.
     """
-    key = simulation_key(job) if settings.growth.reuse_simulations else None
-    digest = None if key is None else simulated_clip(session, key)
+    key = simulation_key(job) if scope.settings.growth.reuse_simulations else None
+    digest = None if key is None else simulated_clip(scope.session, key)
     if digest is None:
         return None
-    artifacts = artifact_store(settings)
     try:
-        data = artifacts.get_bytes(digest)
+        data = scope.artifacts.get_bytes(digest)
     except (ArtifactNotFound, ArtifactCorrupt):
         return None
-    return artifacts.put_bytes(data, media_type=ARRAYS_MEDIA_TYPE, session=session)
+    return scope.artifacts.put_bytes(data, media_type=ARRAYS_MEDIA_TYPE, session=scope.session)
 
 
-def remember_clip(session: Session, settings: Settings, job: ClipJob, clip: str) -> None:
+def remember_clip(scope: Scope, job: ClipJob, clip: str) -> None:
     """Note ``clip`` as the simulation of ``job`` for the next identical one."""
-    key = simulation_key(job) if settings.growth.reuse_simulations else None
+    key = simulation_key(job) if scope.settings.growth.reuse_simulations else None
     if key is not None:
-        record_simulated_clip(session, key, clip)
+        record_simulated_clip(scope.session, key, clip)
 
 
 def simulate_job(job: ClipJob) -> dict[str, np.ndarray]:
@@ -202,8 +197,7 @@ def clip_from_arrays(arrays: dict[str, np.ndarray]) -> tuple[SimClip, ClipFeatur
 
 
 def record_finished(
-    session: Session,
-    settings: Settings,
+    scope: Scope,
     epoch_id: int,
     position: int,
     control: int,
@@ -212,15 +206,13 @@ def record_finished(
 ) -> str:
     """Store and record the finished clip of a planned one, remembered for the next
     identical simulation; its artifact's digest."""
-    digest = artifact_store(settings).put_arrays(clip, session=session)
-    record_clip(session, epoch_id, position, control, digest)
-    remember_clip(session, settings, job, digest)
+    digest = scope.artifacts.put_arrays(clip, session=scope.session)
+    record_clip(scope.session, epoch_id, position, control, digest)
+    remember_clip(scope, job, digest)
     return digest
 
 
-def simulate_step(
-    session: Session, settings: Settings, epoch_id: int, position: int, control: int
-) -> str:
+def simulate_step(scope: Scope, epoch_id: int, position: int, control: int) -> str:
     """Simulate one clip of a planned expansion; return its stage artifact's digest
     (the finished clip's when an identical simulation was done before).
 
@@ -228,32 +220,34 @@ def simulate_step(
     epoch's other missing clips, which are finished and recorded here, so that their
     own steps find them done (docs/runtime.md, "Clips together on a worker").
     """
-    job = clip_job(session, settings, epoch_id, position, control)
+    session = scope.session
+    job = clip_job(scope, epoch_id, position, control)
     if isinstance(job, str):
         return job
-    if (remembered := remembered_clip(session, settings, job)) is not None:
+    if (remembered := remembered_clip(scope, job)) is not None:
         return remembered
-    companions = _companions(session, settings, epoch_id, position, control, job)
+    companions = _companions(scope, epoch_id, position, control, job)
     stages = simulate_jobs([job, *companions.values()])
     finished = [finish_clip(job.dynamics, stage) or stage for stage in stages[1:]]
     for (p, c), companion, clip in zip(companions, companions.values(), finished, strict=True):
-        record_finished(session, settings, epoch_id, p, c, companion, clip)
+        record_finished(scope, epoch_id, p, c, companion, clip)
     if companions:
         log.info(
             "epoch %d: clip %d/%d simulated together with %d more of the epoch",
             epoch_id, position, control, len(companions),
         )  # fmt: skip
-    return artifact_store(settings).put_arrays(stages[0], session=session)
+    return scope.artifacts.put_arrays(stages[0], session=session)
 
 
 def _companions(
-    session: Session, settings: Settings, epoch_id: int, position: int, control: int, job: ClipJob
+    scope: Scope, epoch_id: int, position: int, control: int, job: ClipJob
 ) -> dict[tuple[int, int], ClipJob]:
     """Up to ``SRG_SIMULATE_BATCH - 1`` other clips of the epoch not yet recorded, to
     simulate with (position, control)'s: its expansion's first, then the plan's next
     expansions, wrapping round (the earlier ones' own steps were sent first). A clip
     remembered from an earlier simulation is left to its own step, which reuses it.
     Only a surfaced dynamics runs clips together."""
+    session, settings = scope.session, scope.settings
     room = settings.runtime.simulate_batch - 1
     if room <= 0 or not isinstance(job.dynamics, SurfacedDynamics):
         return {}
@@ -270,38 +264,29 @@ def _companions(
             break
         if (p, c) == (position, control) or (p, c) in recorded:
             continue
-        companion = _planned_job(session, settings, epoch_id, p, c)
+        companion = _planned_job(scope, epoch_id, p, c)
         key = simulation_key(companion) if settings.growth.reuse_simulations else None
         if key is None or simulated_clip(session, key) is None:
             companions[p, c] = companion
     return companions
 
 
-def sdf_step(
-    session: Session,
-    settings: Settings,
-    stage: str,
-    epoch_id: int,
-    position: int,
-    control: int,
-) -> str:
+def sdf_step(scope: Scope, stage: str, epoch_id: int, position: int, control: int) -> str:
     """Turn a simulated stage into a clip and record it; return the clip artifact."""
+    session, artifacts = scope.session, scope.artifacts
     stored = expansion_clip(session, epoch_id, position, control)
     if stored is not None:
         return stored
-    job = _planned_job(session, settings, epoch_id, position, control)
-    artifacts = artifact_store(settings)
+    job = _planned_job(scope, epoch_id, position, control)
     clip = finish_clip(job.dynamics, artifacts.get_arrays(stage))
     digest = stage if clip is None else artifacts.put_arrays(clip, session=session)
     record_clip(session, epoch_id, position, control, digest)
     if clip is not None:
-        remember_clip(session, settings, job, digest)
+        remember_clip(scope, job, digest)
     return digest
 
 
-def render_step(
-    session: Session, settings: Settings, clip: str, epoch_id: int, position: int, control: int
-) -> str:
+def render_step(scope: Scope, clip: str, epoch_id: int, position: int, control: int) -> str:
     """Give the clip that expansion ``position`` makes a simulation its strip (once);
     return ``clip``, the recorded new clip, as it came.
 
@@ -311,6 +296,7 @@ def render_step(
     identical earlier clip's when there is one (:mod:`app.core.graph.dedup`), else its frames
     rendered.
     """
+    session, settings, artifacts = scope.session, scope.settings, scope.artifacts
     if expansion_clip(session, epoch_id, position, control) is None:
         raise NotFound(f"epoch {epoch_id} has no clip {control} of expansion {position}")
     if control != 0:
@@ -319,7 +305,6 @@ def render_step(
     stored = stored_clip(session, entry.id, dead_end)
     if stored.animation is not None:
         return clip
-    artifacts = artifact_store(settings)
     context = graph_context(entry, settings)
     dynamics = context.dynamics
     frames = artifacts.get_arrays(stored.bundle, ("frames",))["frames"]

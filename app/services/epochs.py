@@ -22,8 +22,9 @@ from __future__ import annotations
 import logging
 import time
 from collections.abc import Callable
-from contextlib import nullcontext
+from contextlib import AbstractContextManager, nullcontext
 from dataclasses import dataclass
+from functools import partial
 
 import numpy as np
 from sqlalchemy.orm import Session
@@ -33,7 +34,7 @@ from app.core.graph.graph_entry import GraphEntry
 from app.core.graph.state_graph import EdgeKind, edge_index
 from app.core.growth.expansion import integrate_expansion
 from app.core.growth.kinds import Strategy
-from app.db.sessions import Scope
+from app.db.sessions import Transactions
 from app.services.animations import blend_strip
 from app.services.clips import (
     ClipJob,
@@ -45,8 +46,9 @@ from app.services.clips import (
     render_step,
     simulate_jobs,
 )
-from app.services.loading import LoadedGraph, keep_graph, loaded_graph
+from app.services.loading import LoadedGraph, artifact_store, keep_graph, loaded_graph
 from app.services.refining import rank_stored, refiner_for
+from app.services.scope import Scope, step_scope
 from app.store.animations import edges_without_animation, set_animations
 from app.store.epochs import (
     Epoch,
@@ -119,8 +121,7 @@ class Integration:
 
 # ---- 1. plan ----------------------------------------------------------------------------
 def plan_epoch(
-    session: Session,
-    settings: Settings,
+    scope: Scope,
     graph_id: int,
     *,
     count: int | None = None,
@@ -136,6 +137,7 @@ def plan_epoch(
     that hangs. Two concurrent calls are serialised by the graph's lock, and the unique
     (graph, number) of epochs is the backstop, so epochs of one graph never overlap.
     """
+    session, settings = scope.session, scope.settings
     entry = lock_graph(session, graph_id)
     running = running_epoch(session, graph_id)
     if running is not None:
@@ -211,9 +213,7 @@ def _integrated(session: Session, graph: GraphEntry, planned: tuple[int, int]) -
 
 
 # ---- 3. integrate -------------------------------------------------------------------------
-def integrate_step(
-    session: Session, settings: Settings, epoch_id: int, position: int
-) -> Integration:
+def integrate_step(scope: Scope, epoch_id: int, position: int) -> Integration:
     """Swap planned expansion ``position`` of the epoch into the graph, exactly once.
 
     Under the graph's lock, in one transaction: the expansion is identified by (graph,
@@ -223,6 +223,7 @@ def integrate_step(
     recorded - and raises :class:`ExpansionNotReady` if not. The last expansion of the
     plan also finishes the epoch.
     """
+    session, settings = scope.session, scope.settings
     epoch, entry = lock_epoch_graph(session, epoch_id)
     plan = epoch.plan
     edge, dead_end = plan[position]
@@ -295,8 +296,9 @@ def _finish_if_complete(session: Session, loaded: LoadedGraph, epoch: Epoch) -> 
 
 
 # ---- 4. blend animations ---------------------------------------------------------------------
-def blend_step(session: Session, settings: Settings, epoch_id: int) -> int:
+def blend_step(scope: Scope, epoch_id: int) -> int:
     """Render eq. 8's blend for the epoch's new BLEND edges still without an animation."""
+    session, settings = scope.session, scope.settings
     epoch = get_epoch(session, epoch_id)
     entry = graph_entry(session, epoch.graph_id)
     n = entry.n_controls
@@ -318,49 +320,57 @@ def blend_step(session: Session, settings: Settings, epoch_id: int) -> int:
 
 
 # ---- the whole epoch in-process ---------------------------------------------------------------
-def in_session(session: Session) -> Scope:
+def in_session(session: Session) -> Transactions:
     """A scope that runs every step in ``session``, in one transaction the caller owns."""
     return lambda: nullcontext(session)
 
 
 def run_epoch(
-    scope: Scope,
+    transactions: Transactions,
     settings: Settings,
     epoch_id: int,
     *,
     renders: bool,
     on_expansion: Callable[[Integration], None] | None = None,
 ) -> list[Integration]:
-    """What is left of a planned epoch, step by step in plan order, one ``scope`` a step.
+    """What is left of a planned epoch, step by step in plan order, one of
+    ``transactions`` a step, every step in one scope with the settings and one artifact
+    store.
 
-    With :func:`app.db.sessions.transaction` as the scope every step commits on its own, as on
-    the workers: an interruption keeps what was done, and running the epoch again (it
-    reads what is left from the database) finishes it with the same result.
+    With :func:`app.db.sessions.transaction` every step commits on its own, as on the
+    workers: an interruption keeps what was done, and running the epoch again (it reads
+    what is left from the database) finishes it with the same result.
     """
-    with scope() as session:
-        work = epoch_work(session, epoch_id)
-        controls = range(graph_entry(session, get_epoch(session, epoch_id).graph_id).n_controls)
+    artifacts = artifact_store(settings)
+    step = partial(step_scope, settings, artifacts, transactions)
+    with step() as scope:
+        work = epoch_work(scope.session, epoch_id)
+        epoch = get_epoch(scope.session, epoch_id)
+        controls = range(graph_entry(scope.session, epoch.graph_id).n_controls)
     missing = set(work.missing_clips)
     done = []
     for position in work.pending:
         todo = [control for control in controls if (position, control) in missing]
-        for control, clip in _simulate_in_process(scope, settings, epoch_id, position, todo):
+        for control, clip in _simulate_in_process(step, epoch_id, position, todo):
             if renders:
-                with scope() as session:
-                    render_step(session, settings, clip, epoch_id, position, control)
-        with scope() as session:
-            integration = integrate_step(session, settings, epoch_id, position)
+                with step() as scope:
+                    render_step(scope, clip, epoch_id, position, control)
+        with step() as scope:
+            integration = integrate_step(scope, epoch_id, position)
         done.append(integration)
         if on_expansion is not None:
             on_expansion(integration)
     if renders:
-        with scope() as session:
-            blend_step(session, settings, epoch_id)
+        with step() as scope:
+            blend_step(scope, epoch_id)
     return done
 
 
 def _simulate_in_process(
-    scope: Scope, settings: Settings, epoch_id: int, position: int, controls: list[int]
+    step: Callable[[], AbstractContextManager[Scope]],
+    epoch_id: int,
+    position: int,
+    controls: list[int],
 ) -> list[tuple[int, str]]:
     """The clips of ``controls`` of one expansion, (control, digest) in that order: read,
     then compute together outside any transaction (one batch, docs/sph.md "Clips in
@@ -368,21 +378,19 @@ def _simulate_in_process(
     records, so processes grow side by side)."""
     digests: dict[int, str] = {}
     jobs: dict[int, ClipJob] = {}
-    with scope() as session:
+    with step() as scope:
         for control in controls:
-            job = clip_job(session, settings, epoch_id, position, control)
+            job = clip_job(scope, epoch_id, position, control)
             if isinstance(job, str):
                 digests[control] = job
-            elif (remembered := remembered_clip(session, settings, job)) is not None:
-                record_clip(session, epoch_id, position, control, remembered)
+            elif (remembered := remembered_clip(scope, job)) is not None:
+                record_clip(scope.session, epoch_id, position, control, remembered)
                 digests[control] = remembered
             else:
                 jobs[control] = job
     stages = simulate_jobs(list(jobs.values()))
     for (control, job), stage in zip(jobs.items(), stages, strict=True):
         clip = finish_clip(job.dynamics, stage) or stage
-        with scope() as session:
-            digests[control] = record_finished(
-                session, settings, epoch_id, position, control, job, clip
-            )
+        with step() as scope:
+            digests[control] = record_finished(scope, epoch_id, position, control, job, clip)
     return [(control, digests[control]) for control in controls]

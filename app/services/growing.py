@@ -14,9 +14,10 @@ from app.core.errors import Conflict
 from app.core.graph.graph_entry import GraphEntry
 from app.core.growth.expansion import GrowthBudget
 from app.core.growth.kinds import Strategy, parse_strategy
-from app.db.sessions import Scope
+from app.db.sessions import Transactions
 from app.services.epochs import plan_epoch, run_epoch
 from app.services.progress import Advance
+from app.services.scope import Scope
 from app.store.epochs import get_epoch, running_epoch
 from app.store.graph_catalogue import graph_entry, size_frames
 from app.store.growth_claims import GrowingElsewhere as GrowingElsewhere
@@ -44,7 +45,7 @@ class GrowthBusy(Conflict):
 
 
 def grow_graph(
-    scope: Scope,
+    transactions: Transactions,
     settings: Settings,
     *,
     name: str | int,
@@ -61,7 +62,7 @@ def grow_graph(
     Without a budget: one batch (``settings.growth.batch_size`` expansions). Each epoch is
     planned (rank, pick the top BLEND edges, relink lazily), each clip simulated, the
     expansions integrated in plan order, and animations rendered when ``renders``
-    (default ``settings.render.growth_renders``). Every step runs in a ``scope()``:
+    (default ``settings.render.growth_renders``). Every step runs in one of ``transactions()``:
     :func:`app.db.sessions.transaction` makes each step durable (an interrupted grow keeps its
     finished steps, and the next grow first finishes the interrupted epoch);
     :func:`app.services.epochs.in_session` runs all in one caller-owned transaction.
@@ -74,12 +75,12 @@ def grow_graph(
     GrowthBudget.check(frames=frames, expansions=expansions, to_frames=to_frames)
     renders = settings.render.growth_renders if renders is None else renders
     batch = batch_size or settings.growth.batch_size
-    with scope() as session:
+    with transactions() as session:
         entry = graph_entry(session, name)
         engine = session.get_bind().engine
     with growth_claim(engine, entry.id, entry.name):
         return _grow_claimed(
-            scope,
+            transactions,
             settings,
             entry,
             parse_strategy(strategy or entry.strategy),
@@ -93,7 +94,7 @@ def grow_graph(
 
 
 def _grow_claimed(
-    scope: Scope,
+    transactions: Transactions,
     settings: Settings,
     entry: GraphEntry,
     chosen: Strategy,
@@ -112,7 +113,7 @@ def _grow_claimed(
     died, and is finished first.
     """
     graph_id, per_expansion = entry.id, entry.frames_per_expansion
-    with scope() as session:
+    with transactions() as session:
         size = size_frames(session, graph_id)
         interrupted = running_epoch(session, graph_id) if settings.eager else None
         interrupted_id = None if interrupted is None else interrupted.id
@@ -124,15 +125,14 @@ def _grow_claimed(
 
     if interrupted_id is not None:
         result.expansions += len(
-            run_epoch(scope, settings, interrupted_id, renders=renders, on_expansion=advance)
+            run_epoch(transactions, settings, interrupted_id, renders=renders, on_expansion=advance)
         )
-        size = _epoch_size(scope, interrupted_id)
+        size = _epoch_size(transactions, interrupted_id)
     budget = GrowthBudget.of(size, frames=frames, expansions=expansions, to_frames=to_frames)
     while (left := budget.left(size, result.expansions, per_expansion)) > 0:
-        with scope() as session:
+        with transactions() as session:
             plan = plan_epoch(
-                session,
-                settings,
+                Scope.of(session, settings),
                 graph_id,
                 count=min(left, batch),
                 strategy=chosen,
@@ -140,8 +140,10 @@ def _grow_claimed(
             )
         if plan is None:
             raise GrowthBusy(f"graph {result.graph!r} has an epoch running on the workers")
-        done = run_epoch(scope, settings, plan.epoch_id, renders=renders, on_expansion=advance)
-        size = _epoch_size(scope, plan.epoch_id)
+        done = run_epoch(
+            transactions, settings, plan.epoch_id, renders=renders, on_expansion=advance
+        )
+        size = _epoch_size(transactions, plan.epoch_id)
         result.epochs += 1
         result.expansions += len(done)
         result.relinks += plan.relinks
@@ -154,6 +156,6 @@ def _grow_claimed(
     return result
 
 
-def _epoch_size(scope: Scope, epoch_id: int) -> int:
-    with scope() as session:
+def _epoch_size(transactions: Transactions, epoch_id: int) -> int:
+    with transactions() as session:
         return get_epoch(session, epoch_id).size_frames

@@ -17,6 +17,7 @@ from app.core.graph.graph_entry import GraphEntry
 from app.services.loading import keep_graph, loaded_graph
 from app.services.publishing import publish_graph, relink_blends
 from app.services.refining import rank_stored, refiner_for
+from app.services.scope import Scope
 from app.store.epochs import running_epoch
 from app.store.graph_catalogue import graph_entry, growing_graph_ids, mark_growing, size_frames
 from app.store.locks import lock_graph, lock_graph_if_free
@@ -34,12 +35,13 @@ def _between_epochs(session: Session, graph_id: int) -> GraphEntry:
     return graph
 
 
-def rank_graph(session: Session, settings: Settings, graph_id: int) -> str | None:
+def rank_graph(scope: Scope, graph_id: int) -> str | None:
     """STATERANK of the graph as it is, warm-started like an epoch's; the pi artifact.
 
     None for strategies that do not rank. The stored pi is what planning an epoch
     computes too; this exists to look at the ranking without growing.
     """
+    session, settings = scope.session, scope.settings
     loaded = loaded_graph(session, settings, graph_entry(session, graph_id))
     ranked = rank_stored(session, loaded, refiner_for(session, settings, loaded))
     keep_graph(session, loaded)
@@ -48,16 +50,18 @@ def rank_graph(session: Session, settings: Settings, graph_id: int) -> str | Non
     return loaded.artifacts.put_arrays({"pi": ranked.rank.pi}, session=session)
 
 
-def relink_graph(session: Session, settings: Settings, graph_id: int) -> int:
+def relink_graph(scope: Scope, graph_id: int) -> int:
     """Pre-publish relinking of every BLEND edge, between epochs; how many moved."""
+    session, settings = scope.session, scope.settings
     loaded = loaded_graph(session, settings, _between_epochs(session, graph_id))
     moved = relink_blends(session, settings, loaded)
     keep_graph(session, loaded)
     return moved
 
 
-def publish_between_epochs(session: Session, settings: Settings, graph_id: int) -> int:
+def publish_between_epochs(scope: Scope, graph_id: int) -> int:
     """``publish_graph`` under the graph's lock, never in the middle of an epoch."""
+    session, settings = scope.session, scope.settings
     _between_epochs(session, graph_id)
     return publish_graph(session, settings, name=graph_id).publication_id
 
@@ -86,7 +90,7 @@ class BeatTick:
     publish: list[int]
 
 
-def beat_tick(session: Session, settings: Settings) -> BeatTick:
+def beat_tick(scope: Scope) -> BeatTick:
     """The growing graphs, split into those to grow and those due for publication.
 
     A due graph is published instead of grown, so its next epoch waits for the
@@ -94,6 +98,7 @@ def beat_tick(session: Session, settings: Settings) -> BeatTick:
     ``SRG_PUBLISH_EVERY`` frames (and an epoch) behind the graph, and a publication
     that keeps failing holds growth back rather than letting the two drift apart.
     """
+    session, settings = scope.session, scope.settings
     grow: list[int] = []
     publish: list[int] = []
     for graph_id in growing_graph_ids(session):
@@ -101,13 +106,14 @@ def beat_tick(session: Session, settings: Settings) -> BeatTick:
     return BeatTick(grow=grow, publish=publish)
 
 
-def publish_if_due(session: Session, settings: Settings, graph_id: int) -> int | None:
+def publish_if_due(scope: Scope, graph_id: int) -> int | None:
     """``publish_graph`` if the graph is still due under its lock; the publication's id.
 
     None when it is not (an epoch started, a tick before published it), or while another
     writer holds the graph: a tick sent during a long publication returns at once, and
     the next tick asks again.
     """
+    session, settings = scope.session, scope.settings
     if lock_graph_if_free(session, graph_id) is None:
         return None
     if not publication_due(session, settings, graph_id):

@@ -10,22 +10,25 @@ timeout (read by Celery from ``broker_transport_options``) is far above the hard
 limit, so a message is never handed to a second worker while the first still runs it.
 Every task is idempotent, so a redelivery is harmless; :class:`SrgTask` caps
 redeliveries so that a task that kills its worker every time does not loop forever, and
-holds what every task works in: the settings and one transaction.
+holds what every task works in: the settings, one artifact store and one scope a step
+(:mod:`app.services.scope`).
 """
 
 from __future__ import annotations
 
 import logging
+from collections.abc import Callable
 from contextlib import AbstractContextManager
+from functools import partial
 from typing import Any
 
 from celery import Celery, Task
 from celery.exceptions import Reject
-from sqlalchemy.orm import Session
 
 from app.config import Settings, get_settings
 from app.core.errors import Unavailable
-from app.db.sessions import transaction
+from app.services.loading import artifact_store
+from app.services.scope import Scope, step_scope
 
 log = logging.getLogger(__name__)
 DELIVERY_KEY = "srg:deliveries:"
@@ -92,18 +95,21 @@ class SrgTask(Task):
     """
 
     _settings: Settings
+    _steps: Callable[[], AbstractContextManager[Scope]]
 
     @property
     def settings(self) -> Settings:
         """The settings this call works in, read once as it starts (:meth:`__call__`)."""
         return self._settings
 
-    def unit_of_work(self) -> AbstractContextManager[Session]:
-        """One transaction on the settings' database, committed when the step ends well."""
-        return transaction(self.settings)
+    def scope(self) -> AbstractContextManager[Scope]:
+        """One step's scope: a transaction on the settings' database, committed when the
+        step ends well, with this call's settings and artifact store."""
+        return self._steps()
 
     def __call__(self, *args: Any, **kwargs: Any) -> Any:
         self._settings = get_settings()  # once a call: the environment of this delivery
+        self._steps = partial(step_scope, self._settings, artifact_store(self._settings))
         if not self.request.is_eager and self.request.id:
             self._count_delivery(f"{self.request.id}:{self.request.retries or 0}")
         return super().__call__(*args, **kwargs)

@@ -52,8 +52,8 @@ def simulate(self: SrgTask, epoch_id: int, position: int, control: int) -> str:
 
     Toy: the whole clip. Liquid: PCISPH only (particle positions and end state).
     """
-    with self.unit_of_work() as session:
-        return clips.simulate_step(session, self.settings, epoch_id, position, control)
+    with self.scope() as scope:
+        return clips.simulate_step(scope, epoch_id, position, control)
 
 
 @celery_app.task(name="srg.sdf", bind=True)
@@ -62,15 +62,15 @@ def sdf(self: SrgTask, stage: str, epoch_id: int, position: int, control: int) -
 
     Records the clip on ``expansion_clips``; returns the clip artifact's digest.
     """
-    with self.unit_of_work() as session:
-        return clips.sdf_step(session, self.settings, stage, epoch_id, position, control)
+    with self.scope() as scope:
+        return clips.sdf_step(scope, stage, epoch_id, position, control)
 
 
 @celery_app.task(name="srg.render", bind=True)
 def render(self: SrgTask, clip: str, epoch_id: int, position: int, control: int) -> str:
     """Render the clip's animation strip (stored, attached at integration)."""
-    with self.unit_of_work() as session:
-        return clips.render_step(session, self.settings, clip, epoch_id, position, control)
+    with self.scope() as scope:
+        return clips.render_step(scope, clip, epoch_id, position, control)
 
 
 @celery_app.task(name="srg.integrate", bind=True)
@@ -81,8 +81,8 @@ def integrate(
     settings = self.settings
     renders = settings.render.growth_renders if renders is None else renders
     try:
-        with self.unit_of_work() as session:
-            outcome = epochs.integrate_step(session, settings, epoch_id, position)
+        with self.scope() as scope:
+            outcome = epochs.integrate_step(scope, epoch_id, position)
     except epochs.ExpansionNotReady as exc:
         if exc.missing:
             missing = [(position, c) for c in exc.missing]
@@ -108,23 +108,23 @@ def integrate(
 @celery_app.task(name="srg.blend", bind=True)
 def blend(self: SrgTask, epoch_id: int) -> int:
     """Render eq. 8's blend of the epoch's new BLEND edges; how many were rendered."""
-    with self.unit_of_work() as session:
-        return epochs.blend_step(session, self.settings, epoch_id)
+    with self.scope() as scope:
+        return epochs.blend_step(scope, epoch_id)
 
 
 @celery_app.task(name="srg.rank", bind=True)
 def rank(self: SrgTask, graph_id: int) -> str | None:
     """STATERANK of the graph now (warm-started), stored: the ``pi`` artifact's digest."""
-    with self.unit_of_work() as session:
-        return rank_relink_publish.rank_graph(session, self.settings, graph_id)
+    with self.scope() as scope:
+        return rank_relink_publish.rank_graph(scope, graph_id)
 
 
 @celery_app.task(name="srg.relink", bind=True)
 def relink(self: SrgTask, graph_id: int) -> int:
     """Relink every BLEND edge to its best target now (between epochs); how many moved."""
     try:
-        with self.unit_of_work() as session:
-            return rank_relink_publish.relink_graph(session, self.settings, graph_id)
+        with self.scope() as scope:
+            return rank_relink_publish.relink_graph(scope, graph_id)
     except rank_relink_publish.EpochRunning as exc:
         raise self.retry(exc=exc, countdown=self.settings.runtime.beat_interval) from exc
 
@@ -133,8 +133,8 @@ def relink(self: SrgTask, graph_id: int) -> int:
 def publish(self: SrgTask, graph_id: int) -> int:
     """Pre-publish relinking, missing animations, a frozen publication; its id."""
     try:
-        with self.unit_of_work() as session:
-            return rank_relink_publish.publish_between_epochs(session, self.settings, graph_id)
+        with self.scope() as scope:
+            return rank_relink_publish.publish_between_epochs(scope, graph_id)
     except rank_relink_publish.EpochRunning as exc:
         raise self.retry(exc=exc, countdown=self.settings.runtime.beat_interval) from exc
 
@@ -158,15 +158,15 @@ def grow_epoch(
         epoch_id = _plan_and_send(self, graph_id, count, renders)
     except Exception as exc:
         if request is not None:
-            with self.unit_of_work() as session:
-                end_request(session, request, failure=failure_reason(exc))
+            with self.scope() as scope:
+                end_request(scope.session, request, failure=failure_reason(exc))
         raise
     if request is not None:
-        with self.unit_of_work() as session:
+        with self.scope() as scope:
             if epoch_id is None:
-                end_request(session, request, failure="an epoch of the graph was running")
+                end_request(scope.session, request, failure="an epoch of the graph was running")
             else:
-                start_request(session, request, epoch_id)
+                start_request(scope.session, request, epoch_id)
     return epoch_id
 
 
@@ -175,8 +175,8 @@ def _plan_and_send(
 ) -> int | None:
     renders = task.settings.render.growth_renders if renders is None else renders
     try:
-        with task.unit_of_work() as session:
-            plan = epochs.plan_epoch(session, task.settings, graph_id, count=count, renders=renders)
+        with task.scope() as scope:
+            plan = epochs.plan_epoch(scope, graph_id, count=count, renders=renders)
     except epochs.EpochTaken:  # another tick opened the same epoch number first
         return None
     if plan is None:
@@ -191,8 +191,8 @@ def _plan_and_send(
         plan.relinks,
     )
     if plan.expansions:
-        with task.unit_of_work() as session:
-            work = epochs.epoch_work(session, plan.epoch_id)
+        with task.scope() as scope:
+            work = epochs.epoch_work(scope.session, plan.epoch_id)
         epoch_canvas(work).apply_async()
     return plan.epoch_id
 
@@ -201,16 +201,16 @@ def _plan_and_send(
 def publish_if_due(self: SrgTask, graph_id: int) -> int | None:
     """Beat's publication of a growing graph due one; its id, or None (not due after all,
     or another writer holds the graph: the next tick asks again)."""
-    with self.unit_of_work() as session:
-        return rank_relink_publish.publish_if_due(session, self.settings, graph_id)
+    with self.scope() as scope:
+        return rank_relink_publish.publish_if_due(scope, graph_id)
 
 
 @celery_app.task(name="srg.schedule_growth", bind=True)
 def schedule_growth(self: SrgTask) -> dict[str, list[int]]:
     """Beat's tick: for each graph with ``growing = true`` its publication when one is due
     (``SRG_PUBLISH_EVERY``), else a ``grow_epoch``; the ids of each."""
-    with self.unit_of_work() as session:
-        tick = rank_relink_publish.beat_tick(session, self.settings)
+    with self.scope() as scope:
+        tick = rank_relink_publish.beat_tick(scope)
     for graph_id in tick.publish:
         publish_if_due.delay(graph_id)
     for graph_id in tick.grow:

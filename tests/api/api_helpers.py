@@ -12,7 +12,7 @@ from sqlalchemy import func, select
 from sqlalchemy.orm import Session
 
 from app.api.app import create_app
-from app.api.deps import get_session, growth_scope
+from app.api.deps import get_session, growth_transactions
 from app.config import Settings
 from app.core.graph.publication import Publication
 from app.models import Player, Trace, TraceStep
@@ -64,7 +64,7 @@ def make_client(
 
     app.dependency_overrides[get_session] = joined_session
     # background growth in the test's session too (the test client runs it before answering)
-    app.dependency_overrides[growth_scope] = lambda: in_session(session)
+    app.dependency_overrides[growth_transactions] = lambda: in_session(session)
     return TestClient(app, client=(peer, 50000))
 
 

@@ -28,6 +28,7 @@ from app.db.sessions import database_sessions, session_factory, transaction
 from app.models import Clip, Graph, GrowthEpoch, GrowthRequest, Publication, PublicationEdge
 from app.services import clips, epochs, growing, rank_relink_publish, refining
 from app.services.loading import open_graph
+from app.services.scope import Scope
 from app.store.animations import clip_animations, edges_without_animation
 from app.store.artifacts import ArtifactStore
 from app.store.epochs import start_epoch
@@ -114,39 +115,39 @@ def test_integrating_twice_changes_nothing(settings: Settings) -> None:
 def test_integration_waits_for_clips_and_for_plan_order(settings: Settings) -> None:
     graph_id = seed_graph(settings)
     with database_sessions(get_settings())() as session:
-        plan = epochs.plan_epoch(session, settings, graph_id)
+        plan = epochs.plan_epoch(Scope.of(session, settings), graph_id)
         session.commit()
     assert plan is not None and len(plan.expansions) == 4
     with (
         database_sessions(get_settings())() as session,
         pytest.raises(epochs.ExpansionNotReady) as missing,
     ):
-        epochs.integrate_step(session, settings, plan.epoch_id, 0)
+        epochs.integrate_step(Scope.of(session, settings), plan.epoch_id, 0)
     assert missing.value.missing == [0, 1, 2]
     with database_sessions(get_settings())() as session:
         for control in range(3):
-            stage = clips.simulate_step(session, settings, plan.epoch_id, 1, control)
-            clips.sdf_step(session, settings, stage, plan.epoch_id, 1, control)
+            stage = clips.simulate_step(Scope.of(session, settings), plan.epoch_id, 1, control)
+            clips.sdf_step(Scope.of(session, settings), stage, plan.epoch_id, 1, control)
         session.commit()
     with (
         database_sessions(get_settings())() as session,
         pytest.raises(epochs.ExpansionNotReady) as early,
     ):
-        epochs.integrate_step(session, settings, plan.epoch_id, 1)
+        epochs.integrate_step(Scope.of(session, settings), plan.epoch_id, 1)
     assert early.value.waiting_for == 0
 
 
 def test_a_running_epoch_blocks_a_second_until_it_stalls(settings: Settings) -> None:
     graph_id = seed_graph(settings)
     with database_sessions(get_settings())() as session:
-        first = epochs.plan_epoch(session, settings, graph_id)
+        first = epochs.plan_epoch(Scope.of(session, settings), graph_id)
         session.commit()
     assert first is not None
     with database_sessions(get_settings())() as session:
-        assert epochs.plan_epoch(session, settings, graph_id) is None
+        assert epochs.plan_epoch(Scope.of(session, settings), graph_id) is None
     stalled = settings.replace(epoch_resend_after=1e-6)
     with database_sessions(get_settings())() as session:
-        again = epochs.plan_epoch(session, stalled, graph_id)
+        again = epochs.plan_epoch(Scope.of(session, stalled), graph_id)
         session.commit()
         assert again is not None and again.resent and again.epoch_id == first.epoch_id
         work = epochs.epoch_work(session, first.epoch_id)
@@ -351,8 +352,8 @@ def test_a_publication_due_skips_a_graph_another_writer_holds(
     with factory() as holder, factory() as session:
         lock_graph(holder, graph_id)
         started = time.monotonic()
-        assert rank_relink_publish.publish_if_due(session, settings, graph_id) is None
+        assert rank_relink_publish.publish_if_due(Scope.of(session, settings), graph_id) is None
         assert time.monotonic() - started < 5
         session.rollback()
         holder.rollback()
-        assert rank_relink_publish.publish_if_due(session, settings, graph_id) is not None
+        assert rank_relink_publish.publish_if_due(Scope.of(session, settings), graph_id) is not None

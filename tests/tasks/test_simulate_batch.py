@@ -20,6 +20,7 @@ from app.models import Graph
 from app.services import clips, epochs
 from app.services.creation import init_graph
 from app.services.loading import graph_dynamics
+from app.services.scope import Scope
 from app.store.epochs import expansion_clip, stored_clips
 from app.store.graph_catalogue import graph_entry
 
@@ -33,7 +34,7 @@ def _planned_epoch(settings: Settings, name: str) -> int:
         init_graph(session, settings, name=name, dynamics="liquid", preset="tiny")
     with transaction(settings) as session:
         graph_id = session.scalars(select(Graph.id).where(Graph.name == name)).one()
-        plan = epochs.plan_epoch(session, settings, graph_id, count=EXPANSIONS)
+        plan = epochs.plan_epoch(Scope.of(session, settings), graph_id, count=EXPANSIONS)
     assert plan is not None and len(plan.expansions) == EXPANSIONS
     return plan.epoch_id
 
@@ -44,9 +45,11 @@ def _steps(settings: Settings, epoch_id: int) -> dict[tuple[int, int], str]:
     for position in range(EXPANSIONS):
         for control in range(3):
             with transaction(settings) as session:
-                stage = clips.simulate_step(session, settings, epoch_id, position, control)
+                stage = clips.simulate_step(
+                    Scope.of(session, settings), epoch_id, position, control
+                )
                 digests[position, control] = clips.sdf_step(
-                    session, settings, stage, epoch_id, position, control
+                    Scope.of(session, settings), stage, epoch_id, position, control
                 )
     return digests
 
@@ -58,7 +61,7 @@ def test_a_step_simulates_the_epochs_next_clips_with_its_own_to_the_same_bytes(
     alone = get_settings()
     alone_epoch = _planned_epoch(alone, "alone")
     with transaction(alone) as session:
-        clips.simulate_step(session, alone, alone_epoch, 0, 0)
+        clips.simulate_step(Scope.of(session, alone), alone_epoch, 0, 0)
         assert stored_clips(session, alone_epoch) == set()  # the default: each clip alone
 
     monkeypatch.setenv("SRG_SIMULATE_BATCH", "5")
@@ -71,15 +74,15 @@ def test_a_step_simulates_the_epochs_next_clips_with_its_own_to_the_same_bytes(
         caplog.at_level(logging.INFO, logger="app.services.clips"),
         transaction(together) as session,
     ):
-        stage = clips.simulate_step(session, together, together_epoch, 0, 1)
+        stage = clips.simulate_step(Scope.of(session, together), together_epoch, 0, 1)
     assert "clip 0/1 simulated together with 4 more of the epoch" in caplog.text
     with transaction(together) as session:
         # its expansion's other clips first, then the next expansion's, in control order
         assert stored_clips(session, together_epoch) == {(0, 0), (0, 2), (1, 0), (1, 1)}
         # a companion's own step finds it done; the step's own clip is a stage to finish
         companion = expansion_clip(session, together_epoch, 0, 0)
-        assert clips.simulate_step(session, together, together_epoch, 0, 0) == companion
-        clips.sdf_step(session, together, stage, together_epoch, 0, 1)
+        assert clips.simulate_step(Scope.of(session, together), together_epoch, 0, 0) == companion
+        clips.sdf_step(Scope.of(session, together), stage, together_epoch, 0, 1)
         assert stored_clips(session, together_epoch) == {(0, 0), (0, 1), (0, 2), (1, 0), (1, 1)}
 
     assert _steps(together, together_epoch) == _steps(alone, alone_epoch)

@@ -21,6 +21,7 @@ from app.services import clips, epochs, growing
 from app.services.clips import ClipJob, simulation_key
 from app.services.creation import init_graph
 from app.services.loading import graph_dynamics
+from app.services.scope import Scope
 from app.store.graph_catalogue import graph_entry
 from app.store.simulated_clips import reuse_counts
 
@@ -103,12 +104,12 @@ def test_the_workers_steps_reuse_a_remembered_clip_and_record_it(settings: Setti
     before = _substeps(settings, "again")
     with transaction(get_settings()) as session:
         graph_id = session.scalars(select(Graph.id).where(Graph.name == "again")).one()
-        plan = epochs.plan_epoch(session, settings, graph_id)
+        plan = epochs.plan_epoch(Scope.of(session, settings), graph_id)
     assert plan is not None
     with transaction(get_settings()) as session:
-        stage = clips.simulate_step(session, settings, plan.epoch_id, 0, 1)
+        stage = clips.simulate_step(Scope.of(session, settings), plan.epoch_id, 0, 1)
         assert stage in _remembered_in(session)
-        assert clips.sdf_step(session, settings, stage, plan.epoch_id, 0, 1) == stage
+        assert clips.sdf_step(Scope.of(session, settings), stage, plan.epoch_id, 0, 1) == stage
     assert _substeps(settings, "again") == before
 
 

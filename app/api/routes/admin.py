@@ -15,7 +15,7 @@ from fastapi import APIRouter, BackgroundTasks, Depends, Query, Request
 from fastapi.encoders import jsonable_encoder
 from sqlalchemy.orm import Session
 
-from app.api.deps import get_session, growth_scope, require_admin
+from app.api.deps import get_session, growth_transactions, require_admin
 from app.api.errors import ApiError, error_responses
 from app.api.growth_jobs import GrowthJobs, grow_in_background, send_to_workers
 from app.api.schemas import (
@@ -29,7 +29,7 @@ from app.api.schemas import (
 )
 from app.config import Settings
 from app.core.errors import Unavailable
-from app.db.sessions import Scope
+from app.db.sessions import Transactions
 from app.services.catalogue import find_graph
 from app.services.growth_tracking import (
     RequestState,
@@ -90,7 +90,7 @@ def grow(
     background: BackgroundTasks,
     body: GrowRequest | None = None,
     session: Session = Depends(get_session),
-    scope: Scope = Depends(growth_scope),
+    transactions: Transactions = Depends(growth_transactions),
 ) -> GrowQueued:
     """Queue growth by ``expansions`` and answer 202 at once, naming the epochs to poll.
 
@@ -130,7 +130,7 @@ def grow(
         raise
     if settings.eager:
         background.add_task(
-            grow_in_background, jobs, scope, settings, graph_id, expansions, request_id
+            grow_in_background, jobs, transactions, settings, graph_id, expansions, request_id
         )
     else:
         try:
