@@ -4,9 +4,9 @@
 # to 20k (`srg experiment --resume --only-seeds`, the stored plan's options), the
 # tilt-holder plays its versions from 5k over HTTP, and the pair's play file
 # (`srg results export --only-seeds`, the tilt-holder's lines kept in it) is written and
-# committed. A machine that is lost loses at most the pair it was growing; the next one
-# starts (`bash studies/outside-the-loop/run.sh`, through the 1k checkpoint is enough)
-# and runs this again.
+# committed. A machine that is lost loses at most the pair it was growing; on the next
+# one this starts the experiment again (the plan's command, `run.sh`, its first pair only)
+# and goes on with the pairs not yet committed.
 #   bash studies/outside-the-loop/run-worlds.sh [PAIR ...]     (default: every pair)
 set -euo pipefail
 repo=$(git -C "$(dirname "$0")" rev-parse --show-toplevel)
@@ -22,6 +22,14 @@ cd "$code"
 mkdir -p "$plays"
 pairs=("$@")
 [ ${#pairs[@]} -gt 0 ] || pairs=(20,21 22,23 24,25 26,27 28,29)
+stored='from app.config import get_settings as s; from app.services.experiment.plan import stored_plan
+stored_plan(s(), "outside-the-loop")'
+if ! python -c "$stored" 2> /dev/null; then
+  first=$(for pair in "${pairs[@]}"; do
+    [ -f "$plays/worlds-${pair/,/-}.npz" ] || { echo "$pair"; break; }; done)
+  [ -n "$first" ] || exit 0
+  SRG_STUDY_CODE=$code bash "$repo/studies/outside-the-loop/run.sh" --only-seeds "$first"
+fi
 for pair in "${pairs[@]}"; do
   file=$plays/worlds-${pair/,/-}.npz
   [ -f "$file" ] && continue
