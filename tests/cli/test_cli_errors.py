@@ -467,12 +467,13 @@ def test_only_srg_errors_and_the_mapped_library_errors_are_the_users() -> None:
 
 
 def test_a_bug_keeps_its_traceback(tmp_path: Path, monkeypatch: pytest.MonkeyPatch) -> None:
-    import app.cli.graph
+    import app.db.sessions
 
     def broken(settings: object) -> None:
         raise ValueError("a bug, not the user's")
 
-    monkeypatch.setattr(app.cli.graph, "transaction", broken)
+    # the command imports it as it runs (the CLI is declared without the database)
+    monkeypatch.setattr(app.db.sessions, "transaction", broken)
     with pytest.raises(ValueError, match="a bug"):
         srg(tmp_path, "status")
 
