@@ -23,7 +23,13 @@ from app.reports.provenance import with_provenance
 from app.services.experiment.ablation import eq2_ingredients
 from app.services.experiment.plan import ExperimentPlan, create_experiment, stored_plan
 from app.services.experiment.preregistration import check_preregistration
-from app.services.experiment.runs import Grower, grow_in_process, run_experiment, runs_of_seeds
+from app.services.experiment.runs import (
+    Grower,
+    grow_in_process,
+    plan_of_runs,
+    run_experiment,
+    runs_of_seeds,
+)
 from app.services.loading import artifact_store
 from app.services.progress import Advance
 
@@ -83,10 +89,11 @@ def conduct_experiment(
         )
     result = with_provenance(result, settings)
     crowd = Strategy.SR_CROWD in plan.strategies and result["complete"]
+    shown = plan_of_runs(plan, None if only_seeds is None else runs)
     report = write_report(
         result,
         report_dir,
         artifact_store(settings).get_arrays,
-        ingredients=eq2_ingredients(settings, name, plan) if crowd else None,
+        ingredients=eq2_ingredients(settings, name, shown) if crowd else None,
     )
     return Conducted(plan, result, report)

@@ -81,7 +81,10 @@ def collect(
         plan = replace(plan, checkpoints=plan.checkpoints[: through + 1])
     with transaction(settings) as session:
         rows = checkpoint_rows(session, stored_experiment_id(session, name))
-    rows = [row for row in rows if row.checkpoint < len(plan.checkpoints)]
+    # a part grown alone (--only-seeds) reports its own seeds
+    rows = [
+        row for row in rows if row.checkpoint < len(plan.checkpoints) and row.seed in plan.seeds
+    ]
     crowds: dict[str, dict[str, dict[str, list[dict[str, Any]]]]] = {
         bot: {s.value: {str(seed): [] for seed in plan.seeds} for s in plan.strategies}
         for bot in plan.players

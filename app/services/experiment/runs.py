@@ -19,6 +19,7 @@ import sys
 import threading
 import time
 from collections.abc import Callable, Sequence
+from dataclasses import replace
 from functools import partial
 from multiprocessing import get_context
 from multiprocessing.connection import Connection
@@ -100,7 +101,8 @@ def run_experiment(
             reported = _run_in_processes(
                 settings, name, plan, grower, jobs, progress, last, reported, chosen
             )
-    return collect(settings, name, plan, seconds=time.perf_counter() - started, through=through)
+    seconds = time.perf_counter() - started
+    return collect(settings, name, plan_of_runs(plan, runs), seconds=seconds, through=through)
 
 
 def runs_of_seeds(plan: ExperimentPlan, seeds: tuple[int, ...] | None) -> list[int]:
@@ -111,6 +113,15 @@ def runs_of_seeds(plan: ExperimentPlan, seeds: tuple[int, ...] | None) -> list[i
         known = ", ".join(str(s) for s in plan.seeds)
         raise InvalidInput(f"--only-seeds must name seeds of the plan ({known})")
     return [i for i, run in enumerate(plan.runs) if set(run.seeds) & set(seeds)]
+
+
+def plan_of_runs(plan: ExperimentPlan, runs: Sequence[int] | None) -> ExperimentPlan:
+    """``plan`` as far as ``runs`` go (all: ``plan``): the seeds they play, what the result
+    and the report of a part grown alone (``--only-seeds``) cover."""
+    if runs is None:
+        return plan
+    played = {seed for run in runs for seed in plan.runs[run].seeds}
+    return replace(plan, seeds=tuple(seed for seed in plan.seeds if seed in played))
 
 
 def _run_in_processes(
