@@ -22,6 +22,7 @@ from app.core.growth.kinds import Strategy
 from app.core.players.kinds import BotKind
 from app.db.sessions import transaction
 from app.models import Trace
+from app.services.experiment.conduct import conduct_experiment
 from app.services.experiment.plan import ExperimentPlan, create_experiment
 from app.services.experiment.play_files import read_plays, write_play
 from app.services.experiment.preregistration import check_preregistration, preregistration_of
@@ -204,6 +205,21 @@ def test_play_files_of_the_parts_judge_as_the_whole(mixed_runs: dict[str, Any]) 
     merged = scoreboard(read_plays(mixed_runs["parts"])).to_dict()
     assert merged.pop("name") == "split" and whole.pop("name") == "judged"
     assert json.dumps(merged, sort_keys=True) == json.dumps(whole, sort_keys=True)
+
+
+def test_a_part_grown_alone_reports_its_own_worlds(
+    mixed_runs: dict[str, Any], tmp_path: Path
+) -> None:
+    """``srg experiment --only-seeds``'s service: the other world's runs are not grown,
+    and the result and the report cover the world that was (every checkpoint of it)."""
+    settings = mixed_runs["settings"]
+    plan = ExperimentPlan(**{**MIXED, "seeds": (20, 21), "checkpoints": (300,), "mean_steps": 10})
+    done = conduct_experiment(settings, "part", plan, report_dir=tmp_path, only_seeds=(21,))
+    assert done.result["plan"]["seeds"] == [21] and done.result["complete"]
+    assert done.report.is_file()
+    with transaction(settings) as session:
+        rows = checkpoint_rows(session, _experiment_id(session, "part"))
+    assert {row.seed for row in rows} == {21}
 
 
 def test_play_files_that_overlap_or_differ_are_refused(
