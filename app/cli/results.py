@@ -87,6 +87,7 @@ def export(
     only_seeds: str | None = typer.Option(
         None, help="only the rows of these comma-separated seeds (the worlds grown here)"
     ),
+    json_output: bool = typer.Option(False, "--json", help=JSON_HELP),
 ) -> None:
     """Write what the scoreboard reads of a stored experiment (every checkpoint row's
     per-step errors, an outside judge's figures) to one small file, to judge later with
@@ -98,7 +99,8 @@ def export(
     if only_seeds is not None:
         play = of_seeds(play, seed_list(only_seeds, "--only-seeds"))
     write_play(play, path)
-    typer.echo(f"{path}: {len(play.rows)} checkpoint rows, {len(play.outside)} outside figures")
+    written = {"path": str(path), "checkpoint_rows": len(play.rows), "outside": len(play.outside)}
+    emit(written, as_json=json_output, title=f"{name}: play written")
 
 
 def _play(name: str, outside: Path | None, plays: list[Path] | None) -> StoredPlay:
