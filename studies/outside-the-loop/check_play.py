@@ -25,9 +25,9 @@ COMMITTED = ("5k", "7k", "10k")
 
 
 def _same(a: float | None, b: float | None) -> bool:
-    if a is None or b is None:
-        return a is b
-    return a == b or (math.isnan(a) and math.isnan(b))
+    """Equal figures; no figure is written NaN in the older files and null since."""
+    missing = [x is None or math.isnan(x) for x in (a, b)]
+    return all(missing) or (not any(missing) and a == b)
 
 
 def _bars(board: dict[str, Any]) -> dict[tuple[str, str, int], dict[str, Any]]:

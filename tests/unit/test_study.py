@@ -276,6 +276,7 @@ def test_frames_to_clean_against_a_hand_example() -> None:
     found = frames_to_clean(shares, frames, 0.01)
     assert found.tolist() == [2_000, 5_000, np.inf, 1_000]
     assert frames_to_clean(shares, frames, 0.001).tolist() == [3_000, np.inf, np.inf, 1_000]
+    assert frames_to_clean(shares[:, :0], (), 0.01).tolist() == [np.inf] * 4  # none reached
 
 
 def test_clean_game_bar_needs_the_median_and_more_worlds_won() -> None:

@@ -35,7 +35,17 @@ class Bar:
     primary: bool = False
 
     def to_dict(self) -> dict[str, object]:
-        return asdict(self)
+        """The bar as JSON takes it: a figure no world gave (a checkpoint not every run
+        reached) is null, not NaN, which strict JSON readers refuse."""
+        figures = asdict(self)
+        for key in ("mean", "low", "high"):
+            figures[key] = _number(figures[key])
+        figures["per_world"] = [_number(value) for value in self.per_world]
+        return figures
+
+
+def _number(value: float | None) -> float | None:
+    return None if value is None or np.isnan(value) else float(value)
 
 
 def ratio_bar(
@@ -105,6 +115,8 @@ def frames_to_clean(shares: np.ndarray, frames: Sequence[int], bar: float) -> np
     its players would meet the artifacts again as it grew.
     """
     below = np.asarray(shares) < bar
+    if below.shape[1] == 0:  # no checkpoint judged yet: clean nowhere so far
+        return np.full(below.shape[0], np.inf)
     stays = np.flip(np.logical_and.accumulate(np.flip(below, axis=1), axis=1), axis=1)
     first = np.where(stays.any(axis=1), stays.argmax(axis=1), -1)
     return np.where(first >= 0, np.asarray(frames, dtype=np.float64)[first], np.inf)
