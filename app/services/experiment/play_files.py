@@ -23,6 +23,7 @@ import numpy as np
 
 from app.core.errors import InvalidInput
 from app.services.experiment.plan import ExperimentPlan
+from app.services.experiment.runs import runs_of_seeds
 from app.services.experiment.scoreboard import Figures, StoredPlay
 
 #: the layout written by :func:`write_play`, checked on reading
@@ -48,9 +49,7 @@ def write_play(play: StoredPlay, path: Path) -> None:
 
 def of_seeds(play: StoredPlay, seeds: tuple[int, ...]) -> StoredPlay:
     """``play`` with only the rows (and outside figures) of ``seeds``, each of the plan's."""
-    if not seeds or set(seeds) - set(play.plan.seeds):
-        known = ", ".join(str(s) for s in play.plan.seeds)
-        raise InvalidInput(f"--only-seeds must name seeds of the plan ({known})")
+    runs_of_seeds(play.plan, seeds)  # refuses seeds that are not the plan's
     rows = {key: steps for key, steps in play.rows.items() if key[2] in seeds}
     outside = {key: figures for key, figures in play.outside.items() if key[2] in seeds}
     return replace(play, rows=rows, outside=outside)
