@@ -18,7 +18,7 @@ RUN apt-get update \
 # the tests passed with; infra/lock.sh refreshes them): the distribution carries the
 # package data and the migrations, so nothing runs from the source tree, which is removed
 COPY . /tmp/srg-src
-RUN pip install --no-cache-dir -c /tmp/srg-src/requirements/constraints.txt pip setuptools \
+RUN pip install --no-cache-dir -c /tmp/srg-src/requirements/constraints.txt pip hatchling \
     && pip install --no-cache-dir -c /tmp/srg-src/requirements/constraints.txt "/tmp/srg-src[all]" \
     && rm -rf /tmp/srg-src
 

@@ -1,6 +1,6 @@
 #!/usr/bin/env bash
 # Refreshes requirements/constraints.txt: the version of every package that srg and its
-# extras need (pyproject.toml, every extra), with pip and setuptools
+# extras need (pyproject.toml, every extra), with pip and hatchling
 # (requirements/installers.in), resolved by uv for CPython 3.11 on Linux x86_64.
 # infra/venv.sh (so the README's commands and CI) and the Dockerfile install with it.
 #

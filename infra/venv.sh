@@ -1,8 +1,8 @@
 # Sourced by the set-up scripts: makes ./.venv with Python >= 3.11, installs the project
 # (editable, with the extras named in $SRG_EXTRAS: `all` for every command, `all,test` for
-# the tests) and puts .venv/bin first on PATH. Every package, pip and setuptools included,
+# the tests) and puts .venv/bin first on PATH. Every package, pip and hatchling included,
 # at its version in requirements/constraints.txt (refreshed by infra/lock.sh), so every
-# machine installs what the tests passed with; setuptools matters too:
+# machine installs what the tests passed with; hatchling, srg's build backend, matters too:
 # tests/integration/test_installed_wheel.py builds srg's wheel with it, offline.
 python_bin=${PYTHON:-python3.11}
 if ! command -v "$python_bin" >/dev/null; then python_bin=python3; fi
@@ -14,6 +14,6 @@ if [ ! -x .venv/bin/python ]; then
   fi
 fi
 constraints=requirements/constraints.txt
-.venv/bin/python -m pip install -q -c "$constraints" pip setuptools >/dev/null
+.venv/bin/python -m pip install -q -c "$constraints" pip hatchling >/dev/null
 .venv/bin/python -m pip install -q -c "$constraints" -e ".${SRG_EXTRAS:+[$SRG_EXTRAS]}"
 export PATH="$PWD/.venv/bin:$PATH"

@@ -23,7 +23,7 @@ def migrations_dir() -> Path:
 
     The repository keeps them at its top, where the ``alembic`` command of a checkout finds
     them through ``alembic.ini``; a wheel carries the same files as ``app/migrations``
-    (``package-dir`` in pyproject.toml), which an editable install does not make.
+    (the wheel's ``sources`` in pyproject.toml), which an editable install does not make.
     """
     installed = Path(__file__).resolve().parents[1] / "migrations"
     return installed if installed.is_dir() else ROOT / "alembic"

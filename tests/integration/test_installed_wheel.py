@@ -2,7 +2,7 @@
 distribution, and ``srg db upgrade`` and the toy demo run from the installed package; in
 a checkout, srg and the ``alembic`` command (``alembic.ini``) run the same migrations.
 
-Nothing is downloaded: the wheel is built by this virtual environment's own setuptools (no
+Nothing is downloaded: the wheel is built by this virtual environment's own hatchling (no
 build isolation; pip checks it against pyproject's build requirement) from a copy of the
 sources, and installed without its dependencies into a fresh virtual environment, which
 then sees this one's site-packages through a ``.pth`` line placed after its own. The
@@ -130,6 +130,30 @@ def test_the_installed_wheel_migrates_and_runs_the_toy_demo_outside_the_checkout
     demo = ["demo", "--dynamics", "toy", "--checkpoints", "60,120", "--sessions", "2"]
     assert "report: " in run("srg", *demo).stdout
     assert (elsewhere / "var" / "demo" / "report.md").is_file()
+
+
+@pytest.mark.slow
+def test_the_editable_install_of_the_set_up_is_built_without_a_warning(
+    sources: Path, tmp_path: Path
+) -> None:
+    """infra/venv.sh installs srg editable; its backend, called as pip calls it (PEP 660),
+    says nothing, and the editable wheel only points Python at the checkout."""
+    backend = tomllib.loads((sources / "pyproject.toml").read_text())["build-system"]
+    call = (
+        f"import sys, {backend['build-backend']} as backend; "
+        "print(backend.build_editable(sys.argv[1]))"
+    )
+    done = subprocess.run(
+        [sys.executable, "-W", "always", "-c", call, str(tmp_path)],
+        cwd=sources,
+        capture_output=True,
+        text=True,
+    )
+    assert done.returncode == 0, done.stdout + done.stderr
+    assert "warning" not in (done.stdout + done.stderr).lower(), done.stdout + done.stderr
+    with zipfile.ZipFile(tmp_path / done.stdout.strip()) as archive:
+        (pth,) = [n for n in archive.namelist() if n.endswith(".pth")]
+        assert archive.read(pth).decode().split() == [str(sources)]
 
 
 def test_in_a_checkout_srg_and_alembic_ini_name_the_same_migrations() -> None:

@@ -47,7 +47,7 @@ def test_every_requirement_is_pinned_within_its_range(requirement: Requirement) 
     )
 
 
-def test_the_installers_are_pinned_and_setuptools_builds_srg() -> None:
+def test_the_installers_are_pinned_and_the_build_backend_too() -> None:
     pinned = pins()
     assert "pip" in pinned
     (backend,) = map(Requirement, PYPROJECT["build-system"]["requires"])
