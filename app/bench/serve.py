@@ -8,13 +8,18 @@ at once (asyncio + httpx, a connection each, as N browsers), each of whom regist
 fetches the publication, fetches the animation of every edge its session plays (once
 each, as the browser's cache does) and uploads its trace. The traces are played by bots
 before the round starts, so the driver spends its time on HTTP, not on choosing moves.
+With ``uploads_only`` the players register before the round and the round is their
+uploads alone, all at once: what one graph takes of traces, its players' other requests
+aside.
 
 Per round: sessions per second (sessions whose every request succeeded, over the round's
 wall time), latency percentiles of every request and of each kind, the sessions' own
-durations, the errors (a status that is not 2xx, or no answer), and the traces stored,
-counted in the database afterwards. A request whose kept-alive connection the server
-closed as it went out is sent once more, as a browser sends an idempotent request again,
-and counted under ``retried`` rather than as an error.
+durations, the errors (a status that is not 2xx, or no answer), the traces stored,
+counted in the database afterwards, and whether the play sums, counted after the round
+as a reader counts them, equal the stored steps (none lost, none doubled). A request
+whose kept-alive connection the server closed as it went out is sent once more, as a
+browser sends an idempotent request again, and counted under ``retried`` rather than as
+an error.
 
 The driver runs on the same machine as the server and takes CPU from it: the figures are
 what one machine holds with its players' clients beside it, a lower bound of what the
@@ -41,6 +46,7 @@ from typing import Any
 
 import httpx
 import numpy as np
+from sqlalchemy import select, text
 from sqlalchemy.engine import make_url
 
 from app.api.client import publication_from_json
@@ -52,8 +58,10 @@ from app.core.players.bots import play_sessions
 from app.core.players.kinds import BotKind, PlayerKind
 from app.db.engines import make_engine
 from app.db.sessions import session_factory
+from app.models import Publication as PublicationRow
 from app.store.animations import set_animations
 from app.store.artifacts import ArtifactStore
+from app.store.play_counts import count_uploaded
 from app.store.publications import publish
 from app.store.traces import stored_play
 
@@ -71,6 +79,13 @@ KINDS = ("register", "publication", "clip", "trace")
 #: one: its idempotency key stores it once), and so does a player here, once
 CLOSED_UNDER_IT = (httpx.ReadError, httpx.RemoteProtocolError)
 IDEMPOTENT = frozenset(["publication", "clip", "trace"])
+#: a publication's summed steps and sessions, every player kind and bucket together
+SUMMED = text("""
+SELECT (SELECT COALESCE(SUM(steps), 0) FROM play_counts WHERE publication_id = :publication)
+         AS steps,
+       (SELECT COALESCE(SUM(sessions), 0) FROM play_lengths WHERE publication_id = :publication)
+         AS sessions
+""")
 
 
 @dataclass(frozen=True)
@@ -107,6 +122,7 @@ def bench_serve(
     mean_steps: int = 30,
     seed: int = 0,
     database_url: str = "",
+    uploads_only: bool = False,
 ) -> dict[str, Any]:
     """Run one round per entry of ``players`` against one ``srg serve``; JSON-ready."""
     database = (
@@ -132,23 +148,31 @@ def bench_serve(
                     seed=seed + round_index,
                 )
                 stored_before = _stored(url, publication_id)
-                began = time.perf_counter()
-                sessions = asyncio.run(
+                sessions, elapsed = asyncio.run(
                     asyncio.wait_for(
-                        _round(base, data_url, publication_id, traces), ROUND_DEADLINE_S
+                        _round(base, data_url, publication_id, traces, uploads_only),
+                        ROUND_DEADLINE_S,
                     )
                 )
-                elapsed = time.perf_counter() - began
                 stored = _stored(url, publication_id) - stored_before
-                rounds.append(_summary(count, sessions, elapsed, stored))
+                rounds.append(
+                    {
+                        **_summary(count, sessions, elapsed, stored),
+                        "sums_equal_steps": _sums_equal_steps(url, publication_id),
+                    }
+                )
     return {
         "backend": make_url(url).get_backend_name(),
         "database": "configured" if database_url else "scratch",
         "server": f"srg serve --workers {workers}",
         "graph": {**graph, "clip_bytes": CLIP_BYTES},
         "mean_steps": mean_steps,
+        "uploads_only": uploads_only,
         "rounds": rounds,
-        "ok": all(r["errors"] == 0 and r["stored_traces"] == r["players"] for r in rounds),
+        "ok": all(
+            r["errors"] == 0 and r["stored_traces"] == r["players"] and r["sums_equal_steps"]
+            for r in rounds
+        ),
     }
 
 
@@ -179,6 +203,24 @@ def _stored(url: str, publication_id: int) -> int:
     try:
         with session_factory(engine)() as session:
             return stored_play(session, publication_id)[0]
+    finally:
+        engine.dispose()
+
+
+def _sums_equal_steps(url: str, publication_id: int) -> bool:
+    """After counting what was uploaded: the publication's summed steps and sessions are
+    its stored step rows and traces."""
+    engine = make_engine(url)
+    try:
+        with session_factory(engine)() as session:
+            graph_id = session.scalars(
+                select(PublicationRow.graph_id).where(PublicationRow.id == publication_id)
+            ).one()
+            count_uploaded(session, graph_id)
+            session.commit()
+            traces, steps = stored_play(session, publication_id)
+            summed = session.execute(SUMMED, {"publication": publication_id}).one()
+            return (int(summed.steps), int(summed.sessions)) == (steps, traces)
     finally:
         engine.dispose()
 
@@ -238,59 +280,112 @@ def _wait_until_healthy(base: str, process: subprocess.Popen[bytes], log: Path) 
 
 
 async def _round(
-    base: str, data_url: str, publication_id: int, traces: list[np.ndarray]
-) -> list[_Session]:
+    base: str, data_url: str, publication_id: int, traces: list[np.ndarray], uploads_only: bool
+) -> tuple[list[_Session], float]:
+    """The players' sessions, and the round's wall time (their uploads', ``uploads_only``)."""
     limits = httpx.Limits(max_connections=len(traces), max_keepalive_connections=None)
     async with httpx.AsyncClient(base_url=base, timeout=REQUEST_TIMEOUT_S, limits=limits) as http:
-        return list(
-            await asyncio.gather(
+        if not uploads_only:
+            began = time.perf_counter()
+            sessions = await asyncio.gather(
                 *(_player(http, data_url, publication_id, trace) for trace in traces)
             )
+            return list(sessions), time.perf_counter() - began
+        registered = await asyncio.gather(*(_register(http) for _ in traces))
+        began = time.perf_counter()
+        uploads = await asyncio.gather(
+            *(
+                _upload(http, publication_id, trace, token)
+                for trace, (_, token) in zip(traces, registered, strict=True)
+            )
         )
+        elapsed = time.perf_counter() - began
+        sessions = [
+            _Session([*register.requests, *upload.requests], upload.duration_s)
+            for (register, _), upload in zip(registered, uploads, strict=True)
+        ]
+        return sessions, elapsed
 
 
-async def _player(
-    http: httpx.AsyncClient, data_url: str, publication_id: int, trace: np.ndarray
-) -> _Session:
-    """One player's session; it stops at its first failed request."""
-    requests: list[_Request] = []
-    began = time.perf_counter()
+class _Player:
+    """One player's requests, each timed; its session stops at the first that fails."""
 
-    async def request(kind: str, method: str, url: str, **kwargs: Any) -> httpx.Response | None:
+    def __init__(self, http: httpx.AsyncClient) -> None:
+        self.http = http
+        self.requests: list[_Request] = []
+        self.began = time.perf_counter()
+
+    async def request(
+        self, kind: str, method: str, url: str, **kwargs: Any
+    ) -> httpx.Response | None:
         start = time.perf_counter()
         for attempt in range(2):
             try:
-                response = await http.request(method, url, **kwargs)
+                response = await self.http.request(method, url, **kwargs)
                 break
             except httpx.TransportError as exc:
                 closed = isinstance(exc, CLOSED_UNDER_IT) and kind in IDEMPOTENT
                 if attempt or not closed:
                     failure = f"{kind} {type(exc).__name__}"
-                    requests.append(_Request(kind, 0, time.perf_counter() - start, failure))
+                    self.requests.append(_Request(kind, 0, time.perf_counter() - start, failure))
                     return None
         elapsed = time.perf_counter() - start
-        requests.append(_Request(kind, response.status_code, elapsed, retried=attempt > 0))
+        self.requests.append(_Request(kind, response.status_code, elapsed, retried=attempt > 0))
         return response if response.is_success else None
 
-    player = {"kind": PlayerKind.BOT.value}
-    registered = await request("register", "POST", "/api/players", json=player)
-    if registered is None:
-        return _Session(requests, time.perf_counter() - began)
-    published = await request("publication", "GET", data_url)
+    async def register(self) -> str | None:
+        """A bot player's bearer token, None where registering failed."""
+        registered = await self.request("register", "POST", "/api/players", json=_BOT)
+        return None if registered is None else str(registered.json()["token"])
+
+    async def upload(self, publication_id: int, trace: np.ndarray, token: str) -> None:
+        body = {
+            "publication_id": publication_id,
+            "idempotency_key": uuid.uuid4().hex,
+            "steps": trace.tolist(),
+        }
+        auth = {"Authorization": f"Bearer {token}"}
+        await self.request("trace", "POST", "/api/traces", json=body, headers=auth)
+
+    def session(self) -> _Session:
+        return _Session(self.requests, time.perf_counter() - self.began)
+
+
+_BOT = {"kind": PlayerKind.BOT.value}
+
+
+async def _player(
+    http: httpx.AsyncClient, data_url: str, publication_id: int, trace: np.ndarray
+) -> _Session:
+    """One player's session, as the browser plays it."""
+    player = _Player(http)
+    token = await player.register()
+    if token is None:
+        return player.session()
+    published = await player.request("publication", "GET", data_url)
     if published is None:
-        return _Session(requests, time.perf_counter() - began)
+        return player.session()
     vertices = published.json()["vertices"]
     for vertex, control in dict.fromkeys(map(tuple, trace.tolist())):
-        if await request("clip", "GET", vertices[vertex][control]["animation"]) is None:
-            return _Session(requests, time.perf_counter() - began)
-    body = {
-        "publication_id": publication_id,
-        "idempotency_key": uuid.uuid4().hex,
-        "steps": trace.tolist(),
-    }
-    token = {"Authorization": f"Bearer {registered.json()['token']}"}
-    await request("trace", "POST", "/api/traces", json=body, headers=token)
-    return _Session(requests, time.perf_counter() - began)
+        if await player.request("clip", "GET", vertices[vertex][control]["animation"]) is None:
+            return player.session()
+    await player.upload(publication_id, trace, token)
+    return player.session()
+
+
+async def _register(http: httpx.AsyncClient) -> tuple[_Session, str | None]:
+    player = _Player(http)
+    token = await player.register()
+    return player.session(), token
+
+
+async def _upload(
+    http: httpx.AsyncClient, publication_id: int, trace: np.ndarray, token: str | None
+) -> _Session:
+    player = _Player(http)
+    if token is not None:
+        await player.upload(publication_id, trace, token)
+    return player.session()
 
 
 def _percentiles(seconds: list[float]) -> dict[str, float]:
@@ -319,6 +414,9 @@ def _summary(players: int, sessions: list[_Session], elapsed: float, stored: int
         "stored_traces": stored,
         "elapsed_s": round(elapsed, 2),
         "sessions_per_s": round(ok_sessions / elapsed, 2),
+        "uploads_per_s": round(
+            sum(r.kind == "trace" and 200 <= r.status < 300 for r in requests) / elapsed, 2
+        ),
         "requests_per_s": round(len(requests) / elapsed, 1),
         "latency_ms": {
             "all": _percentiles([r.latency_s for r in requests]),

@@ -31,11 +31,12 @@ def analytics(
     with a warning for each figure that rests on too few sessions.
     """
     from app.config import get_settings
-    from app.db.sessions import database_sessions
+    from app.db.sessions import transaction
     from app.services.analytics import played_graph_analytics
 
     settings = get_settings()
-    with database_sessions(settings)() as session:
+    # a unit of work: the sums first count the traces uploaded since they last did
+    with transaction(settings) as session:
         report = played_graph_analytics(
             session,
             settings,

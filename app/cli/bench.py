@@ -307,11 +307,17 @@ def serve(
         help="a migrated database to serve ('': a scratch PostgreSQL database on the "
         "server of SRG_SCRATCH_POSTGRES_URL, dropped afterwards)",
     ),
+    uploads_only: bool = typer.Option(
+        False,
+        "--uploads-only",
+        help="players register first; a round is their trace uploads alone, all at once",
+    ),
 ) -> None:
     """Players at once through srg serve: sessions per second, p50/p99 latency, errors.
 
     Each player registers, fetches the publication and the animations its session plays
-    and uploads its trace. Exit status 1 when a request failed or a trace was not stored.
+    and uploads its trace (with --uploads-only, only uploads). Exit status 1 when a
+    request failed, a trace was not stored or the play sums differ from the stored steps.
     """
     from app.bench.serve import bench_serve
     from app.config import get_settings
@@ -322,6 +328,7 @@ def serve(
         workers=workers,
         mean_steps=mean_steps,
         database_url=database_url,
+        uploads_only=uploads_only,
     )
     emit_measured(result)
     if not result["ok"]:

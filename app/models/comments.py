@@ -189,6 +189,8 @@ COMMENTS: dict[str, tuple[str, dict[str, str]]] = {
             "error": "the summed error of its steps on the publication's edges",
             "high_error_steps": "its steps above the publication's high_error_threshold; "
             "NULL where the publication stored none",
+            "ordinal": "its place among the graph's sessions (0, 1, ...), given when the play "
+            "sums count it; NULL until then",
         },
     ),
     "trace_steps": (
@@ -201,10 +203,10 @@ COMMENTS: dict[str, tuple[str, dict[str, str]]] = {
         },
     ),
     "graph_sessions": (
-        "How many sessions a graph's publications have accepted: the next one's ordinal.",
+        "How many of a graph's sessions the play sums count: the next one's ordinal.",
         {
             "graph_id": "the graph (graphs.id)",
-            "sessions": "sessions accepted so far",
+            "sessions": "sessions counted so far",
         },
     ),
     "play_counts": (

@@ -9,6 +9,7 @@ from sqlalchemy import (
     CheckConstraint,
     Double,
     ForeignKey,
+    Index,
     Integer,
     SmallInteger,
     String,
@@ -85,7 +86,11 @@ class Player(Base):
 
 class Trace(Base):
     __tablename__ = "traces"
-    __table_args__ = (UniqueConstraint("player_id", "idempotency_key"),)
+    __table_args__ = (
+        UniqueConstraint("player_id", "idempotency_key"),
+        # the uncounted traces of a publication (ordinal NULL), and a counted batch
+        Index("ix_traces_publication_id_ordinal", "publication_id", "ordinal"),
+    )
 
     id: Mapped[int] = mapped_column(primary_key=True)
     publication_id: Mapped[int] = mapped_column(
@@ -99,6 +104,9 @@ class Trace(Base):
     error: Mapped[float] = mapped_column(Double, server_default=text("0"))
     #: its steps above the publication's stored threshold; NULL where it stored none
     high_error_steps: Mapped[int | None] = mapped_column(Integer)
+    #: its place (0, 1, ...) among its graph's sessions, given when the sums first count
+    #: it (app.store.play_counts); NULL until then
+    ordinal: Mapped[int | None] = mapped_column(Integer)
 
 
 class TraceStep(Base):
@@ -113,11 +121,11 @@ class TraceStep(Base):
 
 
 class GraphSessions(Base):
-    """How many sessions the graph's publications have accepted: the next one's ordinal.
+    """How many of the graph's sessions the sums count: the next one's ordinal.
 
-    Its row is the lock that numbers a graph's sessions in the order their traces got
-    their ids (taken before the trace row is written, held until commit), so a session's
-    ordinal is its place among the graph's traces by id (docs/player-models.md).
+    Its row is the lock under which a reader of the sums numbers the traces uploaded since
+    the last count, in id order, and adds them (docs/player-models.md); uploads never
+    take it.
     """
 
     __tablename__ = "graph_sessions"

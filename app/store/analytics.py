@@ -4,8 +4,9 @@ Plain SQL text, portable between SQLite (3.25+, for window functions) and Postgr
 the same statements can be read in docs/play.md and pasted into ``psql`` or ``sqlite3``.
 Vertex indices are stable across a graph's publications (vertices are only ever
 appended), so the per-vertex figures pool every publication of the graph. The reports
-read the sums and per-session figures kept as traces are accepted (``play_counts``,
-``play_visits``, ``traces.error``), so they answer as fast after millions of steps as
+read the sums (``play_counts``, ``play_visits``: the traces uploaded since the last count
+are counted first) and the per-session figures kept as traces are accepted
+(``traces.error``), so they answer as fast after millions of steps as
 after a few (docs/analytics.md, "What analytics reads").
 
 Every statement reads only the sessions of the players chosen (``:kinds``, the
@@ -25,6 +26,7 @@ from sqlalchemy.orm import Session
 
 from app.core.evaluation.session_figures import SessionFigure, SessionLengths
 from app.core.players.kinds import PlayerKind, PlayerSelection
+from app.store.play_counts import count_uploaded
 
 
 def _chosen_players(statement: str) -> TextClause:
@@ -112,6 +114,7 @@ def control_probabilities(
     session: Session, graph_id: int, players: PlayerSelection = PlayerSelection.ALL
 ) -> list[dict[str, Any]]:
     """Observed P(c | v): per visited vertex and control, the count and its share."""
+    count_uploaded(session, graph_id)
     rows = session.execute(CONTROL_PROBABILITIES, _parameters(graph_id, players)).mappings()
     return [dict(row) for row in rows]
 
@@ -120,6 +123,7 @@ def visit_counts(
     session: Session, graph_id: int, players: PlayerSelection = PlayerSelection.ALL
 ) -> list[dict[str, Any]]:
     """Steps taken from each visited vertex, and in how many sessions; most visited first."""
+    count_uploaded(session, graph_id)
     rows = session.execute(VISIT_COUNTS, _parameters(graph_id, players)).mappings()
     return [dict(row) for row in rows]
 

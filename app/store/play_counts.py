@@ -1,10 +1,11 @@
-"""The crowd's play, summed as traces are accepted: what growth reads instead of the steps.
+"""The crowd's play, summed: what growth and analytics read instead of the steps.
 
-:func:`app.store.traces.record_trace` numbers each accepted session in its graph
-(:func:`next_session_ordinal`) and adds its steps to the sums (:func:`count_session`)
-in the transaction that writes its steps, so a trace is counted exactly when it is
-stored. An epoch reads sums bounded by the graph's size (:func:`graph_play_counts`),
-however many steps were played (docs/player-models.md, "What growth reads of the traces").
+:func:`app.store.traces.record_trace` stores a trace uncounted; the first reader of the
+graph's sums after it (:func:`count_uploaded`, called by every reader here and in
+:mod:`app.store.analytics`) numbers it in its graph and adds its steps to the sums, so a
+trace is counted exactly once. An epoch reads sums bounded by the graph's size
+(:func:`graph_play_counts`), however many steps were played (docs/player-models.md, "What
+growth reads of the traces").
 """
 
 from __future__ import annotations
@@ -12,14 +13,14 @@ from __future__ import annotations
 from typing import Any
 
 import numpy as np
-from sqlalchemy import BigInteger, ColumnElement, func, select
+from sqlalchemy import BigInteger, ColumnElement, func, select, text, update
 from sqlalchemy.dialects import postgresql, sqlite
 from sqlalchemy.orm import Session
 
 from app.core.evaluation.prediction import PlayedSessions
 from app.core.players.crowd_play import FOLD_BUCKETS, PlayCounts
-from app.core.players.kinds import PlayerKind, PlayerSelection
-from app.models import GraphSessions, PlayCount, Player, PlayLength, PlayVisit, Trace
+from app.core.players.kinds import PlayerSelection
+from app.models import GraphSessions, PlayCount, Player, PlayLength, Trace
 from app.models import Publication as PublicationRow
 
 
@@ -34,41 +35,92 @@ def _upsert(session: Session, model: type[Any], rows: list[dict[str, Any]], keys
     )
 
 
-def next_session_ordinal(session: Session, publication_id: int) -> int:
-    """The ordinal (0, 1, ...) in its graph of a session about to be stored on the
-    publication; on PostgreSQL the graph's counter row stays locked until commit, so
-    sessions are numbered in the order of the trace ids allocated after this call."""
-    graph_id = session.scalar(
-        select(PublicationRow.graph_id).where(PublicationRow.id == publication_id)
+#: the graph's traces not yet counted, in the order they are numbered
+UNCOUNTED = text("""
+SELECT t.id FROM traces t JOIN publications p ON p.id = t.publication_id
+WHERE p.graph_id = :graph_id AND t.ordinal IS NULL
+ORDER BY t.id
+""")
+
+#: the graph's traces numbered from :first to :end (exclusive), the batch being counted,
+#: each with its player's kind
+_BATCH = """(
+    SELECT t.id, t.publication_id, t.n_steps, t.ordinal, pl.kind
+    FROM traces t
+    JOIN publications p ON p.id = t.publication_id
+    JOIN players pl ON pl.id = t.player_id
+    WHERE p.graph_id = :graph_id AND t.ordinal >= :first AND t.ordinal < :end
+) b"""
+
+#: the batch's sums added to the stored ones, in SQL that SQLite and PostgreSQL share
+#: (``WHERE true`` tells SQLite's parser that ON CONFLICT is not a join's ON)
+ADD_BATCH = tuple(
+    text(statement)
+    for statement in (
+        f"""
+        INSERT INTO play_counts (publication_id, player_kind, bucket, vertex, control, steps)
+        SELECT b.publication_id, b.kind, b.ordinal % {FOLD_BUCKETS}, s.vertex, s.control,
+               COUNT(*)
+        FROM trace_steps s JOIN {_BATCH} ON b.id = s.trace_id
+        WHERE true
+        GROUP BY b.publication_id, b.kind, b.ordinal % {FOLD_BUCKETS}, s.vertex, s.control
+        ON CONFLICT (publication_id, player_kind, bucket, vertex, control)
+        DO UPDATE SET steps = play_counts.steps + excluded.steps
+        """,
+        f"""
+        INSERT INTO play_lengths (publication_id, player_kind, n_steps, sessions)
+        SELECT b.publication_id, b.kind, b.n_steps, COUNT(*)
+        FROM {_BATCH}
+        WHERE true
+        GROUP BY b.publication_id, b.kind, b.n_steps
+        ON CONFLICT (publication_id, player_kind, n_steps)
+        DO UPDATE SET sessions = play_lengths.sessions + excluded.sessions
+        """,
+        f"""
+        INSERT INTO play_visits (publication_id, player_kind, vertex, sessions)
+        SELECT v.publication_id, v.kind, v.vertex, COUNT(*)
+        FROM (SELECT DISTINCT s.trace_id, b.publication_id, b.kind, s.vertex
+              FROM trace_steps s JOIN {_BATCH} ON b.id = s.trace_id) v
+        WHERE true
+        GROUP BY v.publication_id, v.kind, v.vertex
+        ON CONFLICT (publication_id, player_kind, vertex)
+        DO UPDATE SET sessions = play_visits.sessions + excluded.sessions
+        """,
     )
-    first = [{"graph_id": graph_id, "sessions": 1}]
-    counted = _upsert(session, GraphSessions, first, ["graph_id"]).returning(GraphSessions.sessions)
-    return int(session.execute(counted, first).scalar_one()) - 1
+)
+
+#: one trace numbered (an executemany over the batch)
+NUMBERED = text("UPDATE traces SET ordinal = :ordinal WHERE id = :trace")
 
 
-def count_session(
-    session: Session, publication_id: int, kind: PlayerKind, ordinal: int, steps: np.ndarray
-) -> None:
-    """Add one stored session's (n, 2) steps, played by a player of ``kind``, to the
-    publication's sums.
+def count_uploaded(session: Session, graph_id: int) -> int:
+    """Number the graph's traces stored since the last count and add their steps to the
+    sums; return how many. Every reader of the sums calls it first.
 
-    Rows go in key order, so that concurrent writers lock shared rows in one order.
+    Uploads store a trace without touching anything shared (docs/player-models.md, "What
+    growth reads of the traces"), so that a graph takes uploads as fast as its players
+    send them; the count is done here, under the graph's counter row (locked until commit
+    on PostgreSQL), numbering the traces in id order after those counted before.
     """
-    steps = np.asarray(steps, dtype=np.int64)
-    pairs, taken = np.unique(steps, axis=0, return_counts=True)
-    key = {"publication_id": publication_id, "player_kind": kind.value}
-    bucket = ordinal % FOLD_BUCKETS
-    counts = [
-        {**key, "bucket": bucket, "vertex": int(vertex), "control": int(control), "steps": int(n)}
-        for (vertex, control), n in zip(pairs, taken, strict=True)
-    ]
+    if session.execute(UNCOUNTED, {"graph_id": graph_id}).first() is None:
+        return 0
+    taken = [{"graph_id": graph_id, "sessions": 0}]
+    counter = _upsert(session, GraphSessions, taken, ["graph_id"]).returning(GraphSessions.sessions)
+    first = int(session.execute(counter, taken).scalar_one())
+    uncounted = session.scalars(UNCOUNTED, {"graph_id": graph_id}).all()
+    if not uncounted:  # counted by another reader while this one waited for the row
+        return 0
+    end = first + len(uncounted)
     session.execute(
-        _upsert(session, PlayCount, counts, [*key, "bucket", "vertex", "control"]), counts
+        NUMBERED, [{"trace": trace, "ordinal": first + i} for i, trace in enumerate(uncounted)]
     )
-    visits = [{**key, "vertex": int(vertex), "sessions": 1} for vertex in np.unique(steps[:, 0])]
-    session.execute(_upsert(session, PlayVisit, visits, [*key, "vertex"]), visits)
-    length = [{**key, "n_steps": len(steps), "sessions": 1}]
-    session.execute(_upsert(session, PlayLength, length, [*key, "n_steps"]), length)
+    batch = {"graph_id": graph_id, "first": first, "end": end}
+    for statement in ADD_BATCH:
+        session.execute(statement, batch)
+    session.execute(
+        update(GraphSessions).where(GraphSessions.graph_id == graph_id).values(sessions=end)
+    )
+    return len(uncounted)
 
 
 def graph_play_counts(
@@ -80,6 +132,7 @@ def graph_play_counts(
 ) -> PlayCounts:
     """Every session ``players`` played on the graph's publications (those older than
     publication ``before`` only, when given), summed over them."""
+    count_uploaded(session, graph_id)
     counts, lengths = _sums(session, players, _published(graph_id, before), by_publication=False)
     return PlayCounts(*counts.T, *lengths.T)
 
@@ -93,6 +146,7 @@ def publication_play_counts(
 ) -> list[tuple[int, PlayCounts]]:
     """Each publication of the graph that ``players`` played (by id, oldest first; those
     older than publication ``before`` only, when given) with their sessions' sums."""
+    count_uploaded(session, graph_id)
     counts, lengths = _sums(session, players, _published(graph_id, before), by_publication=True)
     return [
         (
@@ -157,6 +211,11 @@ def played_sessions(
 ) -> PlayedSessions:
     """The sessions ``players`` played on the publication, as a prediction is judged
     against them: their sums, and each one's error and length from its trace row."""
+    graph_id = session.scalar(
+        select(PublicationRow.graph_id).where(PublicationRow.id == publication_id)
+    )
+    if graph_id is not None:
+        count_uploaded(session, graph_id)
     chosen = [PublicationRow.id == publication_id]
     counts, lengths = _sums(session, players, chosen, by_publication=False)
     kinds = [kind.value for kind in players.kinds]

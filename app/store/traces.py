@@ -4,9 +4,10 @@ A trace is a played session: rows of (vertex, control) on one publication. Uploa
 validated against that publication before anything is written, and are idempotent on
 the client's ``(player, idempotency_key)``: a retried upload returns the trace already
 stored and writes nothing, even when two retries race (the unique constraint decides).
-A stored trace is added to the crowd's sums (:mod:`app.store.play_counts`) in the same
-transaction as its steps, and keeps its error on its publication's frozen edges, so that
-analytics never reads the steps again (docs/analytics.md).
+A stored trace keeps its error on its publication's frozen edges, and the first reader of
+the crowd's sums after it adds its steps to them (:mod:`app.store.play_counts`), so that
+analytics never reads the steps again (docs/analytics.md) and an upload writes nothing
+that other uploads of the graph wait on.
 """
 
 from __future__ import annotations
@@ -26,7 +27,6 @@ from app.core.players.kinds import PlayerKind, PlayerSelection
 from app.models import Player, Trace, TraceStep
 from app.models import Publication as PublicationRow
 from app.store._sql import bulk_insert, insert_ignoring_duplicates
-from app.store.play_counts import count_session, next_session_ordinal
 from app.store.publications import load_publication
 
 MAX_KEY_LENGTH = 128
@@ -124,8 +124,7 @@ def record_trace(
         select(PublicationRow.high_error_threshold).where(PublicationRow.id == publication_id)
     )
     try:
-        with session.begin_nested():  # a duplicate key undoes the ordinal taken too
-            ordinal = next_session_ordinal(session, publication_id)
+        with session.begin_nested():
             trace = Trace(
                 publication_id=publication_id,
                 player_id=player_id,
@@ -149,7 +148,6 @@ def record_trace(
             for i, (v, c) in enumerate(steps)
         ],
     )
-    count_session(session, publication_id, PlayerKind(player.kind), ordinal, steps)
     return trace.id, True
 
 

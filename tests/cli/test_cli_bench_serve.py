@@ -34,6 +34,7 @@ def test_the_serve_bench_accounts_for_every_player(tmp_path: Path) -> None:
         assert set(latency) == {"all", "register", "publication", "clip", "trace"}
         assert latency["all"]["max"] >= latency["all"]["p99"] >= latency["all"]["p50"] > 0
         assert played["sessions_per_s"] > 0
+        assert played["sums_equal_steps"] is True
 
 
 @pytest.mark.parametrize(
@@ -47,3 +48,21 @@ def test_the_serve_bench_accounts_for_every_player(tmp_path: Path) -> None:
 )
 def test_bad_serve_bench_options_are_one_line(tmp_path: Path, args: list[str], says: str) -> None:
     one_line_error(srg(tmp_path, "bench", "serve", *args), says)
+
+
+@pytest.mark.postgres
+@pytest.mark.slow
+def test_the_upload_bench_sends_only_uploads_and_checks_the_sums(tmp_path: Path) -> None:
+    args = ("--players", "4", "--uploads-only", "--mean-steps", "300")
+    done = srg(tmp_path, "bench", "serve", *args)
+    assert done.returncode == 0, done.stderr
+    result = json.loads(done.stdout)
+    assert (result["uploads_only"], result["mean_steps"], result["ok"]) == (True, 300, True)
+    (played,) = result["rounds"]
+    # per player a registration before the round and an upload in it, both 201
+    assert played["statuses"] == {"201": 8}
+    assert played["stored_traces"] == played["ok_sessions"] == 4
+    assert played["sums_equal_steps"] is True
+    assert played["uploads_per_s"] > 0
+    assert played["latency_ms"]["trace"]["p99"] >= played["latency_ms"]["trace"]["p50"] > 0
+    assert played["latency_ms"]["clip"] == played["latency_ms"]["publication"] == {}

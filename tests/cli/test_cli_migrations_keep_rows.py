@@ -14,6 +14,7 @@ table is back, equal in every column that no refusal named.
 
 from __future__ import annotations
 
+import json
 import re
 import subprocess
 from pathlib import Path
@@ -102,6 +103,9 @@ def fill(var: Path, url: str) -> None:
     run("grow", "kept", "--expansions", "2")
     run("publish", "kept", "--no-render")
     run("play", "kept", "--sessions", "4", "--seed", "2")
+    # the readers of each graph's sums count every trace (0013 numbers those they did not)
+    for graph in json.loads(srg(var, "status", "--json", SRG_DATABASE_URL=url).stdout):
+        run("analytics", graph["name"])
 
 
 def column(table: tuple[tuple[str, ...], list[tuple[Any, ...]]], name: str) -> list[Any]:
@@ -124,6 +128,7 @@ def test_every_revision_keeps_every_row_or_refuses(empty_db_url: str, tmp_path: 
     assert start["experiments"][1] and start["experiment_checkpoints"][1]
     assert None not in column(start["publications"], "high_error_threshold")
     assert None not in column(start["traces"], "high_error_steps")
+    assert None not in column(start["traces"], "ordinal")
 
     # the reported downgrade: refused, naming the thresholds and the high-error counts
     lost = refused(db(var, url, "downgrade", "0008"))

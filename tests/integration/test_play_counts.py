@@ -1,4 +1,4 @@
-"""The crowd's play summed as traces are accepted: what growth reads, equal to the steps.
+"""The crowd's play summed by its readers: what growth reads, equal to the steps.
 
 Growth reads the sums (``refiner_for``); until they existed it read every step of every
 played publication (``load_traces``) and dealt the sessions to folds by their place in
@@ -10,11 +10,12 @@ ranking weights that pick the expansions.
 from __future__ import annotations
 
 from pathlib import Path
+from typing import Any
 
 import numpy as np
 import pytest
 from database_helpers import alembic_config
-from sqlalchemy import select, text
+from sqlalchemy import Connection, Row, select, text
 from sqlalchemy.orm import Session
 
 from alembic import command
@@ -38,7 +39,7 @@ from app.services.loading import LoadedGraph, open_graph
 from app.services.prediction import crowd_refiner, latest_play_prediction
 from app.services.refining import refiner_config, refiner_for
 from app.store.graph_persistence import save_graph
-from app.store.play_counts import graph_play_counts, publication_play_counts
+from app.store.play_counts import count_uploaded, graph_play_counts, publication_play_counts
 from app.store.publications import load_publication, publish
 from app.store.traces import (
     InvalidTrace,
@@ -191,19 +192,20 @@ def test_sums_follow_every_accepted_trace_once(
 
 
 def test_the_migration_sums_the_steps_stored_before_it(empty_db_url: str, tmp_path: Path) -> None:
-    """Sums kept upload by upload and sums computed from the steps by 0010 and 0012 are
-    one, each session's error too (the models are at head, so the steps are stored at
-    head and the sums dropped under them)."""
+    """Sums counted by their reader and sums computed from the steps by 0010, 0012 and
+    0013 are one, each session's error and ordinal too (the models are at head, so the
+    steps are stored at head and the sums dropped under them)."""
     engine = make_engine(empty_db_url)
     tables = ("graph_sessions", "play_counts", "play_lengths", "play_visits")
-    errors = text("SELECT id, error, high_error_steps FROM traces ORDER BY id")
+    errors = text("SELECT id, error, high_error_steps, ordinal FROM traces ORDER BY id")
     try:
         with engine.connect() as connection, foreign_keys_off(connection), connection.begin():
             # the downgrades drop the sums and the thresholds: lost, as asked for
             config = alembic_config(connection, drop_data=True)
             command.upgrade(config, "head")
             with Session(bind=connection) as session:
-                played_graph(session, settings_for(empty_db_url, tmp_path), "eq2")
+                played = played_graph(session, settings_for(empty_db_url, tmp_path), "eq2")
+                assert count_uploaded(session, played.entry.id) == 36
                 session.flush()
             kept = {t: sorted(connection.execute(text(f"SELECT * FROM {t}")).all()) for t in tables}
             assert all(kept.values())
@@ -219,7 +221,7 @@ def test_the_migration_sums_the_steps_stored_before_it(empty_db_url: str, tmp_pa
                 for t in tables:
                     assert sorted(connection.execute(text(f"SELECT * FROM {t}")).all()) == kept[t]
                 summed = connection.execute(errors).all()
-                assert [r.id for r in summed] == [r.id for r in accepted]
+                assert [(r.id, r.ordinal) for r in summed] == [(r.id, r.ordinal) for r in accepted]
                 assert [r.high_error_steps for r in summed] == (
                     [r.high_error_steps for r in accepted]
                     if revision == "0011"
@@ -286,3 +288,44 @@ def test_mixed_error_chooses_its_share_on_the_latest_publications_errors(
     )
     assert fitted.share == expected
     assert expected.scores and expected.share == max(expected.scores, key=expected.scores.get)
+
+
+def test_a_downgrade_counts_the_traces_no_reader_counted(empty_db_url: str, tmp_path: Path) -> None:
+    """Below 0013 every trace was counted as it was stored: going down, 0013 counts those
+    no reader counted yet as a reader would have."""
+    engine = make_engine(empty_db_url)
+    tables = ("graph_sessions", "play_counts", "play_lengths", "play_visits")
+
+    def sums(connection: Connection) -> dict[str, list[Row[Any]]]:
+        return {t: sorted(connection.execute(text(f"SELECT * FROM {t}")).all()) for t in tables}
+
+    try:
+        with engine.connect() as connection, foreign_keys_off(connection), connection.begin():
+            config = alembic_config(connection, drop_data=True)  # loses the ordinals
+            command.upgrade(config, "head")
+            with Session(bind=connection) as session:
+                played = played_graph(session, settings_for(empty_db_url, tmp_path), "eq2")
+                assert count_uploaded(session, played.entry.id) == 36
+                newest = max(played_publications(session, played.entry.id))
+                player = session.scalar(select(Player.id).where(Player.name == "bots"))
+                assert player is not None
+                for i, trace in enumerate(
+                    play_sessions(
+                        load_publication(session, newest),
+                        BotKind.GOAL_DIRECTED,
+                        sessions=7,
+                        mean_steps=25,
+                        seed=5,
+                    )
+                ):
+                    record_trace(session, newest, player, f"late.{i}", trace)
+                session.flush()
+                with connection.begin_nested() as counting:
+                    assert count_uploaded(session, played.entry.id) == 7
+                    counted = sums(connection)
+                    counting.rollback()
+            assert sums(connection) != counted
+            command.downgrade(config, "0012")
+            assert sums(connection) == counted
+    finally:
+        engine.dispose()
