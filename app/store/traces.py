@@ -26,7 +26,7 @@ from app.core.graph.publication import Publication
 from app.core.players.kinds import PlayerKind, PlayerSelection
 from app.models import Player, Trace, TraceStep
 from app.models import Publication as PublicationRow
-from app.store._sql import bulk_insert, insert_ignoring_duplicates
+from app.store._sql import insert_ignoring_duplicates, insert_int_columns
 from app.store.publications import load_publication
 
 MAX_KEY_LENGTH = 128
@@ -140,13 +140,15 @@ def record_trace(
         if existing is None:
             raise
         return existing, False
-    bulk_insert(
+    insert_int_columns(
         session,
         TraceStep,
-        [
-            {"trace_id": trace.id, "step": i, "vertex": int(v), "control": int(c)}
-            for i, (v, c) in enumerate(steps)
-        ],
+        {
+            "trace_id": np.full(len(steps), trace.id),
+            "step": np.arange(len(steps)),
+            "vertex": steps[:, 0],
+            "control": steps[:, 1],
+        },
     )
     return trace.id, True
 
