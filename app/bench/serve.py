@@ -40,28 +40,26 @@ import uuid
 from collections import Counter
 from collections.abc import Iterator
 from contextlib import contextmanager, nullcontext
-from dataclasses import dataclass
 from pathlib import Path
 from typing import Any
 
 import httpx
 import numpy as np
-from sqlalchemy import select, text
 from sqlalchemy.engine import make_url
 
 from app.api.client import publication_from_json
+from app.bench.http_players import KINDS, REQUEST_TIMEOUT_S, PlayerSession, play_round
 from app.bench.ingest import build_toy_graph
 from app.bench.scratch import scratch_database
 from app.config import Settings
 from app.core.errors import Unavailable
 from app.core.players.bots import play_sessions
-from app.core.players.kinds import BotKind, PlayerKind
+from app.core.players.kinds import BotKind
 from app.db.engines import make_engine
 from app.db.sessions import session_factory
-from app.models import Publication as PublicationRow
 from app.store.animations import set_animations
 from app.store.artifacts import ArtifactStore
-from app.store.play_counts import count_uploaded
+from app.store.play_counts import sums_equal_steps
 from app.store.publications import publish
 from app.store.traces import stored_play
 
@@ -71,47 +69,7 @@ CLIP_BYTES = 20_000
 GRAPH_EXPANSIONS = 8
 SERVER_START_TIMEOUT_S = 300.0
 SERVER_STOP_TIMEOUT_S = 30.0
-REQUEST_TIMEOUT_S = 120.0
 ROUND_DEADLINE_S = 900.0
-KINDS = ("register", "publication", "clip", "trace")
-#: a kept-alive connection the server closed (its idle timeout) as the request went out:
-#: a browser sends an idempotent request again on a new connection (the trace upload is
-#: one: its idempotency key stores it once), and so does a player here, once
-CLOSED_UNDER_IT = (httpx.ReadError, httpx.RemoteProtocolError)
-IDEMPOTENT = frozenset(["publication", "clip", "trace"])
-#: a publication's summed steps and sessions, every player kind and bucket together
-SUMMED = text("""
-SELECT (SELECT COALESCE(SUM(steps), 0) FROM play_counts WHERE publication_id = :publication)
-         AS steps,
-       (SELECT COALESCE(SUM(sessions), 0) FROM play_lengths WHERE publication_id = :publication)
-         AS sessions
-""")
-
-
-@dataclass(frozen=True)
-class _Request:
-    kind: str
-    #: the HTTP status, or 0 where no answer came
-    status: int
-    latency_s: float
-    #: why no answer came: httpx's error (ReadTimeout, RemoteProtocolError, ...)
-    failure: str = ""
-    #: sent again once after its kept-alive connection was closed under it
-    retried: bool = False
-
-    @property
-    def outcome(self) -> str:
-        return self.failure or str(self.status)
-
-
-@dataclass(frozen=True)
-class _Session:
-    requests: list[_Request]
-    duration_s: float
-
-    @property
-    def ok(self) -> bool:
-        return all(200 <= request.status < 300 for request in self.requests)
 
 
 def bench_serve(
@@ -150,7 +108,7 @@ def bench_serve(
                 stored_before = _stored(url, publication_id)
                 sessions, elapsed = asyncio.run(
                     asyncio.wait_for(
-                        _round(base, data_url, publication_id, traces, uploads_only),
+                        play_round(base, data_url, publication_id, traces, uploads_only),
                         ROUND_DEADLINE_S,
                     )
                 )
@@ -208,19 +166,12 @@ def _stored(url: str, publication_id: int) -> int:
 
 
 def _sums_equal_steps(url: str, publication_id: int) -> bool:
-    """After counting what was uploaded: the publication's summed steps and sessions are
-    its stored step rows and traces."""
     engine = make_engine(url)
     try:
         with session_factory(engine)() as session:
-            graph_id = session.scalars(
-                select(PublicationRow.graph_id).where(PublicationRow.id == publication_id)
-            ).one()
-            count_uploaded(session, graph_id)
+            equal = sums_equal_steps(session, publication_id)
             session.commit()
-            traces, steps = stored_play(session, publication_id)
-            summed = session.execute(SUMMED, {"publication": publication_id}).one()
-            return (int(summed.steps), int(summed.sessions)) == (steps, traces)
+            return equal
     finally:
         engine.dispose()
 
@@ -279,115 +230,6 @@ def _wait_until_healthy(base: str, process: subprocess.Popen[bytes], log: Path) 
     raise Unavailable(f"srg serve did not answer /api/health in {SERVER_START_TIMEOUT_S:.0f} s")
 
 
-async def _round(
-    base: str, data_url: str, publication_id: int, traces: list[np.ndarray], uploads_only: bool
-) -> tuple[list[_Session], float]:
-    """The players' sessions, and the round's wall time (their uploads', ``uploads_only``)."""
-    limits = httpx.Limits(max_connections=len(traces), max_keepalive_connections=None)
-    async with httpx.AsyncClient(base_url=base, timeout=REQUEST_TIMEOUT_S, limits=limits) as http:
-        if not uploads_only:
-            began = time.perf_counter()
-            sessions = await asyncio.gather(
-                *(_player(http, data_url, publication_id, trace) for trace in traces)
-            )
-            return list(sessions), time.perf_counter() - began
-        registered = await asyncio.gather(*(_register(http) for _ in traces))
-        began = time.perf_counter()
-        uploads = await asyncio.gather(
-            *(
-                _upload(http, publication_id, trace, token)
-                for trace, (_, token) in zip(traces, registered, strict=True)
-            )
-        )
-        elapsed = time.perf_counter() - began
-        sessions = [
-            _Session([*register.requests, *upload.requests], upload.duration_s)
-            for (register, _), upload in zip(registered, uploads, strict=True)
-        ]
-        return sessions, elapsed
-
-
-class _Player:
-    """One player's requests, each timed; its session stops at the first that fails."""
-
-    def __init__(self, http: httpx.AsyncClient) -> None:
-        self.http = http
-        self.requests: list[_Request] = []
-        self.began = time.perf_counter()
-
-    async def request(
-        self, kind: str, method: str, url: str, **kwargs: Any
-    ) -> httpx.Response | None:
-        start = time.perf_counter()
-        for attempt in range(2):
-            try:
-                response = await self.http.request(method, url, **kwargs)
-                break
-            except httpx.TransportError as exc:
-                closed = isinstance(exc, CLOSED_UNDER_IT) and kind in IDEMPOTENT
-                if attempt or not closed:
-                    failure = f"{kind} {type(exc).__name__}"
-                    self.requests.append(_Request(kind, 0, time.perf_counter() - start, failure))
-                    return None
-        elapsed = time.perf_counter() - start
-        self.requests.append(_Request(kind, response.status_code, elapsed, retried=attempt > 0))
-        return response if response.is_success else None
-
-    async def register(self) -> str | None:
-        """A bot player's bearer token, None where registering failed."""
-        registered = await self.request("register", "POST", "/api/players", json=_BOT)
-        return None if registered is None else str(registered.json()["token"])
-
-    async def upload(self, publication_id: int, trace: np.ndarray, token: str) -> None:
-        body = {
-            "publication_id": publication_id,
-            "idempotency_key": uuid.uuid4().hex,
-            "steps": trace.tolist(),
-        }
-        auth = {"Authorization": f"Bearer {token}"}
-        await self.request("trace", "POST", "/api/traces", json=body, headers=auth)
-
-    def session(self) -> _Session:
-        return _Session(self.requests, time.perf_counter() - self.began)
-
-
-_BOT = {"kind": PlayerKind.BOT.value}
-
-
-async def _player(
-    http: httpx.AsyncClient, data_url: str, publication_id: int, trace: np.ndarray
-) -> _Session:
-    """One player's session, as the browser plays it."""
-    player = _Player(http)
-    token = await player.register()
-    if token is None:
-        return player.session()
-    published = await player.request("publication", "GET", data_url)
-    if published is None:
-        return player.session()
-    vertices = published.json()["vertices"]
-    for vertex, control in dict.fromkeys(map(tuple, trace.tolist())):
-        if await player.request("clip", "GET", vertices[vertex][control]["animation"]) is None:
-            return player.session()
-    await player.upload(publication_id, trace, token)
-    return player.session()
-
-
-async def _register(http: httpx.AsyncClient) -> tuple[_Session, str | None]:
-    player = _Player(http)
-    token = await player.register()
-    return player.session(), token
-
-
-async def _upload(
-    http: httpx.AsyncClient, publication_id: int, trace: np.ndarray, token: str | None
-) -> _Session:
-    player = _Player(http)
-    if token is not None:
-        await player.upload(publication_id, trace, token)
-    return player.session()
-
-
 def _percentiles(seconds: list[float]) -> dict[str, float]:
     if not seconds:
         return {}
@@ -399,7 +241,9 @@ def _percentiles(seconds: list[float]) -> dict[str, float]:
     }
 
 
-def _summary(players: int, sessions: list[_Session], elapsed: float, stored: int) -> dict[str, Any]:
+def _summary(
+    players: int, sessions: list[PlayerSession], elapsed: float, stored: int
+) -> dict[str, Any]:
     requests = [request for session in sessions for request in session.requests]
     ok_sessions = sum(session.ok for session in sessions)
     return {

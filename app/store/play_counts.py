@@ -22,6 +22,7 @@ from app.core.players.crowd_play import FOLD_BUCKETS, PlayCounts
 from app.core.players.kinds import PlayerSelection
 from app.models import GraphSessions, PlayCount, Player, PlayLength, Trace
 from app.models import Publication as PublicationRow
+from app.store.traces import stored_play
 
 
 def _upsert(session: Session, model: type[Any], rows: list[dict[str, Any]], keys: list[str]) -> Any:
@@ -230,3 +231,24 @@ def played_sessions(
         np.array([row.error for row in traces], dtype=np.float64),
         np.array([row.n_steps for row in traces], dtype=np.int64),
     )
+
+
+#: a publication's summed steps and sessions, every player kind and bucket together
+SUMMED = text("""
+SELECT (SELECT COALESCE(SUM(steps), 0) FROM play_counts WHERE publication_id = :publication)
+         AS steps,
+       (SELECT COALESCE(SUM(sessions), 0) FROM play_lengths WHERE publication_id = :publication)
+         AS sessions
+""")
+
+
+def sums_equal_steps(session: Session, publication_id: int) -> bool:
+    """Whether the publication's sums, once what was uploaded is counted, hold exactly its
+    stored step rows and traces: none lost, none counted twice."""
+    graph_id = session.scalars(
+        select(PublicationRow.graph_id).where(PublicationRow.id == publication_id)
+    ).one()
+    count_uploaded(session, graph_id)
+    traces, steps = stored_play(session, publication_id)
+    summed = session.execute(SUMMED, {"publication": publication_id}).one()
+    return (int(summed.steps), int(summed.sessions)) == (steps, traces)
