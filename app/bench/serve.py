@@ -94,17 +94,26 @@ def bench_serve(
     ):
         artifact_dir = Path(tmp) / "data"
         publication_id, graph, data_url = _published_graph(url, artifact_dir, seed)
-        with _server(url, Path(tmp), artifact_dir, workers, total_players=sum(players)) as base:
+        max_steps = settings.api.max_trace_steps
+        server = _server(
+            url, Path(tmp), artifact_dir, workers, total_players=sum(players), max_steps=max_steps
+        )
+        with server as base:
             publication = httpx.get(f"{base}{data_url}", timeout=REQUEST_TIMEOUT_S).json()
             rounds = []
             for round_index, count in enumerate(players):
-                traces = play_sessions(
-                    publication_from_json(publication),
-                    BotKind.GOAL_DIRECTED,
-                    sessions=count,
-                    mean_steps=mean_steps,
-                    seed=seed + round_index,
-                )
+                # a session longer than the server takes is cut, as the web client
+                # cuts its uploads
+                traces = [
+                    trace[:max_steps]
+                    for trace in play_sessions(
+                        publication_from_json(publication),
+                        BotKind.GOAL_DIRECTED,
+                        sessions=count,
+                        mean_steps=mean_steps,
+                        seed=seed + round_index,
+                    )
+                ]
                 stored_before = _stored(url, publication_id)
                 sessions, elapsed = asyncio.run(
                     asyncio.wait_for(
@@ -125,6 +134,7 @@ def bench_serve(
         "server": f"srg serve --workers {workers}",
         "graph": {**graph, "clip_bytes": CLIP_BYTES},
         "mean_steps": mean_steps,
+        "max_steps": max_steps,
         "uploads_only": uploads_only,
         "rounds": rounds,
         "ok": all(
@@ -178,12 +188,13 @@ def _sums_equal_steps(url: str, publication_id: int) -> bool:
 
 @contextmanager
 def _server(
-    url: str, tmp: Path, artifact_dir: Path, workers: int, *, total_players: int
+    url: str, tmp: Path, artifact_dir: Path, workers: int, *, total_players: int, max_steps: int
 ) -> Iterator[str]:
     """``srg serve`` on a free loopback port, its own process group, stopped afterwards.
 
     Every player plays from loopback, so the per-address limits are opened to the load
-    (else they would measure themselves); every other setting is the default."""
+    (else they would measure themselves), and a trace may be as long as the bench's
+    settings allow; every other setting is the default."""
     with socket.socket() as probe:
         probe.bind(("127.0.0.1", 0))
         port = probe.getsockname()[1]
@@ -195,6 +206,7 @@ def _server(
         SRG_REGISTRATION_RATE=f"{total_players}/minute",
         SRG_ADDRESS_UPLOAD_RATE=f"{total_players}/minute",
         SRG_RATE_LIMIT_STORAGE="memory://",
+        SRG_MAX_TRACE_STEPS=str(max_steps),
     )
     srg = str(Path(sys.executable).with_name("srg"))
     command = [srg, "serve", "--workers", str(workers), "--port", str(port)]
