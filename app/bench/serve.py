@@ -125,6 +125,7 @@ def bench_serve(
                 rounds.append(
                     {
                         **_summary(count, sessions, elapsed, stored),
+                        "mean_uploaded_steps": round(float(np.mean([len(t) for t in traces])), 1),
                         "sums_equal_steps": _sums_equal_steps(url, publication_id),
                     }
                 )
