@@ -301,7 +301,13 @@ def serve(
     workers: int = typer.Option(
         2, min=1, max=MAX_WORKERS, help="uvicorn worker processes of srg serve"
     ),
-    mean_steps: int = typer.Option(30, min=2, max=2_000, help="mean steps of a session"),
+    mean_steps: int = typer.Option(
+        30,
+        min=2,
+        max=100_000,
+        help="mean steps of a session (geometric lengths; one over the server's "
+        "SRG_MAX_TRACE_STEPS is uploaded cut to it)",
+    ),
     database_url: str = typer.Option(
         "",
         help="a migrated database to serve ('': a scratch PostgreSQL database on the "
