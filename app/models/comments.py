@@ -36,7 +36,7 @@ COMMENTS: dict[str, tuple[str, dict[str, str]]] = {
             "seed": "seed of the graph's own random choices",
             "world": "world seed of the start state; NULL: the dynamics' canonical start",
             "strategy": "how it grows: max-error, baseline, sr-heuristic or sr-crowd",
-            "player_model": "the crowd model sr-crowd learns: eq2, logit, knn or shrunk",
+            "player_model": "the crowd model sr-crowd learns: eq2, shrunk, mixed or mixed-error",
             "growing": "whether beat grows it on every tick (srg set-growing)",
             "revision": "bumped by every save; a save that finds another lost a race",
             "created_at": "when the graph was created (UTC)",
