@@ -77,20 +77,16 @@ async def play_round(
                 )
             )
             return list(sessions), time.perf_counter() - began
-        registered = await asyncio.gather(*(_register(http) for http in clients))
+        players = [_Player(http) for http in clients]
+        tokens = await asyncio.gather(*(player.register() for player in players))
         began = time.perf_counter()
-        uploads = await asyncio.gather(
+        sessions = await asyncio.gather(
             *(
-                _upload(http, publication_id, trace, token)
-                for http, trace, (_, token) in zip(clients, traces, registered, strict=True)
+                player.upload_alone(publication_id, trace, token)
+                for player, trace, token in zip(players, traces, tokens, strict=True)
             )
         )
-        elapsed = time.perf_counter() - began
-        sessions = [
-            PlayerSession([*register.requests, *upload.requests], upload.duration_s)
-            for (register, _), upload in zip(registered, uploads, strict=True)
-        ]
-        return sessions, elapsed
+        return list(sessions), time.perf_counter() - began
 
 
 class _Player:
@@ -133,6 +129,16 @@ class _Player:
         auth = {"Authorization": f"Bearer {token}"}
         await self.request("trace", "POST", "/api/traces", json=body, headers=auth)
 
+    async def upload_alone(
+        self, publication_id: int, trace: np.ndarray, token: str | None
+    ) -> PlayerSession:
+        """The session of an upload sent on its own (none where registering failed): its
+        requests, registering included, and the upload's time."""
+        began = time.perf_counter()
+        if token is not None:
+            await self.upload(publication_id, trace, token)
+        return PlayerSession(self.requests, time.perf_counter() - began)
+
     def session(self) -> PlayerSession:
         return PlayerSession(self.requests, time.perf_counter() - self.began)
 
@@ -156,19 +162,4 @@ async def _player(
         if await player.request("clip", "GET", vertices[vertex][control]["animation"]) is None:
             return player.session()
     await player.upload(publication_id, trace, token)
-    return player.session()
-
-
-async def _register(http: httpx.AsyncClient) -> tuple[PlayerSession, str | None]:
-    player = _Player(http)
-    token = await player.register()
-    return player.session(), token
-
-
-async def _upload(
-    http: httpx.AsyncClient, publication_id: int, trace: np.ndarray, token: str | None
-) -> PlayerSession:
-    player = _Player(http)
-    if token is not None:
-        await player.upload(publication_id, trace, token)
     return player.session()
